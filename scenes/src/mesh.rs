@@ -1,0 +1,203 @@
+//! A small mesh builder for the procedural scenes: boxes, walls with door
+//! openings, cylinders and displaced spheres, each tagged with a material and an
+//! object. Boxes get planar texture coordinates in metres / `tile_m`, so textures
+//! keep their size whatever the box.
+
+use crate::scene::{Material, Scene, ScaleSource, SceneStats, Texture, Light};
+use glam::{Vec2, Vec3};
+
+pub struct MeshBuilder {
+    scene: Scene,
+    material: u32,
+    object: u32,
+    /// Size in metres of one texture repeat.
+    pub tile_m: f32,
+}
+
+impl MeshBuilder {
+    pub fn new(name: &str) -> MeshBuilder {
+        MeshBuilder {
+            scene: Scene {
+                name: name.to_string(),
+                positions: Vec::new(),
+                normals: Vec::new(),
+                uvs: Vec::new(),
+                triangles: Vec::new(),
+                triangle_material: Vec::new(),
+                triangle_object: Vec::new(),
+                objects: Vec::new(),
+                materials: Vec::new(),
+                textures: Vec::new(),
+                lights: Vec::new(),
+                metres_per_unit: 1.0,
+                scale_source: ScaleSource::File,
+                stats: SceneStats::default(),
+            },
+            material: 0,
+            object: 0,
+            tile_m: 2.0,
+        }
+    }
+
+    pub fn add_texture(&mut self, texture: Texture) -> usize {
+        self.scene.textures.push(texture);
+        self.scene.textures.len() - 1
+    }
+
+    pub fn add_material(&mut self, material: Material) -> u32 {
+        self.scene.materials.push(material);
+        (self.scene.materials.len() - 1) as u32
+    }
+
+    pub fn add_light(&mut self, light: Light) {
+        self.scene.lights.push(light);
+    }
+
+    pub fn set_material(&mut self, material: u32) {
+        self.material = material;
+    }
+
+    /// Starts a new named object; later triangles belong to it.
+    pub fn begin_object(&mut self, name: &str) {
+        self.scene.objects.push(name.to_string());
+        self.object = (self.scene.objects.len() - 1) as u32;
+    }
+
+    fn vertex(&mut self, p: Vec3, n: Vec3, uv: Vec2) -> u32 {
+        self.scene.positions.push(p);
+        self.scene.normals.push(n);
+        self.scene.uvs.push(uv);
+        (self.scene.positions.len() - 1) as u32
+    }
+
+    fn triangle(&mut self, tri: [u32; 3]) {
+        if self.scene.objects.is_empty() {
+            self.begin_object("default");
+        }
+        self.scene.triangles.push(tri);
+        self.scene.triangle_material.push(self.material);
+        self.scene.triangle_object.push(self.object);
+    }
+
+    /// A planar quad a, b, c, d (counter-clockwise seen from the side `normal` points to).
+    pub fn quad(&mut self, corners: [Vec3; 4]) {
+        let [a, b, c, d] = corners;
+        let normal = (b - a).cross(c - a).normalize_or_zero();
+        // Planar mapping on the two axes the normal is least aligned with.
+        let (u_axis, v_axis) = if normal.y.abs() > 0.5 { (Vec3::X, Vec3::Z) } else if normal.x.abs() > 0.5 { (Vec3::Z, Vec3::Y) } else { (Vec3::X, Vec3::Y) };
+        let uv = |p: Vec3| Vec2::new(p.dot(u_axis), p.dot(v_axis)) / self.tile_m;
+        let (ua, ub, uc, ud) = (uv(a), uv(b), uv(c), uv(d));
+        let i = [self.vertex(a, normal, ua), self.vertex(b, normal, ub), self.vertex(c, normal, uc), self.vertex(d, normal, ud)];
+        self.triangle([i[0], i[1], i[2]]);
+        self.triangle([i[0], i[2], i[3]]);
+    }
+
+    /// A closed axis-aligned box with outward faces.
+    pub fn cuboid(&mut self, min: Vec3, max: Vec3) {
+        let p = |x: bool, y: bool, z: bool| Vec3::new(if x { max.x } else { min.x }, if y { max.y } else { min.y }, if z { max.z } else { min.z });
+        let (f, t) = (false, true);
+        self.quad([p(f, f, t), p(t, f, t), p(t, t, t), p(f, t, t)]); // +z
+        self.quad([p(t, f, f), p(f, f, f), p(f, t, f), p(t, t, f)]); // -z
+        self.quad([p(t, f, t), p(t, f, f), p(t, t, f), p(t, t, t)]); // +x
+        self.quad([p(f, f, f), p(f, f, t), p(f, t, t), p(f, t, f)]); // -x
+        self.quad([p(f, t, t), p(t, t, t), p(t, t, f), p(f, t, f)]); // +y
+        self.quad([p(f, f, f), p(t, f, f), p(t, f, t), p(f, f, t)]); // -y
+    }
+
+    /// A wall of `thickness` centred on the line from `(a, z)` to `(b, z)` along x
+    /// (or along z with `along_x == false`), from `floor_y` to `top_y`, with door
+    /// openings given as (centre, width, height) along the wall.
+    #[allow(clippy::too_many_arguments)]
+    pub fn wall(&mut self, along_x: bool, line: f32, a: f32, b: f32, floor_y: f32, top_y: f32, thickness: f32, doors: &[(f32, f32, f32)]) {
+        let h = 0.5 * thickness;
+        let block = |s0: f32, s1: f32, y0: f32, y1: f32| {
+            if along_x {
+                (Vec3::new(s0, y0, line - h), Vec3::new(s1, y1, line + h))
+            } else {
+                (Vec3::new(line - h, y0, s0), Vec3::new(line + h, y1, s1))
+            }
+        };
+        let mut start = a.min(b) - h;
+        let end = a.max(b) + h;
+        let mut doors = doors.to_vec();
+        doors.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for (centre, width, height) in doors {
+            let (d0, d1) = (centre - 0.5 * width, centre + 0.5 * width);
+            if d0 > start {
+                let (lo, hi) = block(start, d0, floor_y, top_y);
+                self.cuboid(lo, hi);
+            }
+            let (lo, hi) = block(d0, d1, floor_y + height, top_y);
+            self.cuboid(lo, hi);
+            start = d1;
+        }
+        if end > start {
+            let (lo, hi) = block(start, end, floor_y, top_y);
+            self.cuboid(lo, hi);
+        }
+    }
+
+    /// A closed vertical cylinder (capped), `segments` around.
+    pub fn cylinder(&mut self, base: Vec3, radius: f32, height: f32, segments: u32) {
+        let ring = |k: u32| {
+            let a = std::f32::consts::TAU * k as f32 / segments as f32;
+            Vec3::new(a.cos(), 0.0, -a.sin())
+        };
+        let top = base + Vec3::Y * height;
+        for k in 0..segments {
+            let (d0, d1) = (ring(k), ring(k + 1));
+            self.quad([base + d0 * radius, base + d1 * radius, top + d1 * radius, top + d0 * radius]);
+            // Caps as thin triangles fanned from the axis (emitted as degenerate-free quads' halves).
+            let n_up = Vec3::Y;
+            let c = self.vertex(top, n_up, Vec2::ZERO);
+            let p0 = self.vertex(top + d0 * radius, n_up, Vec2::ZERO);
+            let p1 = self.vertex(top + d1 * radius, n_up, Vec2::ZERO);
+            self.triangle([c, p0, p1]);
+            let c = self.vertex(base, -n_up, Vec2::ZERO);
+            let p0 = self.vertex(base + d0 * radius, -n_up, Vec2::ZERO);
+            let p1 = self.vertex(base + d1 * radius, -n_up, Vec2::ZERO);
+            self.triangle([c, p1, p0]);
+        }
+    }
+
+    /// A closed, smooth-shaded sphere subdivided `levels` times from an octahedron
+    /// (8·4^levels triangles), with its radius modulated by `displace(direction)`.
+    pub fn blob(&mut self, centre: Vec3, radii: Vec3, levels: u32, displace: impl Fn(Vec3) -> f32) {
+        let mut verts: Vec<Vec3> = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let mut faces: Vec<[u32; 3]> = vec![[0, 2, 4], [4, 2, 1], [1, 2, 5], [5, 2, 0], [4, 3, 0], [1, 3, 4], [5, 3, 1], [0, 3, 5]];
+        for _ in 0..levels {
+            let mut midpoint = std::collections::HashMap::new();
+            let mut mid = |a: u32, b: u32, verts: &mut Vec<Vec3>| -> u32 {
+                *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    verts.push((verts[a as usize] + verts[b as usize]).normalize());
+                    (verts.len() - 1) as u32
+                })
+            };
+            let mut next = Vec::with_capacity(faces.len() * 4);
+            for [a, b, c] in faces {
+                let (ab, bc, ca) = (mid(a, b, &mut verts), mid(b, c, &mut verts), mid(c, a, &mut verts));
+                next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+            }
+            faces = next;
+        }
+        let base = self.scene.positions.len() as u32;
+        for d in &verts {
+            let p = centre + *d * radii * displace(*d);
+            let uv = Vec2::new(0.5 + d.z.atan2(d.x) / std::f32::consts::TAU, 0.5 - d.y.asin() / std::f32::consts::PI);
+            // Normal from the undisplaced ellipsoid: smooth enough for shading.
+            self.vertex(p, (*d / radii).normalize(), uv);
+        }
+        for [a, b, c] in faces {
+            self.triangle([base + a, base + b, base + c]);
+        }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.scene.triangles.len()
+    }
+
+    pub fn finish(mut self) -> Scene {
+        self.scene.drop_bad_triangles();
+        self.scene
+    }
+}
