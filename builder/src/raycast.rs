@@ -1,0 +1,436 @@
+//! Ray casting on Embree 4: the only module that speaks to Embree.
+//!
+//! Inputs: triangles (positions + indices). Outputs: closest hits and occlusion
+//! answers for single rays, 8-wide packets, and parallel batches over rayon.
+//!
+//! ABI: `embree4-sys` 0.0.12 carries Embree 4.2 headers, where `RTCRayHit` is 80
+//! bytes; Embree >= 4.3 built with instance arrays (the library we ship with)
+//! writes an extra `instPrimID` after the hit, 84 bytes for one ray and 672 for
+//! a packet of 8. So every hit struct handed to Embree here is the bindgen
+//! struct followed by spare room ([`RayHit1`], [`RayHit8`]), and a test checks
+//! canary bytes after them survive. Intersect/occluded arguments are passed as
+//! NULL so their (also grown) layout never matters. 8-wide packets are native on
+//! these AVX2 machines; 16-wide ones overrun their struct there and are not used.
+
+use embree4_sys as sys;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::ptr::null_mut;
+
+/// A ray segment from `origin + t_min·dir` to `origin + t_max·dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    /// Need not be normalized; `t` is measured in units of its length.
+    pub dir: Vec3,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
+        Ray { origin, dir, t_min: 0.0, t_max: f32::INFINITY }
+    }
+    /// The segment from `a` to `b`, for visibility tests between two points.
+    pub fn segment(a: Vec3, b: Vec3) -> Ray {
+        Ray { origin: a, dir: b - a, t_min: 0.0, t_max: 1.0 }
+    }
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// The closest hit along a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Index of the triangle in the slice the scene was built from.
+    pub triangle: u32,
+    /// Barycentric coordinates of the hit: point = (1-u-v)·a + u·b + v·c.
+    pub u: f32,
+    pub v: f32,
+    /// Unit geometric normal, (b-a)×(c-a) oriented: it faces the side the
+    /// triangle's corners wind counter-clockwise around.
+    pub normal: Vec3,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RaycastError {
+    #[error("Embree could not create a device ({0:?}); is libembree4 the right version (>= 4.0) for this CPU?")]
+    Device(sys::RTCError),
+    #[error("Embree failed while building the ray-casting structure ({0:?}); the machine may be out of memory")]
+    Build(sys::RTCError),
+    #[error("the scene has {0} triangles; Embree takes at most 2^32-2")]
+    TooLarge(usize),
+}
+
+/// One ray with its hit record, with room for what Embree 4.4 writes past
+/// Embree 4.2's `RTCRayHit` (see the module header).
+#[repr(C, align(16))]
+struct RayHit1 {
+    inner: sys::RTCRayHit,
+    abi_tail: [u32; 8],
+}
+
+/// Eight rays with their hit records (structure of arrays), with spare room likewise.
+#[repr(C, align(32))]
+struct RayHit8 {
+    inner: sys::RTCRayHit8,
+    abi_tail: [u32; 16],
+}
+
+/// Embree's packet activity mask: -1 active, 0 inactive; must be 32-byte aligned.
+#[repr(C, align(32))]
+struct Valid8([i32; 8]);
+
+impl Valid8 {
+    fn first(n: usize) -> Valid8 {
+        Valid8(std::array::from_fn(|i| if i < n { -1 } else { 0 }))
+    }
+}
+
+const INVALID_ID: u32 = u32::MAX;
+
+fn ray1(r: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: r.origin.x,
+        org_y: r.origin.y,
+        org_z: r.origin.z,
+        tnear: r.t_min,
+        dir_x: r.dir.x,
+        dir_y: r.dir.y,
+        dir_z: r.dir.z,
+        time: 0.0,
+        tfar: r.t_max,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+fn empty_hit1() -> sys::RTCHit {
+    sys::RTCHit { Ng_x: 0.0, Ng_y: 0.0, Ng_z: 0.0, u: 0.0, v: 0.0, primID: INVALID_ID, geomID: INVALID_ID, instID: [INVALID_ID] }
+}
+
+fn fill_ray8(dst: &mut sys::RTCRay8, rays: &[Ray]) {
+    for (i, r) in rays.iter().enumerate() {
+        dst.org_x[i] = r.origin.x;
+        dst.org_y[i] = r.origin.y;
+        dst.org_z[i] = r.origin.z;
+        dst.tnear[i] = r.t_min;
+        dst.dir_x[i] = r.dir.x;
+        dst.dir_y[i] = r.dir.y;
+        dst.dir_z[i] = r.dir.z;
+        dst.tfar[i] = r.t_max;
+        dst.mask[i] = u32::MAX;
+    }
+}
+
+fn zeroed_ray8() -> sys::RTCRay8 {
+    sys::RTCRay8 {
+        org_x: [0.0; 8],
+        org_y: [0.0; 8],
+        org_z: [0.0; 8],
+        tnear: [0.0; 8],
+        dir_x: [0.0; 8],
+        dir_y: [0.0; 8],
+        dir_z: [0.0; 8],
+        time: [0.0; 8],
+        tfar: [0.0; 8],
+        mask: [0; 8],
+        id: [0; 8],
+        flags: [0; 8],
+    }
+}
+
+fn new_rayhit8(rays: &[Ray]) -> RayHit8 {
+    let mut ray = zeroed_ray8();
+    fill_ray8(&mut ray, rays);
+    let hit = sys::RTCHit8 {
+        Ng_x: [0.0; 8],
+        Ng_y: [0.0; 8],
+        Ng_z: [0.0; 8],
+        u: [0.0; 8],
+        v: [0.0; 8],
+        primID: [INVALID_ID; 8],
+        geomID: [INVALID_ID; 8],
+        instID: [[INVALID_ID; 8]],
+    };
+    RayHit8 { inner: sys::RTCRayHit8 { ray, hit }, abi_tail: [0; 16] }
+}
+
+fn hit_from(t: f32, geom: u32, prim: u32, u: f32, v: f32, ng: Vec3) -> Option<Hit> {
+    (geom != INVALID_ID).then(|| Hit { t, triangle: prim, u, v, normal: ng.normalize_or_zero() })
+}
+
+/// A committed Embree scene of triangles. Queries are thread-safe.
+pub struct RayScene {
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+    triangle_count: usize,
+}
+
+// SAFETY: Embree documents committed scenes as safe to query from any number of
+// threads at once, and this type never mutates the scene after commit.
+unsafe impl Send for RayScene {}
+// SAFETY: as above.
+unsafe impl Sync for RayScene {}
+
+impl Drop for RayScene {
+    fn drop(&mut self) {
+        // SAFETY: both handles were created by `new` and are released once.
+        unsafe {
+            sys::rtcReleaseScene(self.scene);
+            sys::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+impl RayScene {
+    /// Builds the acceleration structure. Indices must be in range of `positions`
+    /// (the `Scene` invariants guarantee it); `threads` caps Embree's build threads (0: all).
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]], threads: usize) -> Result<RayScene, RaycastError> {
+        if triangles.len() >= INVALID_ID as usize {
+            return Err(RaycastError::TooLarge(triangles.len()));
+        }
+        assert!(triangles.iter().flatten().all(|&i| (i as usize) < positions.len()), "triangle index out of range");
+        let config = std::ffi::CString::new(format!("threads={threads},verbose=0")).expect("no NUL in config");
+        // SAFETY: plain FFI calls on handles created here; buffers returned by
+        // rtcSetNewGeometryBuffer are Embree-owned, sized for exactly the counts
+        // passed, and filled before commit.
+        unsafe {
+            let device = sys::rtcNewDevice(config.as_ptr());
+            if device.is_null() {
+                return Err(RaycastError::Device(sys::rtcGetDeviceError(null_mut())));
+            }
+            let scene = sys::rtcNewScene(device);
+            let geometry = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+            let vertex_ptr = sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::VERTEX, 0, sys::RTCFormat::FLOAT3, 12, positions.len()) as *mut f32;
+            let index_ptr = sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::INDEX, 0, sys::RTCFormat::UINT3, 12, triangles.len()) as *mut u32;
+            let built = !vertex_ptr.is_null() && !index_ptr.is_null();
+            if built {
+                let vertices = std::slice::from_raw_parts_mut(vertex_ptr, positions.len() * 3);
+                for (dst, p) in vertices.chunks_exact_mut(3).zip(positions) {
+                    dst.copy_from_slice(&p.to_array());
+                }
+                let indices = std::slice::from_raw_parts_mut(index_ptr, triangles.len() * 3);
+                for (dst, t) in indices.chunks_exact_mut(3).zip(triangles) {
+                    dst.copy_from_slice(t);
+                }
+                sys::rtcCommitGeometry(geometry);
+                sys::rtcAttachGeometry(scene, geometry);
+            }
+            sys::rtcReleaseGeometry(geometry);
+            sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::MEDIUM);
+            sys::rtcCommitScene(scene);
+            let error = sys::rtcGetDeviceError(device);
+            let result = RayScene { device, scene, triangle_count: triangles.len() };
+            if !built || error != sys::RTCError::NONE {
+                return Err(RaycastError::Build(error));
+            }
+            Ok(result)
+        }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    /// Embree's version as a number, e.g. 40400 for 4.4.0.
+    pub fn embree_version(&self) -> i64 {
+        // SAFETY: valid device handle.
+        unsafe { sys::rtcGetDeviceProperty(self.device, sys::RTCDeviceProperty::VERSION) as i64 }
+    }
+
+    fn intersect1_raw(&self, rh: &mut RayHit1) {
+        // SAFETY: the pointer covers the whole RayHit1, which has room for what
+        // Embree 4.4 writes; NULL arguments select the defaults.
+        unsafe { sys::rtcIntersect1(self.scene, rh as *mut RayHit1 as *mut sys::RTCRayHit, null_mut()) }
+    }
+
+    fn intersect8_raw(&self, valid: &Valid8, rh: &mut RayHit8) {
+        // SAFETY: as in intersect1_raw; `valid` is 32-byte aligned as Embree requires.
+        unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.scene, rh as *mut RayHit8 as *mut sys::RTCRayHit8, null_mut()) }
+    }
+
+    /// Closest hit along one ray.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut rh = RayHit1 { inner: sys::RTCRayHit { ray: ray1(ray), hit: empty_hit1() }, abi_tail: [0; 8] };
+        self.intersect1_raw(&mut rh);
+        let (r, h) = (&rh.inner.ray, &rh.inner.hit);
+        hit_from(r.tfar, h.geomID, h.primID, h.u, h.v, Vec3::new(h.Ng_x, h.Ng_y, h.Ng_z))
+    }
+
+    /// Whether anything blocks the ray between `t_min` and `t_max`.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let mut r = ray1(ray);
+        // SAFETY: RTCRay's layout did not change in Embree 4.3/4.4; NULL arguments.
+        unsafe { sys::rtcOccluded1(self.scene, &mut r, null_mut()) };
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// Closest hits of up to 8 rays traced as one packet; `out[i]` answers `rays[i]`.
+    pub fn intersect8(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert!(rays.len() <= 8 && out.len() >= rays.len());
+        let valid = Valid8::first(rays.len());
+        let mut rh = new_rayhit8(rays);
+        self.intersect8_raw(&valid, &mut rh);
+        let (r, h) = (&rh.inner.ray, &rh.inner.hit);
+        for (i, o) in out.iter_mut().enumerate().take(rays.len()) {
+            *o = hit_from(r.tfar[i], h.geomID[i], h.primID[i], h.u[i], h.v[i], Vec3::new(h.Ng_x[i], h.Ng_y[i], h.Ng_z[i]));
+        }
+    }
+
+    /// Occlusion of up to 8 rays traced as one packet; `out[i]` answers `rays[i]`.
+    pub fn occluded8(&self, rays: &[Ray], out: &mut [bool]) {
+        assert!(rays.len() <= 8 && out.len() >= rays.len());
+        let valid = Valid8::first(rays.len());
+        let mut r = zeroed_ray8();
+        fill_ray8(&mut r, rays);
+        // SAFETY: RTCRay8 is unchanged in 4.4 (Embree writes only tfar); aligned mask; NULL arguments.
+        unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.scene, &mut r, null_mut()) };
+        for (i, o) in out.iter_mut().enumerate().take(rays.len()) {
+            *o = r.tfar[i] == f32::NEG_INFINITY;
+        }
+    }
+
+    /// Closest hits of many rays, in 8-wide packets spread over rayon's threads.
+    /// Keep neighbouring rays coherent (e.g. 4×2 pixel tiles) for speed.
+    pub fn intersect_batch(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        let mut out = vec![None; rays.len()];
+        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
+            for (o8, r8) in o.chunks_mut(8).zip(r.chunks(8)) {
+                self.intersect8(r8, o8);
+            }
+        });
+        out
+    }
+
+    /// Occlusion of many rays, in 8-wide packets spread over rayon's threads.
+    pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
+        let mut out = vec![false; rays.len()];
+        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
+            for (o8, r8) in o.chunks_mut(8).zip(r.chunks(8)) {
+                self.occluded8(r8, o8);
+            }
+        });
+        out
+    }
+
+    /// Like [`Self::intersect_batch`] with one ray at a time (for comparison and for incoherent rays).
+    pub fn intersect_batch_single(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        rays.par_iter().with_min_len(BATCH).map(|r| self.intersect(r)).collect()
+    }
+
+    /// Like [`Self::occluded_batch`] with one ray at a time.
+    pub fn occluded_batch_single(&self, rays: &[Ray]) -> Vec<bool> {
+        rays.par_iter().with_min_len(BATCH).map(|r| self.occluded(r)).collect()
+    }
+}
+
+/// Rays per rayon work item: large enough to amortize scheduling, small enough to balance.
+const BATCH: usize = 512;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Unit square in the z = 0 plane, two triangles facing +z.
+    fn square() -> RayScene {
+        let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        RayScene::new(&p, &[[0, 1, 2], [0, 2, 3]], 0).unwrap()
+    }
+
+    #[test]
+    fn embree_is_version_4() {
+        let v = square().embree_version();
+        assert!((40000..50000).contains(&v), "Embree version {v}");
+    }
+
+    #[test]
+    fn exact_hit_distance_triangle_and_barycentrics() {
+        let scene = square();
+        // (0.75, 0.25) lies in triangle 0 (0,0)-(1,0)-(1,1): u = 0.5, v = 0.25.
+        let hit = scene.intersect(&Ray::new(Vec3::new(0.75, 0.25, 2.0), Vec3::new(0.0, 0.0, -1.0))).unwrap();
+        assert_eq!(hit.triangle, 0);
+        assert!((hit.t - 2.0).abs() < 1e-6);
+        assert!((hit.u - 0.5).abs() < 1e-6 && (hit.v - 0.25).abs() < 1e-6, "{hit:?}");
+        assert!((hit.normal - Vec3::Z).length() < 1e-6);
+        // (0.25, 0.75) lies in triangle 1 (0,0)-(1,1)-(0,1): u = 0.25, v = 0.5.
+        let hit = scene.intersect(&Ray::new(Vec3::new(0.25, 0.75, -3.0), Vec3::new(0.0, 0.0, 2.0))).unwrap();
+        assert_eq!(hit.triangle, 1);
+        assert!((hit.t - 1.5).abs() < 1e-6);
+        assert!((hit.u - 0.25).abs() < 1e-6 && (hit.v - 0.5).abs() < 1e-6, "{hit:?}");
+        // Misses: beside the square, pointing away, and stopped short by t_max.
+        assert!(scene.intersect(&Ray::new(Vec3::new(1.5, 0.5, 1.0), -Vec3::Z)).is_none());
+        assert!(scene.intersect(&Ray::new(Vec3::new(0.5, 0.5, 1.0), Vec3::Z)).is_none());
+        assert!(scene.intersect(&Ray { t_max: 0.9, ..Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z) }).is_none());
+        assert!(scene.occluded(&Ray::segment(Vec3::new(0.5, 0.5, 1.0), Vec3::new(0.5, 0.5, -1.0))));
+        assert!(!scene.occluded(&Ray::segment(Vec3::new(0.5, 0.5, 1.0), Vec3::new(0.5, 0.5, 0.1))));
+    }
+
+    #[test]
+    fn canary_bytes_after_hit_structs_survive() {
+        const CANARY: u8 = 0xA5;
+        #[repr(C)]
+        struct Guarded<T> {
+            value: T,
+            canary: [u8; 128],
+        }
+        let scene = square();
+        let ray = Ray::new(Vec3::new(0.3, 0.2, 1.0), -Vec3::Z);
+        let mut one = Guarded { value: RayHit1 { inner: sys::RTCRayHit { ray: ray1(&ray), hit: empty_hit1() }, abi_tail: [0; 8] }, canary: [CANARY; 128] };
+        scene.intersect1_raw(&mut one.value);
+        assert_eq!(one.value.inner.hit.primID, 0, "the guarded ray must really hit");
+        assert!(one.canary.iter().all(|&b| b == CANARY), "Embree wrote past RayHit1");
+        let rays = [ray; 8];
+        let mut eight = Guarded { value: new_rayhit8(&rays), canary: [CANARY; 128] };
+        scene.intersect8_raw(&Valid8::first(8), &mut eight.value);
+        assert!(eight.value.inner.hit.primID.iter().all(|&p| p == 0));
+        assert!(eight.canary.iter().all(|&b| b == CANARY), "Embree wrote past RayHit8");
+    }
+
+    #[test]
+    fn packets_agree_with_single_rays_on_100k_random_rays() {
+        let scene_data = exploremaps_scenes::BuiltIn::Pillars.generate(7);
+        let scene = RayScene::new(&scene_data.positions, &scene_data.triangles, 0).unwrap();
+        let bounds = scene_data.bounds();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+        let rays: Vec<Ray> = (0..100_000)
+            .map(|_| {
+                let o = bounds.min + Vec3::new(rng.random(), rng.random(), rng.random()) * bounds.extent();
+                let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                Ray { t_max: if rng.random_bool(0.5) { f32::INFINITY } else { rng.random_range(0.1..10.0) }, ..Ray::new(o, d) }
+            })
+            .collect();
+        let packets = scene.intersect_batch(&rays);
+        let singles = scene.intersect_batch_single(&rays);
+        let hits = singles.iter().filter(|h| h.is_some()).count();
+        assert!(hits > 30_000 && hits < 100_000, "the rays should both hit and miss: {hits}");
+        let mut mismatches = 0;
+        for (a, b) in packets.iter().zip(&singles) {
+            match (a, b) {
+                (Some(a), Some(b)) if a.triangle == b.triangle && (a.t - b.t).abs() <= 1e-4 * a.t.max(1.0) => {}
+                (None, None) => {}
+                _ => mismatches += 1,
+            }
+        }
+        assert_eq!(mismatches, 0);
+        assert_eq!(scene.occluded_batch(&rays), scene.occluded_batch_single(&rays));
+        // Occlusion agrees with closest hits.
+        for (o, h) in scene.occluded_batch(&rays).iter().zip(&singles) {
+            assert_eq!(*o, h.is_some());
+        }
+    }
+
+    #[test]
+    fn partial_packets_leave_inactive_lanes_alone() {
+        let scene = square();
+        let rays = [Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z); 3];
+        let mut out = [None; 8];
+        scene.intersect8(&rays, &mut out);
+        assert!(out[..3].iter().all(|h| h.is_some()));
+        assert!(out[3..].iter().all(|h| h.is_none()));
+    }
+}
