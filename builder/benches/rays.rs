@@ -1,1 +1,109 @@
-fn main() {}
+//! Ray throughput on Embree, single rays against 8-wide packets, side by side.
+//!
+//! `cargo bench -p exploremaps-builder --bench rays [-- TRIANGLES]` (default 1,000,000).
+//! Scene: the built-in `big` museum of gallery wings. Three kinds of rays:
+//! coherent (a 6×512² cube map from a probe at eye height, the exploration
+//! stage's workload, in 4×2 pixel tiles, and a 1024² view down a corridor), incoherent (cosine-weighted bounce rays from the primary hits), shadow
+//! (from the hits to a point light). Output buffers are reused, as in the hot loops.
+//! Reference limits measured on these 2-core machines (DESIGN.md section 4):
+//! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
+
+use exploremaps_builder::raycast::{Packing, Ray, RayScene};
+use exploremaps_scenes::BuiltIn;
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use std::time::Instant;
+
+fn main() {
+    let triangles: usize = std::env::args().skip(1).find_map(|a| a.replace('_', "").parse().ok()).unwrap_or(1_000_000);
+    let t = Instant::now();
+    let scene = BuiltIn::Big(triangles).generate(1);
+    let gen_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let rays = RayScene::new(&scene.positions, &scene.triangles, 0).expect("Embree scene");
+    let build_s = t.elapsed().as_secs_f64();
+    println!(
+        "scene: big, {} triangles (generated in {gen_s:.2} s), Embree {}, BVH build {build_s:.2} s, {} rayon threads",
+        scene.triangles.len(),
+        rays.embree_version(),
+        rayon::current_num_threads()
+    );
+
+    let bounds = scene.bounds();
+    // A probe at eye height in the pillared hall of the first wing.
+    let eye = Vec3::new(28.0, 1.6, 10.0);
+    let primary: Vec<Ray> = CUBE_FACES.iter().flat_map(|&(forward, up)| camera_rays(eye, forward, up, 512)).collect();
+    // A 1024² view down the 40 m corridor: large walls and floor, the most coherent case.
+    let corridor = camera_rays(Vec3::new(0.8, 1.6, 2.0), Vec3::X, Vec3::Y, 1024);
+    let hits = rays.intersect_batch(&primary);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+    let light = Vec3::new(30.0, 3.5, 12.0);
+    let (mut bounce, mut shadow) = (Vec::new(), Vec::new());
+    for (r, h) in primary.iter().zip(&hits) {
+        let Some(h) = h else { continue };
+        let n = if h.normal.dot(r.dir) < 0.0 { h.normal } else { -h.normal };
+        let p = r.at(h.t) + n * 1e-3;
+        bounce.push(Ray::new(p, cosine_dir(n, &mut rng)));
+        shadow.push(Ray::segment(p, light));
+    }
+    println!("{:<22} {:>8} {:>8} {:>7}   reference here (single / 8-wide)", "Mrays/s", "single", "8-wide", "ratio");
+    let row = |name: &str, rays: &[Ray], reference: &str, trace: &dyn Fn(&[Ray], Packing)| {
+        let per_s = |packing| rays.len() as f64 / time(|| trace(rays, packing)) / 1e6;
+        let (s, p) = (per_s(Packing::Single), per_s(Packing::Packets8));
+        println!("{name:<22} {s:>8.1} {p:>8.1} {:>6.2}x   {reference}", p / s);
+    };
+    let mut hit_buf = vec![None; primary.len().max(corridor.len())];
+    let mut bool_buf = vec![false; shadow.len()];
+    let hit_buf = std::sync::Mutex::new(&mut hit_buf);
+    let bool_buf = std::sync::Mutex::new(&mut bool_buf);
+    let intersect = |r: &[Ray], p| rays.intersect_into(r, &mut hit_buf.lock().unwrap()[..r.len()], p);
+    let occluded = |r: &[Ray], p| rays.occluded_into(r, &mut bool_buf.lock().unwrap()[..r.len()], p);
+    row("coherent (cube map)", &primary, "18-20 / 42-50", &intersect);
+    row("coherent (corridor)", &corridor, "18-20 / 42-50", &intersect);
+    row("incoherent (bounce)", &bounce, "≈11 / ≈11", &intersect);
+    row("shadow (occlusion)", &shadow, "31 / 65", &occluded);
+}
+
+/// Best-of-5 seconds per run of `f`, after one warm-up run.
+fn time(f: impl Fn()) -> f64 {
+    f();
+    (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// (forward, up) of the six 90° faces of a cube map.
+const CUBE_FACES: [(Vec3, Vec3); 6] =
+    [(Vec3::X, Vec3::Y), (Vec3::NEG_X, Vec3::Y), (Vec3::Z, Vec3::Y), (Vec3::NEG_Z, Vec3::Y), (Vec3::Y, Vec3::NEG_Z), (Vec3::NEG_Y, Vec3::Z)];
+
+/// Pinhole camera rays, 90° field of view, ordered in 4×2 pixel tiles so each
+/// 8-ray packet is spatially coherent.
+fn camera_rays(eye: Vec3, forward: Vec3, up: Vec3, size: u32) -> Vec<Ray> {
+    let right = forward.cross(up);
+    let (width, height) = (size, size);
+    let mut rays = Vec::with_capacity((width * height) as usize);
+    for ty in (0..height).step_by(2) {
+        for tx in (0..width).step_by(4) {
+            for y in ty..ty + 2 {
+                for x in tx..tx + 4 {
+                    let sx = 2.0 * (x as f32 + 0.5) / width as f32 - 1.0;
+                    let sy = 1.0 - 2.0 * (y as f32 + 0.5) / height as f32;
+                    rays.push(Ray::new(eye, (forward + right * sx + up * sy).normalize()));
+                }
+            }
+        }
+    }
+    rays
+}
+
+fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
+    let (u1, u2): (f32, f32) = (rng.random(), rng.random());
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    let (t, b) = n.any_orthonormal_pair();
+    (t * r * phi.cos() + b * r * phi.sin() + n * (1.0 - u1).max(0.0).sqrt()).normalize()
+}

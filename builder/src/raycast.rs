@@ -298,33 +298,86 @@ impl RayScene {
     /// Keep neighbouring rays coherent (e.g. 4×2 pixel tiles) for speed.
     pub fn intersect_batch(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
         let mut out = vec![None; rays.len()];
-        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
-            for (o8, r8) in o.chunks_mut(8).zip(r.chunks(8)) {
-                self.intersect8(r8, o8);
-            }
-        });
+        self.intersect_into(rays, &mut out, Packing::Packets8);
         out
     }
 
     /// Occlusion of many rays, in 8-wide packets spread over rayon's threads.
     pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
         let mut out = vec![false; rays.len()];
-        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
-            for (o8, r8) in o.chunks_mut(8).zip(r.chunks(8)) {
-                self.occluded8(r8, o8);
-            }
-        });
+        self.occluded_into(rays, &mut out, Packing::Packets8);
         out
     }
 
-    /// Like [`Self::intersect_batch`] with one ray at a time (for comparison and for incoherent rays).
-    pub fn intersect_batch_single(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        rays.par_iter().with_min_len(BATCH).map(|r| self.intersect(r)).collect()
+    /// Closest hits of `rays` written to `out` (same length). Hot loops call this
+    /// with a reused buffer: a fresh one costs page faults comparable to the tracing.
+    pub fn intersect_into(&self, rays: &[Ray], out: &mut [Option<Hit>], packing: Packing) {
+        assert_eq!(rays.len(), out.len());
+        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
+            let _mode = FlushDenormals::new();
+            match packing {
+                Packing::Packets8 => o.chunks_mut(8).zip(r.chunks(8)).for_each(|(o8, r8)| self.intersect8(r8, o8)),
+                Packing::Single => o.iter_mut().zip(r).for_each(|(o1, r1)| *o1 = self.intersect(r1)),
+            }
+        });
     }
 
-    /// Like [`Self::occluded_batch`] with one ray at a time.
-    pub fn occluded_batch_single(&self, rays: &[Ray]) -> Vec<bool> {
-        rays.par_iter().with_min_len(BATCH).map(|r| self.occluded(r)).collect()
+    /// Occlusion of `rays` written to `out` (same length).
+    pub fn occluded_into(&self, rays: &[Ray], out: &mut [bool], packing: Packing) {
+        assert_eq!(rays.len(), out.len());
+        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
+            let _mode = FlushDenormals::new();
+            match packing {
+                Packing::Packets8 => o.chunks_mut(8).zip(r.chunks(8)).for_each(|(o8, r8)| self.occluded8(r8, o8)),
+                Packing::Single => o.iter_mut().zip(r).for_each(|(o1, r1)| *o1 = self.occluded(r1)),
+            }
+        });
+    }
+}
+
+/// How batches hand rays to Embree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Packing {
+    /// One `rtcIntersect1`/`rtcOccluded1` call per ray: best for incoherent rays.
+    Single,
+    /// 8-wide packets (native width on AVX2): best for coherent rays.
+    Packets8,
+}
+
+/// Sets the CPU's flush-to-zero and denormals-are-zero modes while alive, as
+/// Embree asks of every thread that traces (denormals slow traversal badly), and
+/// restores the previous mode on drop so code outside ray casting is unaffected.
+struct FlushDenormals {
+    #[cfg(target_arch = "x86_64")]
+    saved: u32,
+}
+
+impl FlushDenormals {
+    fn new() -> FlushDenormals {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut saved: u32 = 0;
+            // SAFETY: stmxcsr/ldmxcsr only read and write the SSE control register;
+            // bits 15 (FTZ) and 6 (DAZ) exist on every x86_64 CPU.
+            unsafe {
+                std::arch::asm!("stmxcsr [{}]", in(reg) &mut saved, options(nostack));
+                let flushed = saved | (1 << 15) | (1 << 6);
+                std::arch::asm!("ldmxcsr [{}]", in(reg) &flushed, options(nostack, readonly));
+            }
+            FlushDenormals { saved }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        FlushDenormals {}
+    }
+}
+
+impl Drop for FlushDenormals {
+    fn drop(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: restores the value read in `new`.
+        unsafe {
+            std::arch::asm!("ldmxcsr [{}]", in(reg) &self.saved, options(nostack, readonly));
+        }
     }
 }
 
@@ -405,7 +458,8 @@ mod tests {
             })
             .collect();
         let packets = scene.intersect_batch(&rays);
-        let singles = scene.intersect_batch_single(&rays);
+        let mut singles = vec![None; rays.len()];
+        scene.intersect_into(&rays, &mut singles, Packing::Single);
         let hits = singles.iter().filter(|h| h.is_some()).count();
         assert!(hits > 30_000 && hits < 100_000, "the rays should both hit and miss: {hits}");
         let mut mismatches = 0;
@@ -417,7 +471,9 @@ mod tests {
             }
         }
         assert_eq!(mismatches, 0);
-        assert_eq!(scene.occluded_batch(&rays), scene.occluded_batch_single(&rays));
+        let mut occluded_singles = vec![false; rays.len()];
+        scene.occluded_into(&rays, &mut occluded_singles, Packing::Single);
+        assert_eq!(scene.occluded_batch(&rays), occluded_singles);
         // Occlusion agrees with closest hits.
         for (o, h) in scene.occluded_batch(&rays).iter().zip(&singles) {
             assert_eq!(*o, h.is_some());

@@ -1,41 +1,29 @@
-//! `big`: a hall filled with a grid of detailed statues, sized by a triangle
+//! `big`: a museum of many `gallery` wings on a grid, sized by a triangle
 //! budget (up to tens of millions), for scaling benchmarks of ray casting,
-//! exploration and rendering.
+//! exploration and rendering. Like a real large museum, it is mostly rooms
+//! with detailed statues, not a solid mass of detail.
 
-use crate::gallery::statue;
+use crate::gallery::{wing, GalleryMaterials, SUN, WING_SIZE};
 use crate::mesh::MeshBuilder;
-use crate::scene::{Light, Material, Scene};
+use crate::scene::Scene;
 use glam::Vec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
-/// Triangles of one statue (subdivision level 5 of an octahedron).
-const STATUE_TRIANGLES: usize = 8 * 4usize.pow(5);
-const SPACING: f32 = 3.0;
-
 /// At least `target_triangles` triangles (default 1,000,000).
 pub fn big(seed: u64, target_triangles: usize) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6269_6767);
-    let count = target_triangles.div_ceil(STATUE_TRIANGLES).max(1);
-    let side = (count as f32).sqrt().ceil() as usize;
-    let extent = side as f32 * SPACING;
     let mut m = MeshBuilder::new("big");
-    let floor = m.add_material(Material::diffuse("floor", [0.5, 0.5, 0.5]));
-    let marble = m.add_material(Material::diffuse("statue_marble", [0.9, 0.9, 0.88]));
-    m.begin_object("hall");
-    m.set_material(floor);
-    let h = 8.0;
-    m.cuboid(Vec3::new(-0.3, -0.3, -0.3), Vec3::new(extent + 0.3, 0.0, extent + 0.3));
-    m.cuboid(Vec3::new(-0.3, h, -0.3), Vec3::new(extent + 0.3, h + 0.3, extent + 0.3));
-    for (along_x, line) in [(true, 0.0), (true, extent), (false, 0.0), (false, extent)] {
-        m.wall(along_x, line, 0.0, extent, 0.0, h, 0.3, &[]);
+    let materials = GalleryMaterials::add(&mut m, seed);
+    // One wing first to learn its size, then a square grid of as many as needed.
+    wing(&mut m, &materials, &mut rng, Vec3::ZERO, "w0_");
+    let per_wing = m.triangle_count();
+    let count = target_triangles.div_ceil(per_wing).max(1);
+    let side = (count as f32).sqrt().ceil() as usize;
+    for k in 1..count {
+        let origin = Vec3::new((k % side) as f32 * WING_SIZE.0, 0.0, (k / side) as f32 * WING_SIZE.1);
+        wing(&mut m, &materials, &mut rng, origin, &format!("w{k}_"));
     }
-    m.set_material(marble);
-    for k in 0..count {
-        let (i, j) = (k % side, k / side);
-        m.begin_object(&format!("statue_{k}"));
-        statue(&mut m, &mut rng, Vec3::new((i as f32 + 0.5) * SPACING, 1.0, (j as f32 + 0.5) * SPACING));
-    }
-    m.add_light(Light::Point { position: Vec3::new(extent * 0.5, h - 0.5, extent * 0.5), intensity: Vec3::splat(extent * extent) });
+    m.add_light(SUN);
     m.finish()
 }

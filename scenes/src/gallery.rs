@@ -5,7 +5,7 @@
 //! a store room E [12,20]×[12,20] (reached through B or A), hall C [20,40]×[4,20]
 //! with a grid of pillars, room D [24,40]×[-12,0], and a courtyard [0,24]×[-16,0]
 //! open to the sky. Statues on plinths stand in every room; point lights light
-//! the rooms and a sun the courtyard. About 200k triangles, mostly statues.
+//! the rooms and a sun the courtyard. About 70k triangles, mostly statues.
 
 use crate::mesh::MeshBuilder;
 use crate::scene::{Light, Material, Scene};
@@ -25,109 +25,135 @@ const STATUE_LEVELS: u32 = 5;
 pub fn gallery(seed: u64) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6761_6c6c);
     let mut m = MeshBuilder::new("gallery");
-    let tex_floor = m.add_texture(textures::checker_marble(seed as u32));
-    let tex_bricks = m.add_texture(textures::bricks(seed as u32));
-    let tex_wood = m.add_texture(textures::planks(seed as u32));
-    let tex_plaster = m.add_texture(textures::plaster([0.92, 0.88, 0.8], seed as u32));
-    let textured = |name: &str, texture: usize, tint: [f32; 3]| Material {
-        base_color_texture: Some(texture),
-        ..Material::diffuse(name, tint)
-    };
-    let floor = m.add_material(textured("floor_marble", tex_floor, [1.0; 3]));
-    let wall = m.add_material(textured("wall_plaster", tex_plaster, [1.0; 3]));
-    let wall_red = m.add_material(textured("wall_plaster_red", tex_plaster, [0.8, 0.35, 0.3]));
-    let wall_blue = m.add_material(textured("wall_plaster_blue", tex_plaster, [0.35, 0.45, 0.75]));
-    let bricks = m.add_material(textured("courtyard_bricks", tex_bricks, [1.0; 3]));
-    let wood = m.add_material(textured("store_planks", tex_wood, [1.0; 3]));
-    let ceiling = m.add_material(Material::diffuse("ceiling", [0.8, 0.8, 0.78]));
-    let stone = m.add_material(Material::diffuse("pillar_stone", [0.7, 0.68, 0.62]));
-    let plinth = m.add_material(Material::diffuse("plinth", [0.2, 0.2, 0.22]));
-    let marble = m.add_material(Material::diffuse("statue_marble", [0.9, 0.9, 0.88]));
-    let bronze = m.add_material(Material::diffuse("statue_bronze", [0.45, 0.3, 0.15]));
-    let lamp = m.add_material(Material { emissive: Vec3::splat(8.0), ..Material::diffuse("lamp", [1.0; 3]) });
+    let materials = GalleryMaterials::add(&mut m, seed);
+    wing(&mut m, &materials, &mut rng, Vec3::ZERO, "");
+    m.add_light(SUN);
+    m.finish()
+}
 
-    m.begin_object("ground");
-    m.set_material(floor);
-    m.cuboid(Vec3::new(-0.15, -0.3, -16.15), Vec3::new(40.15, 0.0, 20.15));
+/// Late-morning sun over the courtyard.
+pub(crate) const SUN: Light = Light::Sun { direction: Vec3::new(0.424, 0.848, 0.318), irradiance: Vec3::new(3.0, 2.9, 2.6) };
 
-    m.begin_object("walls");
-    m.set_material(wall);
+/// Footprint of one wing on the ground, x by z, with a margin.
+pub(crate) const WING_SIZE: (f32, f32) = (42.0, 38.0);
+
+pub(crate) struct GalleryMaterials {
+    floor: u32,
+    wall: u32,
+    wall_red: u32,
+    wall_blue: u32,
+    bricks: u32,
+    wood: u32,
+    ceiling: u32,
+    stone: u32,
+    plinth: u32,
+    marble: u32,
+    bronze: u32,
+    lamp: u32,
+}
+
+impl GalleryMaterials {
+    pub(crate) fn add(m: &mut MeshBuilder, seed: u64) -> GalleryMaterials {
+        let tex_floor = m.add_texture(textures::checker_marble(seed as u32));
+        let tex_bricks = m.add_texture(textures::bricks(seed as u32));
+        let tex_wood = m.add_texture(textures::planks(seed as u32));
+        let tex_plaster = m.add_texture(textures::plaster([0.92, 0.88, 0.8], seed as u32));
+        let textured = |name: &str, texture: usize, tint: [f32; 3]| Material {
+            base_color_texture: Some(texture),
+            ..Material::diffuse(name, tint)
+        };
+        GalleryMaterials {
+            floor: m.add_material(textured("floor_marble", tex_floor, [1.0; 3])),
+            wall: m.add_material(textured("wall_plaster", tex_plaster, [1.0; 3])),
+            wall_red: m.add_material(textured("wall_plaster_red", tex_plaster, [0.8, 0.35, 0.3])),
+            wall_blue: m.add_material(textured("wall_plaster_blue", tex_plaster, [0.35, 0.45, 0.75])),
+            bricks: m.add_material(textured("courtyard_bricks", tex_bricks, [1.0; 3])),
+            wood: m.add_material(textured("store_planks", tex_wood, [1.0; 3])),
+            ceiling: m.add_material(Material::diffuse("ceiling", [0.8, 0.8, 0.78])),
+            stone: m.add_material(Material::diffuse("pillar_stone", [0.7, 0.68, 0.62])),
+            plinth: m.add_material(Material::diffuse("plinth", [0.2, 0.2, 0.22])),
+            marble: m.add_material(Material::diffuse("statue_marble", [0.9, 0.9, 0.88])),
+            bronze: m.add_material(Material::diffuse("statue_bronze", [0.45, 0.3, 0.15])),
+            lamp: m.add_material(Material { emissive: Vec3::splat(8.0), ..Material::diffuse("lamp", [1.0; 3]) }),
+        }
+    }
+}
+
+/// One museum wing (the plan in the module header) with its origin at `o`;
+/// object names get `prefix`.
+pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64Mcg, o: Vec3, prefix: &str) {
+    let v = |x: f32, y: f32, z: f32| o + Vec3::new(x, y, z);
+    m.begin_object(&format!("{prefix}ground"));
+    m.set_material(mat.floor);
+    m.cuboid(v(-0.15, -0.3, -16.15), v(40.15, 0.0, 20.15));
+
+    m.begin_object(&format!("{prefix}walls"));
     let door = |c: f32| (c, DOOR_W, DOOR_H);
-    // Corridor walls: south (courtyard and D doors), north (A, B, C doors).
-    m.wall(true, 0.0, 0.0, 40.0, 0.0, WALL_H, WALL_T, &[door(12.0), door(32.0)]);
-    m.wall(true, 4.0, 0.0, 40.0, 0.0, WALL_H, WALL_T, &[door(6.0), door(16.0), door(30.0)]);
-    m.wall(false, 0.0, -16.0, 16.0, 0.0, WALL_H, WALL_T, &[]);
-    m.wall(false, 40.0, -12.0, 20.0, 0.0, WALL_H, WALL_T, &[]);
-    m.set_material(wall_red);
-    m.wall(true, 16.0, 0.0, 12.0, 0.0, WALL_H, WALL_T, &[]);
-    m.wall(false, 12.0, 4.0, 20.0, 0.0, WALL_H, WALL_T, &[door(14.0)]);
-    m.set_material(wood);
-    m.wall(true, 12.0, 12.0, 20.0, 0.0, WALL_H, WALL_T, &[door(16.0)]);
-    m.wall(true, 20.0, 12.0, 40.0, 0.0, WALL_H, WALL_T, &[]);
-    m.set_material(wall_blue);
-    m.wall(false, 20.0, 4.0, 20.0, 0.0, WALL_H, WALL_T, &[door(8.0)]);
-    m.wall(true, -12.0, 24.0, 40.0, 0.0, WALL_H, WALL_T, &[]);
-    m.set_material(bricks);
-    m.wall(true, -16.0, 0.0, 24.0, 0.0, WALL_H, WALL_T, &[]);
-    m.wall(false, 24.0, -16.0, 0.0, 0.0, WALL_H, WALL_T, &[door(-6.0)]);
-
-    m.begin_object("roof");
-    m.set_material(ceiling);
-    let roof = |m: &mut MeshBuilder, x0: f32, z0: f32, x1: f32, z1: f32| {
-        m.cuboid(Vec3::new(x0 - 0.15, WALL_H, z0 - 0.15), Vec3::new(x1 + 0.15, WALL_H + 0.3, z1 + 0.15));
-    };
-    roof(&mut m, 0.0, 0.0, 40.0, 4.0); // corridor
-    roof(&mut m, 0.0, 4.0, 12.0, 16.0); // A
-    roof(&mut m, 12.0, 4.0, 20.0, 20.0); // B and E
-    roof(&mut m, 20.0, 4.0, 40.0, 20.0); // C
-    roof(&mut m, 24.0, -12.0, 40.0, 0.0); // D
-
-    m.begin_object("lamps");
-    m.set_material(lamp);
-    let rooms: [(&str, f32, f32, f32, f32); 6] = [
-        ("A", 0.0, 4.0, 12.0, 16.0),
-        ("B", 12.0, 4.0, 20.0, 12.0),
-        ("E", 12.0, 12.0, 20.0, 20.0),
-        ("C", 20.0, 4.0, 40.0, 20.0),
-        ("D", 24.0, -12.0, 40.0, 0.0),
-        ("corridor", 0.0, 0.0, 40.0, 4.0),
+    // (material, along x, line, from, to, doors) in wing coordinates.
+    let walls: [(u32, bool, f32, f32, f32, &[(f32, f32, f32)]); 12] = [
+        // Corridor walls: south (courtyard and D doors), north (A, B, C doors); outer walls.
+        (mat.wall, true, 0.0, 0.0, 40.0, &[door(12.0), door(32.0)]),
+        (mat.wall, true, 4.0, 0.0, 40.0, &[door(6.0), door(16.0), door(30.0)]),
+        (mat.wall, false, 0.0, -16.0, 16.0, &[]),
+        (mat.wall, false, 40.0, -12.0, 20.0, &[]),
+        (mat.wall_red, true, 16.0, 0.0, 12.0, &[]),
+        (mat.wall_red, false, 12.0, 4.0, 20.0, &[door(14.0)]),
+        (mat.wood, true, 12.0, 12.0, 20.0, &[door(16.0)]),
+        (mat.wood, true, 20.0, 12.0, 40.0, &[]),
+        (mat.wall_blue, false, 20.0, 4.0, 20.0, &[door(8.0)]),
+        (mat.wall_blue, true, -12.0, 24.0, 40.0, &[]),
+        (mat.bricks, true, -16.0, 0.0, 24.0, &[]),
+        (mat.bricks, false, 24.0, -16.0, 0.0, &[door(-6.0)]),
     ];
-    for &(_, x0, z0, x1, z1) in &rooms {
-        let c = Vec3::new(0.5 * (x0 + x1), WALL_H - 0.02, 0.5 * (z0 + z1));
+    for (material, along_x, line, from, to, doors) in walls {
+        m.set_material(material);
+        let (shift_line, shift_run) = if along_x { (o.z, o.x) } else { (o.x, o.z) };
+        let doors: Vec<_> = doors.iter().map(|&(c, w, h)| (c + shift_run, w, h)).collect();
+        m.wall(along_x, line + shift_line, from + shift_run, to + shift_run, o.y, o.y + WALL_H, WALL_T, &doors);
+    }
+
+    m.begin_object(&format!("{prefix}roof"));
+    m.set_material(mat.ceiling);
+    let rooms: [(f32, f32, f32, f32); 6] = [
+        (0.0, 0.0, 40.0, 4.0),    // corridor
+        (0.0, 4.0, 12.0, 16.0),   // A
+        (12.0, 4.0, 20.0, 12.0),  // B
+        (12.0, 12.0, 20.0, 20.0), // E
+        (20.0, 4.0, 40.0, 20.0),  // C
+        (24.0, -12.0, 40.0, 0.0), // D
+    ];
+    for &(x0, z0, x1, z1) in &rooms {
+        m.cuboid(v(x0 - 0.15, WALL_H, z0 - 0.15), v(x1 + 0.15, WALL_H + 0.3, z1 + 0.15));
+    }
+
+    m.begin_object(&format!("{prefix}lamps"));
+    m.set_material(mat.lamp);
+    for &(x0, z0, x1, z1) in &rooms {
+        let c = v(0.5 * (x0 + x1), WALL_H - 0.02, 0.5 * (z0 + z1));
         m.cuboid(c - Vec3::new(0.5, 0.0, 0.5), c + Vec3::new(0.5, 0.019, 0.5));
         m.add_light(Light::Point { position: c - Vec3::Y * 0.4, intensity: Vec3::new(60.0, 55.0, 45.0) });
     }
-    m.add_light(Light::Sun { direction: Vec3::new(0.4, 0.8, 0.3).normalize(), irradiance: Vec3::new(3.0, 2.9, 2.6) });
 
-    m.begin_object("pillars");
-    m.set_material(stone);
+    m.begin_object(&format!("{prefix}pillars"));
+    m.set_material(mat.stone);
     for i in 0..4 {
         for j in 0..3 {
-            m.cylinder(Vec3::new(23.5 + 4.3 * i as f32, 0.0, 8.0 + 4.0 * j as f32), 0.35, WALL_H, 32);
+            m.cylinder(v(23.5 + 4.3 * i as f32, 0.0, 8.0 + 4.0 * j as f32), 0.35, WALL_H, 32);
         }
     }
     for i in 0..4 {
-        m.cylinder(Vec3::new(4.0 + 5.0 * i as f32, 0.0, -4.0), 0.3, WALL_H - 0.5, 24);
+        m.cylinder(v(4.0 + 5.0 * i as f32, 0.0, -4.0), 0.3, WALL_H - 0.5, 24);
     }
 
-    let statues = [
-        Vec3::new(4.0, 0.0, 10.0),
-        Vec3::new(9.0, 0.0, 13.0),
-        Vec3::new(16.0, 0.0, 9.0),
-        Vec3::new(16.0, 0.0, 17.0),
-        Vec3::new(30.0, 0.0, 12.0),
-        Vec3::new(36.0, 0.0, 17.0),
-        Vec3::new(32.0, 0.0, -6.0),
-        Vec3::new(12.0, 0.0, -10.0),
-    ];
-    for (k, &base) in statues.iter().enumerate() {
-        m.begin_object(&format!("statue_{k}"));
-        m.set_material(plinth);
+    let statues = [(4.0, 10.0), (9.0, 13.0), (16.0, 9.0), (16.0, 17.0), (30.0, 12.0), (36.0, 17.0), (32.0, -6.0), (12.0, -10.0)];
+    for (k, &(x, z)) in statues.iter().enumerate() {
+        let base = v(x, 0.0, z);
+        m.begin_object(&format!("{prefix}statue_{k}"));
+        m.set_material(mat.plinth);
         m.cuboid(base + Vec3::new(-0.4, 0.0, -0.4), base + Vec3::new(0.4, 1.0, 0.4));
-        m.set_material(if k % 3 == 2 { bronze } else { marble });
-        statue(&mut m, &mut rng, base + Vec3::Y * 1.9);
+        m.set_material(if k % 3 == 2 { mat.bronze } else { mat.marble });
+        statue(m, rng, base + Vec3::Y * 1.9);
     }
-    m.finish()
 }
 
 /// A seeded lumpy figure: an ellipsoid with a few random bulges.

@@ -36,7 +36,7 @@ pub const CATALOGUE: [(&str, &str, &str); 4] = [
     ("gallery", "", "museum: rooms, doors, corridor, pillars, statues, open courtyard (the default)"),
     ("maze", "cells per side, default 8", "roofed labyrinth of 2 m corridors"),
     ("pillars", "", "hall with a 6x4 grid of columns hiding small props"),
-    ("big", "target triangles, default 1000000", "hall filled with statues, for scaling benchmarks"),
+    ("big", "target triangles, default 1000000", "museum of many gallery wings on a grid, for scaling benchmarks"),
 ];
 
 impl BuiltIn {
@@ -94,7 +94,7 @@ mod tests {
     fn big_meets_its_triangle_budget() {
         let scene = BuiltIn::parse("big:200000").unwrap().generate(3);
         assert!(scene.triangles.len() >= 200_000);
-        assert!(scene.triangles.len() < 260_000);
+        assert!(scene.triangles.len() < 300_000);
     }
 
     #[test]
