@@ -1,6 +1,12 @@
 //! The ExploreMaps builder: loads a scene and runs the pipeline stages on it.
 //!
-//! Stages, in pipeline order (see DESIGN.md section 2): `load` → `raycast` → …
-//! Each stage is a pure function of its inputs plus a seed.
+//! Stages, in pipeline order (DESIGN.md section 2): `load` (scene files into a
+//! `Scene`) → `raycast` (Embree, the only module that talks to it) → … the
+//! planning and rendering stages land here one module each.
 
+pub mod export;
+pub mod files;
+pub mod load;
 pub mod raycast;
+
+pub use exploremaps_scenes as scenes;

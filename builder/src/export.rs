@@ -1,0 +1,225 @@
+//! Writes a [`Scene`] out as OBJ (+ MTL + PNG textures) or as a single GLB, so
+//! the built-in scenes can be opened in other tools and fed back to the
+//! loaders. Every file is written atomically.
+
+use crate::files::write_atomic;
+use exploremaps_scenes::{AlphaMode, Scene};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::Path;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("cannot write {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("cannot encode texture {name}: {source}")]
+    Encode { name: String, source: image::ImageError },
+    #[error("{0}: unknown export format; use a .obj or .glb file name")]
+    Format(String),
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ExportError + '_ {
+    move |source| ExportError::Io { path: path.display().to_string(), source }
+}
+
+fn png(scene: &Scene, index: usize) -> Result<Vec<u8>, ExportError> {
+    let texture = &scene.textures[index];
+    let mut bytes = Vec::new();
+    texture
+        .image
+        .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|source| ExportError::Encode { name: texture.name.clone(), source })?;
+    Ok(bytes)
+}
+
+/// Writes by extension: `.obj` or `.glb`.
+pub fn export(scene: &Scene, path: &Path) -> Result<(), ExportError> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("obj") => write_obj(scene, path),
+        Some("glb") => write_glb(scene, path),
+        _ => Err(ExportError::Format(path.display().to_string())),
+    }
+}
+
+/// OBJ with an MTL beside it and textures in `<stem>_textures/`.
+pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), ExportError> {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let texture_dir = format!("{stem}_textures");
+    for i in 0..scene.textures.len() {
+        let file = dir.join(&texture_dir).join(format!("texture_{i}.png"));
+        write_atomic(&file, &png(scene, i)?).map_err(io(&file))?;
+    }
+    let mut mtl = String::new();
+    for m in &scene.materials {
+        let [r, g, b, a] = m.base_color;
+        let _ = writeln!(mtl, "newmtl {}\nKd {r} {g} {b}\nd {a}", m.name.replace(char::is_whitespace, "_"));
+        if m.emissive != glam::Vec3::ZERO {
+            let _ = writeln!(mtl, "Ke {} {} {}", m.emissive.x, m.emissive.y, m.emissive.z);
+        }
+        if let Some(t) = m.base_color_texture {
+            let _ = writeln!(mtl, "map_Kd {texture_dir}/texture_{t}.png");
+            if matches!(m.alpha_mode, AlphaMode::Mask { .. }) {
+                let _ = writeln!(mtl, "map_d {texture_dir}/texture_{t}.png");
+            }
+        }
+        mtl.push('\n');
+    }
+    let mtl_path = dir.join(format!("{stem}.mtl"));
+    write_atomic(&mtl_path, mtl.as_bytes()).map_err(io(&mtl_path))?;
+
+    let mut obj = String::with_capacity(scene.positions.len() * 80 + scene.triangles.len() * 40);
+    let _ = writeln!(obj, "# {} exported by ExploreMaps ({} metres per unit)\nmtllib {stem}.mtl", scene.name, scene.metres_per_unit);
+    for p in &scene.positions {
+        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+    }
+    for t in &scene.uvs {
+        let _ = writeln!(obj, "vt {} {}", t.x, 1.0 - t.y);
+    }
+    for n in &scene.normals {
+        let _ = writeln!(obj, "vn {} {} {}", n.x, n.y, n.z);
+    }
+    let (has_uv, has_n) = (!scene.uvs.is_empty(), !scene.normals.is_empty());
+    let (mut object, mut material) = (u32::MAX, u32::MAX);
+    for ((tri, &o), &m) in scene.triangles.iter().zip(&scene.triangle_object).zip(&scene.triangle_material) {
+        if o != object {
+            object = o;
+            let _ = writeln!(obj, "o {}", scene.objects[o as usize].replace(char::is_whitespace, "_"));
+            material = u32::MAX;
+        }
+        if m != material {
+            material = m;
+            let _ = writeln!(obj, "usemtl {}", scene.materials[m as usize].name.replace(char::is_whitespace, "_"));
+        }
+        obj.push('f');
+        for &i in tri {
+            let i = i + 1;
+            let _ = match (has_uv, has_n) {
+                (true, true) => write!(obj, " {i}/{i}/{i}"),
+                (true, false) => write!(obj, " {i}/{i}"),
+                (false, true) => write!(obj, " {i}//{i}"),
+                (false, false) => write!(obj, " {i}"),
+            };
+        }
+        obj.push('\n');
+    }
+    write_atomic(path, obj.as_bytes()).map_err(io(path))
+}
+
+/// A single binary glTF with embedded PNG textures, one primitive per material.
+pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: Option<u32>| -> usize {
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+        let mut view = json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len() });
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        bin.extend_from_slice(bytes);
+        views.push(view);
+        views.len() - 1
+    };
+    let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
+    let bounds = scene.bounds();
+    let view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(34962));
+    accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.positions.len(), "type": "VEC3",
+        "min": bounds.min.to_array(), "max": bounds.max.to_array() }));
+    let mut attributes = json!({ "POSITION": 0 });
+    if !scene.normals.is_empty() {
+        let view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|n| n.to_array())), Some(34962));
+        accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.normals.len(), "type": "VEC3" }));
+        attributes["NORMAL"] = json!(accessors.len() - 1);
+    }
+    if !scene.uvs.is_empty() {
+        let view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|t| t.to_array())), Some(34962));
+        accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.uvs.len(), "type": "VEC2" }));
+        attributes["TEXCOORD_0"] = json!(accessors.len() - 1);
+    }
+    let mut primitives = Vec::new();
+    for m in 0..scene.materials.len() as u32 {
+        let indices: Vec<u8> = scene
+            .triangles
+            .iter()
+            .zip(&scene.triangle_material)
+            .filter(|(_, &tm)| tm == m)
+            .flat_map(|(t, _)| t.iter().flat_map(|i| i.to_le_bytes()))
+            .collect();
+        if indices.is_empty() {
+            continue;
+        }
+        let view = push_view(&mut bin, &indices, Some(34963));
+        accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": indices.len() / 4, "type": "SCALAR" }));
+        primitives.push(json!({ "attributes": attributes, "indices": accessors.len() - 1, "material": m }));
+    }
+    let mut images = Vec::new();
+    for i in 0..scene.textures.len() {
+        let view = push_view(&mut bin, &png(scene, i)?, None);
+        images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": scene.textures[i].name }));
+    }
+    let materials: Vec<_> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let mut pbr = json!({ "baseColorFactor": m.base_color, "metallicFactor": 0.0, "roughnessFactor": 1.0 });
+            if let Some(t) = m.base_color_texture {
+                pbr["baseColorTexture"] = json!({ "index": t });
+            }
+            let peak = m.emissive.max_element();
+            let mut out = json!({ "name": m.name, "pbrMetallicRoughness": pbr });
+            if peak > 0.0 {
+                let factor = if peak > 1.0 { m.emissive / peak } else { m.emissive };
+                out["emissiveFactor"] = json!(factor.to_array());
+                if peak > 1.0 {
+                    out["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": peak } });
+                }
+            }
+            match m.alpha_mode {
+                AlphaMode::Opaque => {}
+                AlphaMode::Mask { cutoff } => {
+                    out["alphaMode"] = json!("MASK");
+                    out["alphaCutoff"] = json!(cutoff);
+                }
+                AlphaMode::Blend => out["alphaMode"] = json!("BLEND"),
+            }
+            out
+        })
+        .collect();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
+    let document = json!({
+        "asset": { "version": "2.0", "generator": "ExploreMaps" },
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0, "name": scene.name }],
+        "meshes": [{ "primitives": primitives }],
+        "materials": materials,
+        "textures": textures,
+        "images": images,
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{ "byteLength": bin.len() }],
+    });
+    let mut text = serde_json::to_vec(&document).expect("JSON of plain values");
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut glb = Vec::with_capacity(total);
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(&text);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin);
+    write_atomic(path, &glb).map_err(io(path))
+}

@@ -1,0 +1,145 @@
+//! glTF 2.0 (`.gltf` with its buffers, or `.glb`) through the `gltf` crate:
+//! node transforms applied, base colour factor and texture, alpha mode and
+//! cutoff, emissive factor times `KHR_materials_emissive_strength`. Units are
+//! metres by the glTF specification. Images are decoded one by one so a broken
+//! image is a warning, not a failed load.
+
+use super::obj::empty_scene;
+use super::LoadError;
+use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use std::path::Path;
+
+pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+    let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(bad)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
+
+    let textures: Vec<Option<Texture>> = document
+        .images()
+        .map(|image| {
+            let name = image.name().map(str::to_string).unwrap_or_else(|| format!("image {}", image.index()));
+            match gltf::image::Data::from_source(image.source(), Some(dir), &buffers) {
+                Ok(data) => to_rgba(&data).map(|image| Texture { name: name.clone(), image }).or_else(|| {
+                    tracing::warn!("{}: {name} has an unsupported pixel format {:?}; using the material's colour", path.display(), data.format);
+                    None
+                }),
+                Err(e) => {
+                    tracing::warn!("{}: {name} cannot be decoded ({e}); using the material's colour", path.display());
+                    None
+                }
+            }
+        })
+        .collect();
+    // Keep only decoded images; map glTF image index to scene texture index.
+    let mut texture_index = Vec::new();
+    let mut scene_textures = Vec::new();
+    for t in textures {
+        texture_index.push(t.map(|t| {
+            scene_textures.push(t);
+            scene_textures.len() - 1
+        }));
+    }
+    let missing = texture_index.iter().filter(|t| t.is_none()).count();
+
+    let mut materials: Vec<Material> = document
+        .materials()
+        .map(|m| {
+            let pbr = m.pbr_metallic_roughness();
+            let texture = pbr.base_color_texture().and_then(|t| texture_index.get(t.texture().source().index()).copied().flatten());
+            Material {
+                name: m.name().map(str::to_string).unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
+                base_color: pbr.base_color_factor(),
+                base_color_texture: texture,
+                alpha_mode: match m.alpha_mode() {
+                    gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                    gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) },
+                    gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+                },
+                emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
+            }
+        })
+        .collect();
+    let default_material = materials.len() as u32;
+    materials.push(Material::diffuse("default", [0.8, 0.8, 0.8]));
+
+    let mut scene = empty_scene(materials, scene_textures);
+    scene.scale_source = ScaleSource::File;
+    scene.metres_per_unit = 1.0;
+    scene.stats.missing_textures = missing;
+    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
+        Some(s) => s.nodes().collect(),
+        None => document.nodes().collect(),
+    };
+    let mut with_normals = true;
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > 64 {
+            return Err(LoadError::malformed(path, "node hierarchy deeper than 64 levels (a cycle?)"));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            let object = scene.objects.len() as u32;
+            scene.objects.push(node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node {}", node.index())));
+            for primitive in mesh.primitives() {
+                if primitive.mode() != gltf::mesh::Mode::Triangles {
+                    tracing::warn!("{}: skipping a {:?} primitive in mesh {}; only triangles are scenes", path.display(), primitive.mode(), mesh.index());
+                    continue;
+                }
+                let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                let Some(positions) = reader.read_positions() else { continue };
+                let base = scene.positions.len() as u32;
+                scene.positions.extend(positions.map(|p| world.transform_point3(Vec3::from(p))));
+                let count = scene.positions.len() - base as usize;
+                match reader.read_normals() {
+                    Some(normals) if with_normals => {
+                        let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
+                        scene.normals.extend(normals.map(|n| (normal_from_local * Vec3::from(n)).normalize_or_zero()));
+                    }
+                    _ => with_normals = false,
+                }
+                match reader.read_tex_coords(0) {
+                    Some(uv) => scene.uvs.extend(uv.into_f32().map(Vec2::from)),
+                    None => scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
+                }
+                scene.uvs.truncate(scene.positions.len());
+                scene.uvs.resize(scene.positions.len(), Vec2::ZERO);
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None => (0..count as u32).collect(),
+                };
+                if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
+                    return Err(LoadError::malformed(path, format!("mesh {} indexes vertex {bad}, but the primitive has {count}", mesh.index())));
+                }
+                let material = primitive.material().index().map_or(default_material, |m| m as u32);
+                for tri in indices.chunks_exact(3) {
+                    scene.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
+                    scene.triangle_material.push(material);
+                    scene.triangle_object.push(object);
+                }
+            }
+        }
+        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+    }
+    if !with_normals || scene.normals.len() != scene.positions.len() {
+        scene.normals.clear();
+    }
+    Ok(scene)
+}
+
+/// Converts a decoded glTF image to RGBA8 (8- and 16-bit formats; others are rare).
+fn to_rgba(data: &gltf::image::Data) -> Option<image::RgbaImage> {
+    use gltf::image::Format;
+    let px = &data.pixels;
+    let rgba: Vec<u8> = match data.format {
+        Format::R8 => px.iter().flat_map(|&r| [r, r, r, 255]).collect(),
+        Format::R8G8 => px.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
+        Format::R8G8B8 => px.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
+        Format::R8G8B8A8 => px.clone(),
+        Format::R16G16B16 => px.chunks_exact(6).flat_map(|c| [c[1], c[3], c[5], 255]).collect(),
+        Format::R16G16B16A16 => px.chunks_exact(8).flat_map(|c| [c[1], c[3], c[5], c[7]]).collect(),
+        _ => return None,
+    };
+    image::RgbaImage::from_raw(data.width, data.height, rgba)
+}

@@ -1,0 +1,269 @@
+//! Loader tests: tiny handmade files with exact answers, every kind of bad
+//! input, round trips through the exporters, and the shared real scenes.
+
+use super::*;
+use exploremaps_scenes::{AlphaMode, BuiltIn};
+use std::fs;
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    if let Some(parent) = path.parent() {
+        fs::create_dir_all(parent).unwrap();
+    }
+    fs::write(&path, bytes).unwrap();
+    path
+}
+
+fn load_default(path: &Path) -> Result<Scene, LoadError> {
+    load(path, &LoadOptions::default())
+}
+
+/// The error text, which must name the file.
+fn error_text(path: &Path) -> String {
+    let text = load_default(path).expect_err("load should fail").to_string();
+    assert!(text.contains(&path.display().to_string()), "error does not name the file: {text}");
+    text
+}
+
+const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+
+#[test]
+fn obj_polygon_is_fan_triangulated_without_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_default(&write(dir.path(), "quad.obj", QUAD_OBJ.as_bytes())).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
+    assert!(scene.normals.is_empty());
+    assert!((scene.total_area() - 1.0).abs() < 1e-6);
+    assert_eq!(scene.scale_source, ScaleSource::Guessed);
+    assert_eq!(scene.metres_per_unit, 1.0);
+}
+
+#[test]
+fn obj_negative_indices_refer_backwards() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 2\nv 1 0 2\nv 0 1 2\nf -3 -2 -1\n";
+    let scene = load_default(&write(dir.path(), "neg.obj", text.as_bytes())).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
+    assert_eq!(scene.triangle(1)[0], Vec3::new(0.0, 0.0, 2.0));
+}
+
+#[test]
+fn obj_texture_path_case_and_cutout_and_emission() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = image::RgbaImage::from_pixel(4, 4, image::Rgba([200, 100, 50, 255]));
+    img.save(dir.path().join("Tex").join("WALL.png")).unwrap_or_else(|_| {
+        fs::create_dir_all(dir.path().join("Tex")).unwrap();
+        img.save(dir.path().join("Tex").join("WALL.png")).unwrap();
+    });
+    let mask = image::GrayImage::from_pixel(2, 2, image::Luma([0]));
+    mask.save(dir.path().join("mask.png")).unwrap();
+    let mtl = "newmtl wall\nKd 0.5 0.5 0.5\nmap_Kd tex\\wall.PNG\nnewmtl leaf\nKd 0 1 0\nmap_d MASK.png\nnewmtl lamp\nKd 1 1 1\nKe 4 4 2\n";
+    write(dir.path(), "m.mtl", mtl.as_bytes());
+    let obj = format!("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n{}usemtl wall\nf 1/1 2/2 3/3\nusemtl leaf\nf 1/1 3/3 4/4\nusemtl lamp\nf 1 2 4\n", QUAD_OBJ.replace("f 1 2 3 4\n", ""));
+    let scene = load_default(&write(dir.path(), "t.obj", obj.as_bytes())).unwrap();
+    let by_name = |n: &str| scene.materials.iter().find(|m| m.name == n).unwrap();
+    let wall = by_name("wall");
+    let t = wall.base_color_texture.expect("texture found despite case and backslash");
+    assert_eq!(scene.textures[t].image.get_pixel(0, 0).0, [200, 100, 50, 255]);
+    let leaf = by_name("leaf");
+    assert_eq!(leaf.alpha_mode, AlphaMode::Mask { cutoff: 0.5 });
+    assert_eq!(scene.textures[leaf.base_color_texture.unwrap()].image.get_pixel(1, 1).0[3], 0);
+    assert_eq!(by_name("lamp").emissive, Vec3::new(4.0, 4.0, 2.0));
+    // The image convention: OBJ's v = 1 at the top becomes 0.
+    assert_eq!(scene.uvs[2], glam::Vec2::new(1.0, 0.0));
+}
+
+#[test]
+fn undecodable_texture_warns_and_keeps_the_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "broken.png", b"\x89PNG\r\n\x1a\nthis is not a png");
+    write(dir.path(), "m.mtl", b"newmtl red\nKd 1 0 0\nmap_Kd broken.png\n");
+    let path = write(dir.path(), "t.obj", format!("mtllib m.mtl\nusemtl red\n{QUAD_OBJ}").as_bytes());
+    let scene = load_default(&path).unwrap();
+    let red = &scene.materials[scene.triangle_material[0] as usize];
+    assert_eq!(red.base_color_texture, None);
+    assert_eq!(red.base_color, [1.0, 0.0, 0.0, 1.0]);
+    assert_eq!(scene.stats.missing_textures, 1);
+}
+
+#[test]
+fn missing_material_library_warns_and_loads_grey() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "t.obj", format!("mtllib nowhere.mtl\nusemtl x\n{QUAD_OBJ}").as_bytes());
+    let scene = load_default(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
+    assert_eq!(scene.materials[scene.triangle_material[0] as usize].name, "default");
+}
+
+#[test]
+fn nan_and_degenerate_triangles_are_dropped_and_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 2 5\n";
+    let scene = load_default(&write(dir.path(), "nan.obj", text.as_bytes())).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    assert_eq!(scene.stats.dropped_non_finite, 1);
+    assert_eq!(scene.stats.dropped_degenerate, 1);
+}
+
+#[test]
+fn bad_inputs_give_clear_errors_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let missing = d.join("missing.obj");
+    assert!(error_text(&missing).contains("cannot read"));
+    assert!(error_text(&write(d, "scene.fbx", b"whatever")).contains(".obj"));
+    assert!(error_text(&write(d, "binary.obj", &[0u8, 159, 146, 150, 0, 1, 2, 3])).contains("binary data"));
+    assert!(error_text(&write(d, "binary.ply", &[0u8, 159, 146, 150, 0, 1, 2, 3])).contains("not a valid PLY"));
+    assert!(error_text(&write(d, "binary.gltf", &[0u8, 159, 146, 150, 0, 1, 2, 3])).contains("not a valid glTF"));
+    assert!(error_text(&write(d, "range.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")).contains("out of bounds"));
+    assert!(error_text(&write(d, "empty.obj", b"# nothing here\nv 0 0 0\n")).contains("no usable triangles"));
+    assert!(error_text(&write(d, "flat.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")).contains("degenerate"));
+    let ply_range = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
+    assert!(error_text(&write(d, "range.ply", ply_range.as_bytes())).contains("vertex index 7"));
+}
+
+#[test]
+fn truncated_files_are_errors_or_shorter_scenes_never_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A text OBJ cut inside a number: an error naming the file.
+    assert!(error_text(&write(d, "cut.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 1.\nf 1 2 3\nf 1 2")).contains("OBJ"));
+    // PLY announcing more data than it has.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n";
+    assert!(error_text(&write(d, "cut.ply", ply.as_bytes())).contains("PLY"));
+    // A GLB cut in half, at every eighth of its length.
+    let glb = d.join("whole.glb");
+    crate::export::write_glb(&BuiltIn::Pillars.generate(0), &glb).unwrap();
+    let bytes = fs::read(&glb).unwrap();
+    for eighth in 1..8 {
+        let cut = write(d, &format!("cut{eighth}.glb"), &bytes[..bytes.len() * eighth / 8]);
+        assert!(error_text(&cut).contains("glTF"));
+    }
+}
+
+#[test]
+fn ply_ascii_and_binary_load_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = |format: &str| format!("ply\nformat {format} 1.0\ncomment two triangles\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    let ascii = format!("{}0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n", header("ascii"));
+    let mut binary = header("binary_little_endian").into_bytes();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
+        p.iter().for_each(|v| binary.extend(v.to_le_bytes()));
+    }
+    binary.push(4);
+    [0i32, 1, 2, 3].iter().for_each(|i| binary.extend(i.to_le_bytes()));
+    let a = load_default(&write(dir.path(), "a.ply", ascii.as_bytes())).unwrap();
+    let b = load_default(&write(dir.path(), "b.ply", &binary)).unwrap();
+    assert_eq!(a.triangles.len(), 2);
+    assert_eq!(a.positions, b.positions);
+    assert_eq!(a.triangles, b.triangles);
+}
+
+#[test]
+fn up_axis_z_is_rotated_to_y() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "z.obj", b"v 0 0 0\nv 1 0 0\nv 0 0 5\nf 1 2 3\n");
+    let options = LoadOptions { up: parse_up_axis("z").unwrap(), metres_per_unit: Some(0.2) };
+    let scene = load(&path, &options).unwrap();
+    let b = scene.bounds();
+    assert!((b.max.y - 5.0).abs() < 1e-5 && b.max.z.abs() < 1e-5, "{b:?}");
+    assert_eq!((scene.metres_per_unit, scene.scale_source), (0.2, ScaleSource::User));
+    assert_eq!(parse_up_axis("-X"), Some(-Vec3::X));
+    assert_eq!(parse_up_axis("w"), None);
+}
+
+#[test]
+fn builtin_scene_round_trips_through_obj_and_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = BuiltIn::Gallery.generate(3);
+    for name in ["gallery.obj", "gallery.glb"] {
+        let path = dir.path().join(name);
+        crate::export::export(&original, &path).unwrap();
+        let back = load_default(&path).unwrap();
+        assert_eq!(back.triangles.len(), original.triangles.len(), "{name}");
+        assert_eq!(back.textures.len(), original.textures.len(), "{name}");
+        assert!((back.total_area() - original.total_area()).abs() < 1e-3 * original.total_area(), "{name}");
+        let (a, b) = (original.bounds(), back.bounds());
+        assert!((a.min - b.min).length() < 1e-4 && (a.max - b.max).length() < 1e-4, "{name}");
+        let lamp = back.materials.iter().find(|m| m.name == "lamp").expect("lamp material");
+        assert_eq!(lamp.emissive, Vec3::splat(8.0), "{name}");
+        let t = back.materials.iter().find(|m| m.name == "floor_marble").unwrap().base_color_texture.unwrap();
+        assert_eq!(back.textures[t].image, original.textures[0].image, "{name}");
+        // Texture coordinates per triangle, compared independently of triangle order.
+        let keyed = |s: &Scene| {
+            let mut v: Vec<([f32; 3], glam::Vec2)> = s.triangles.iter().map(|t| {
+                let c = t.iter().map(|&i| s.positions[i as usize]).sum::<Vec3>();
+                let uv = t.iter().map(|&i| s.uvs[i as usize]).sum::<glam::Vec2>();
+                (c.to_array(), uv)
+            }).collect();
+            v.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap().then(a.1.x.total_cmp(&b.1.x)));
+            v
+        };
+        for ((ca, ua), (cb, ub)) in keyed(&original).iter().zip(&keyed(&back)) {
+            assert_eq!(ca, cb, "{name}");
+            assert!((*ua - *ub).length() < 1e-4, "{name}: {ua} vs {ub}");
+        }
+    }
+}
+
+#[test]
+fn gltf_node_transforms_are_applied() {
+    // A triangle in a child node translated by (10, 0, 0) under a parent scaled by 2.
+    let dir = tempfile::tempdir().unwrap();
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let uri = format!("data:application/octet-stream;base64,{}", base64_encode(&positions));
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"scale": [2.0, 2.0, 2.0], "children": [1]}, {"translation": [10.0, 0.0, 0.0], "mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": uri}]
+    });
+    let scene = load_default(&write(dir.path(), "t.gltf", gltf.to_string().as_bytes())).unwrap();
+    assert_eq!(scene.triangle(0), [Vec3::new(20.0, 0.0, 0.0), Vec3::new(22.0, 0.0, 0.0), Vec3::new(20.0, 2.0, 0.0)]);
+    assert_eq!(scene.scale_source, ScaleSource::File);
+}
+
+fn base64_encode(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            out.push(if k <= chunk.len() { ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+        }
+    }
+    out
+}
+
+/// The shared third-party scenes, when `../shared/scenes` is there.
+fn shared(relative: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes").join(relative);
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("SKIPPED: {} is absent (the shared test scenes are not next to this checkout)", path.display());
+        None
+    }
+}
+
+#[test]
+fn shared_scenes_load_with_their_documented_sizes() {
+    let cases = [
+        ("cornell_box/CornellBox-Original.obj", 36, 0),
+        ("stanford_bunny/bun_zipper.ply", 69_451, 0),
+        ("sponza_dabrovic/sponza.obj", 66_450, 1),
+        ("sponza_crytek/sponza_crytek.obj", 236_809, 1),
+    ];
+    for (relative, triangles, min_textures) in cases {
+        let Some(path) = shared(relative) else { continue };
+        let scene = load_default(&path).unwrap();
+        let dropped = scene.stats.dropped_degenerate + scene.stats.dropped_non_finite;
+        assert_eq!(scene.triangles.len() + dropped, triangles, "{relative}");
+        assert!(dropped * 100 < triangles.max(100), "{relative}: dropped {dropped}");
+        assert!(scene.textures.len() >= min_textures, "{relative}");
+        assert_eq!(scene.stats.missing_textures, 0, "{relative}");
+    }
+}
