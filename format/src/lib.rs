@@ -1,1 +1,420 @@
-//! placeholder
+//! The ExploreMaps bundle format: the `graph.json` at the root of a bundle
+//! folder, shared by the builder (which writes it) and the viewer (which reads
+//! it, natively and in the browser). Documented field by field in SCHEMA.md.
+//!
+//! Conventions: positions are in scene units with +Y up (`scene.metres_per_unit`
+//! converts to metres); directions are yaw (radians, 0 = −Z, growing toward +X)
+//! and pitch (radians, + up); asset names are relative paths inside the bundle.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Bumped whenever a reader of the previous version would misread a bundle.
+pub const FORMAT_VERSION: u32 = 1;
+pub const GRAPH_FILE: &str = "graph.json";
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Graph {
+    pub format_version: u32,
+    /// Program and version that wrote the bundle.
+    pub generator: String,
+    pub scene: SceneInfo,
+    pub probes: Vec<Probe>,
+    #[serde(default)]
+    pub clusters: Vec<Cluster>,
+    #[serde(default)]
+    pub paths: Vec<Path>,
+    /// Probe ids in thumbnail-bar order (empty until the order stage runs).
+    #[serde(default)]
+    pub bar_order: Vec<u32>,
+    #[serde(default)]
+    pub coverage: Option<Coverage>,
+    /// Per-stage statistics (times, counts), free-form per stage.
+    #[serde(default)]
+    pub stats: BTreeMap<String, serde_json::Value>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SceneInfo {
+    pub name: String,
+    /// Where the scene came from: a file name, or `builtin:<name>`.
+    pub source: String,
+    pub triangles: u64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub metres_per_unit: f32,
+    /// `file`, `user` or `guessed`.
+    pub scale_source: String,
+    /// Navigable space the probes live in: `inside` or `outside`.
+    #[serde(default)]
+    pub space: Option<String>,
+    /// Near distance r (minimum clearance of probes and paths), scene units.
+    #[serde(default)]
+    pub near_distance: Option<f32>,
+    /// Attribution to show wherever the scene is shown.
+    #[serde(default)]
+    pub credits: Vec<String>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewDirection {
+    pub yaw: f32,
+    pub pitch: f32,
+    /// View goodness, higher is better (orient stage).
+    pub goodness: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Probe {
+    /// Equal to the probe's index in `probes`.
+    pub id: u32,
+    pub position: [f32; 3],
+    #[serde(default)]
+    pub cluster: Option<u32>,
+    /// Best first; the first is the arrival and thumbnail direction.
+    #[serde(default)]
+    pub preferred_directions: Vec<ViewDirection>,
+    /// Placed by the user (`--probe`) rather than by exploration.
+    #[serde(default)]
+    pub user_placed: bool,
+    #[serde(default)]
+    pub assets: ProbeAssets,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ProbeAssets {
+    /// Cube maps from low to high resolution, for progressive loading.
+    #[serde(default)]
+    pub cube_levels: Vec<CubeLevel>,
+    #[serde(default)]
+    pub equirect: Option<String>,
+    #[serde(default)]
+    pub thumbnail: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CubeLevel {
+    /// Face edge in pixels.
+    pub size: u32,
+    /// Faces in the order +X, −X, +Y, −Y, +Z, −Z.
+    pub faces: [String; 6],
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Cluster {
+    pub id: u32,
+    /// The final probe that represents the cluster.
+    pub probe: u32,
+    /// How many candidate probes the cluster merged.
+    pub candidates: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Path {
+    pub id: u32,
+    pub from: u32,
+    pub to: u32,
+    /// Smoothed camera path from `from` to `to`, at least two points.
+    pub polyline: Vec<[f32; 3]>,
+    /// Scene units.
+    pub length: f32,
+    pub duration_s: f32,
+    /// Camera keys along the path (time, position, view); empty until timed.
+    #[serde(default)]
+    pub camera: Vec<CameraKey>,
+    #[serde(default)]
+    pub assets: PathAssets,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraKey {
+    pub t_s: f32,
+    pub position: [f32; 3],
+    pub yaw: f32,
+    pub pitch: f32,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PathAssets {
+    #[serde(default)]
+    pub video: Option<String>,
+    #[serde(default)]
+    pub poster: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Coverage {
+    /// Area-uniform surface samples used.
+    pub samples: u32,
+    /// Surface area seeable from navigable space, scene units².
+    pub reachable_area: f64,
+    pub covered_area: f64,
+    /// Per material (or object): name, reachable area, covered area.
+    #[serde(default)]
+    pub per_group: Vec<GroupCoverage>,
+    /// (probe count, covered fraction) in placement order.
+    #[serde(default)]
+    pub curve: Vec<(u32, f64)>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroupCoverage {
+    pub name: String,
+    pub reachable_area: f64,
+    pub covered_area: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FormatError {
+    #[error("this bundle has format version {found}, but this program reads version {expected}; rebuild the bundle with this version of exploremaps, or use the matching viewer")]
+    Version { found: u32, expected: u32 },
+    #[error("graph.json is not valid JSON or lacks required fields: {0}")]
+    Json(#[from] serde_json::Error),
+    #[error("graph.json is inconsistent: {0}")]
+    Invalid(String),
+}
+
+impl Graph {
+    /// An empty graph for a scene, to be filled by the stages.
+    pub fn new(scene: SceneInfo) -> Graph {
+        Graph {
+            format_version: FORMAT_VERSION,
+            generator: format!("exploremaps {}", env!("CARGO_PKG_VERSION")),
+            scene,
+            probes: Vec::new(),
+            clusters: Vec::new(),
+            paths: Vec::new(),
+            bar_order: Vec::new(),
+            coverage: None,
+            stats: BTreeMap::new(),
+        }
+    }
+
+    /// Parses and validates; a bundle of another format version is refused
+    /// before any other check so the user gets the helpful message.
+    pub fn from_json(text: &str) -> Result<Graph, FormatError> {
+        #[derive(Deserialize)]
+        struct VersionOnly {
+            format_version: u32,
+        }
+        let version: VersionOnly = serde_json::from_str(text)?;
+        if version.format_version != FORMAT_VERSION {
+            return Err(FormatError::Version { found: version.format_version, expected: FORMAT_VERSION });
+        }
+        let graph: Graph = serde_json::from_str(text)?;
+        graph.validate()?;
+        Ok(graph)
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a Graph always serializes")
+    }
+
+    /// Checks every invariant a reader relies on; the first violation is returned.
+    pub fn validate(&self) -> Result<(), FormatError> {
+        let bad = |m: String| Err(FormatError::Invalid(m));
+        if self.format_version != FORMAT_VERSION {
+            return Err(FormatError::Version { found: self.format_version, expected: FORMAT_VERSION });
+        }
+        let s = &self.scene;
+        if !all_finite(&s.bounds_min) || !all_finite(&s.bounds_max) || !(s.metres_per_unit.is_finite() && s.metres_per_unit > 0.0) {
+            return bad("scene bounds or metres_per_unit are not finite and positive".into());
+        }
+        if s.near_distance.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+            return bad("scene.near_distance must be finite and positive".into());
+        }
+        let n = self.probes.len() as u32;
+        for (i, p) in self.probes.iter().enumerate() {
+            if p.id != i as u32 {
+                return bad(format!("probe at index {i} has id {}", p.id));
+            }
+            if !all_finite(&p.position) {
+                return bad(format!("probe {i} has a non-finite position"));
+            }
+            if p.preferred_directions.iter().any(|d| !(d.yaw.is_finite() && d.pitch.is_finite() && d.goodness.is_finite())) {
+                return bad(format!("probe {i} has a non-finite preferred direction"));
+            }
+            if p.cluster.is_some_and(|c| c as usize >= self.clusters.len()) {
+                return bad(format!("probe {i} names cluster {}, but there are {}", p.cluster.unwrap(), self.clusters.len()));
+            }
+            let a = &p.assets;
+            let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail);
+            for name in names {
+                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("probe {i}: {m}")))?;
+            }
+        }
+        for (i, c) in self.clusters.iter().enumerate() {
+            if c.id != i as u32 || c.probe >= n {
+                return bad(format!("cluster {i} has id {} or names probe {} (of {n})", c.id, c.probe));
+            }
+        }
+        for (i, p) in self.paths.iter().enumerate() {
+            if p.id != i as u32 {
+                return bad(format!("path at index {i} has id {}", p.id));
+            }
+            if p.from >= n || p.to >= n || p.from == p.to {
+                return bad(format!("path {i} joins probes {} and {}, but there are {n} probes", p.from, p.to));
+            }
+            if p.polyline.len() < 2 || !p.polyline.iter().all(all_finite) {
+                return bad(format!("path {i} needs a finite polyline of at least two points"));
+            }
+            if !(p.length.is_finite() && p.length >= 0.0 && p.duration_s.is_finite() && p.duration_s >= 0.0) {
+                return bad(format!("path {i} has a negative or non-finite length or duration"));
+            }
+            if p.camera.iter().any(|k| !(k.t_s.is_finite() && all_finite(&k.position) && k.yaw.is_finite() && k.pitch.is_finite())) {
+                return bad(format!("path {i} has a non-finite camera key"));
+            }
+            for name in p.assets.video.iter().chain(&p.assets.poster) {
+                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("path {i}: {m}")))?;
+            }
+        }
+        if !self.bar_order.is_empty() {
+            let mut seen = vec![false; n as usize];
+            for &id in &self.bar_order {
+                if id >= n || std::mem::replace(&mut seen[id as usize], true) {
+                    return bad(format!("bar_order is not a permutation of the {n} probes (at id {id})"));
+                }
+            }
+            if seen.iter().any(|s| !s) {
+                return bad("bar_order leaves out some probes".into());
+            }
+        }
+        if let Some(c) = &self.coverage {
+            if !(c.reachable_area.is_finite() && c.covered_area.is_finite() && c.covered_area <= c.reachable_area * (1.0 + 1e-9) + 1e-12) {
+                return bad("coverage areas are not finite or covered exceeds reachable".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+fn all_finite(v: &[f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Asset names are relative paths inside the bundle: no absolute paths, no
+/// `..`, no backslashes, so neither the viewer nor `serve` can be led outside it.
+pub fn check_asset_name(name: &str) -> Result<(), String> {
+    let ok = !name.is_empty()
+        && !name.starts_with('/')
+        && !name.contains('\\')
+        && !name.contains(':')
+        && name.split('/').all(|c| !c.is_empty() && c != "." && c != "..");
+    if ok {
+        Ok(())
+    } else {
+        Err(format!("asset name {name:?} is not a plain relative path inside the bundle"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Graph {
+        let mut g = Graph::new(SceneInfo {
+            name: "gallery".into(),
+            source: "builtin:gallery".into(),
+            triangles: 70_000,
+            bounds_min: [0.0, -0.3, -16.0],
+            bounds_max: [40.0, 4.3, 20.0],
+            metres_per_unit: 1.0,
+            scale_source: "file".into(),
+            space: Some("inside".into()),
+            near_distance: Some(0.3),
+            credits: vec![],
+        });
+        for (i, x) in [2.0f32, 10.0, 20.0].iter().enumerate() {
+            g.probes.push(Probe {
+                id: i as u32,
+                position: [*x, 1.6, 2.0],
+                cluster: Some(0),
+                preferred_directions: vec![ViewDirection { yaw: 0.5, pitch: 0.0, goodness: 1.0 }],
+                user_placed: false,
+                assets: ProbeAssets { thumbnail: Some(format!("thumbs/{i}.jpg")), ..Default::default() },
+            });
+        }
+        g.clusters.push(Cluster { id: 0, probe: 1, candidates: 3 });
+        g.paths.push(Path {
+            id: 0,
+            from: 0,
+            to: 1,
+            polyline: vec![[2.0, 1.6, 2.0], [10.0, 1.6, 2.0]],
+            length: 8.0,
+            duration_s: 5.7,
+            camera: vec![CameraKey { t_s: 0.0, position: [2.0, 1.6, 2.0], yaw: 0.0, pitch: 0.0 }],
+            assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
+        });
+        g.bar_order = vec![2, 0, 1];
+        g.coverage = Some(Coverage { samples: 1000, reachable_area: 10.0, covered_area: 9.9, per_group: vec![], curve: vec![(1, 0.5), (3, 0.99)] });
+        g.stats.insert("explore".into(), serde_json::json!({ "seconds": 1.5 }));
+        g
+    }
+
+    #[test]
+    fn round_trips_through_json() {
+        let g = sample();
+        let back = Graph::from_json(&g.to_json()).unwrap();
+        assert_eq!(back, g);
+    }
+
+    #[test]
+    fn minimal_json_fills_defaults() {
+        let mut g = sample();
+        g.clusters.clear();
+        g.paths.clear();
+        g.bar_order.clear();
+        g.coverage = None;
+        g.stats.clear();
+        g.probes.iter_mut().for_each(|p| p.cluster = None);
+        let mut v: serde_json::Value = serde_json::from_str(&g.to_json()).unwrap();
+        for key in ["clusters", "paths", "bar_order", "coverage", "stats"] {
+            v.as_object_mut().unwrap().remove(key);
+        }
+        assert_eq!(Graph::from_json(&v.to_string()).unwrap(), g);
+    }
+
+    #[test]
+    fn other_versions_are_refused_with_a_clear_message() {
+        let text = sample().to_json().replace("\"format_version\": 1", "\"format_version\": 7");
+        let err = Graph::from_json(&text).unwrap_err();
+        assert!(matches!(err, FormatError::Version { found: 7, expected: 1 }));
+        assert!(err.to_string().contains("version 7"));
+    }
+
+    #[test]
+    fn each_inconsistency_is_named() {
+        let cases: Vec<(&str, Box<dyn Fn(&mut Graph)>)> = vec![
+            ("probe at index 1 has id 5", Box::new(|g| g.probes[1].id = 5)),
+            ("non-finite position", Box::new(|g| g.probes[0].position[1] = f32::NAN)),
+            ("path 0 joins probes 0 and 9", Box::new(|g| g.paths[0].to = 9)),
+            ("path 0 joins probes 1 and 1", Box::new(|g| g.paths[0].from = 1)),
+            ("at least two points", Box::new(|g| g.paths[0].polyline.truncate(1))),
+            ("negative or non-finite length", Box::new(|g| g.paths[0].length = -1.0)),
+            ("not a permutation", Box::new(|g| g.bar_order = vec![0, 0, 1])),
+            ("leaves out", Box::new(|g| g.bar_order = vec![0, 1])),
+            ("names cluster 4", Box::new(|g| g.probes[0].cluster = Some(4))),
+            ("not a plain relative path", Box::new(|g| g.probes[0].assets.thumbnail = Some("../../etc/passwd".into()))),
+            ("not a plain relative path", Box::new(|g| g.paths[0].assets.video = Some("/abs.mp4".into()))),
+            ("covered exceeds reachable", Box::new(|g| g.coverage.as_mut().unwrap().covered_area = 11.0)),
+            ("metres_per_unit", Box::new(|g| g.scene.metres_per_unit = 0.0)),
+        ];
+        for (expected, mutate) in cases {
+            let mut g = sample();
+            mutate(&mut g);
+            let err = g.validate().expect_err(expected).to_string();
+            assert!(err.contains(expected), "expected {expected:?} in {err:?}");
+        }
+    }
+
+    #[test]
+    fn malformed_json_is_an_error_not_a_panic() {
+        for text in ["", "{", "[]", "{\"format_version\": 1}", "{\"format_version\": \"one\"}", "\u{0}\u{1}"] {
+            assert!(Graph::from_json(text).is_err(), "{text:?}");
+        }
+        let full = sample().to_json();
+        for cut in (0..full.len()).step_by(97) {
+            assert!(Graph::from_json(&full[..cut]).is_err());
+        }
+    }
+}
