@@ -1,0 +1,119 @@
+//! End-to-end tests of the `exploremaps` command line.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn exploremaps(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(args).env("RUST_LOG", "warn").output().expect("run exploremaps")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The `triangles` count from `exploremaps info`.
+fn info_triangles(scene: &str) -> usize {
+    let out = exploremaps(&["info", scene]);
+    assert!(out.status.success(), "info {scene} failed: {}", stderr(&out));
+    let text = stdout(&out);
+    let line = text.lines().find(|l| l.starts_with("triangles")).unwrap_or_else(|| panic!("no triangles line in {text}"));
+    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+fn shared_scenes() -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("SKIPPED: {} is absent (the shared test scenes are not next to this checkout)", path.display());
+        None
+    }
+}
+
+#[test]
+fn info_works_on_every_builtin_scene() {
+    assert!((50_000..=300_000).contains(&info_triangles("gallery")));
+    assert!(info_triangles("maze:5") > 100);
+    assert!(info_triangles("pillars") > 1_000);
+    assert!(info_triangles("big:600000") >= 600_000);
+    // The default scene is the gallery.
+    let out = exploremaps(&["info"]);
+    assert!(stdout(&out).contains("scene       gallery"));
+}
+
+#[test]
+fn info_works_on_every_shared_scene() {
+    let Some(dir) = shared_scenes() else { return };
+    for (file, triangles) in [
+        ("cornell_box/CornellBox-Original.obj", 36),
+        ("stanford_bunny/bun_zipper.ply", 69_451),
+        ("sponza_dabrovic/sponza.obj", 66_450),
+        ("sponza_crytek/sponza_crytek.obj", 236_809),
+    ] {
+        let n = info_triangles(dir.join(file).to_str().unwrap());
+        assert!(n <= triangles && n * 100 >= triangles * 99, "{file}: {n} of {triangles}");
+    }
+}
+
+#[test]
+fn scenes_lists_and_exports_builtins_that_load_back() {
+    let out = exploremaps(&["scenes"]);
+    for name in ["gallery", "maze", "pillars", "big"] {
+        assert!(stdout(&out).contains(name), "{name} not listed");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["maze.obj", "maze.glb"] {
+        let path = dir.path().join(file);
+        let out = exploremaps(&["scenes", "maze:4", "-o", path.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert_eq!(info_triangles(path.to_str().unwrap()), info_triangles("maze:4"));
+    }
+}
+
+#[test]
+fn bad_input_exits_2_with_a_message_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cut = dir.path().join("cut.ply");
+    std::fs::write(&cut, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n").unwrap();
+    let binary = dir.path().join("noise.obj");
+    std::fs::write(&binary, [0u8, 1, 2, 3, 255, 0, 7]).unwrap();
+    let missing = dir.path().join("missing.glb");
+    let unknown = dir.path().join("scene.blend");
+    std::fs::write(&unknown, "x").unwrap();
+    for (scene, needle) in [
+        (missing.to_str().unwrap(), "missing.glb"),
+        (unknown.to_str().unwrap(), "unknown scene format"),
+        (cut.to_str().unwrap(), "cut.ply"),
+        (binary.to_str().unwrap(), "binary data"),
+        ("castle", "not a built-in scene"),
+    ] {
+        let out = exploremaps(&["info", scene]);
+        assert_eq!(out.status.code(), Some(2), "{scene}: {}", stderr(&out));
+        assert!(stderr(&out).contains(needle), "{scene}: {}", stderr(&out));
+        assert!(!stderr(&out).contains("panicked"));
+    }
+    let out = exploremaps(&["info", "gallery", "--up", "sideways"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = exploremaps(&["info", "gallery", "--metres-per-unit", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = exploremaps(&["info", "--no-such-flag"]);
+    assert_eq!(out.status.code(), Some(2), "clap reports usage errors with 2");
+}
+
+#[test]
+fn stages_not_built_yet_say_so_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("bundle");
+    let b = bundle.to_str().unwrap();
+    for args in [vec!["plan", "gallery", "-o", b], vec!["build", "-o", b], vec!["render", b], vec!["coverage", b], vec!["view", b], vec!["serve", b]] {
+        let out = exploremaps(&args);
+        assert_eq!(out.status.code(), Some(3), "{args:?}");
+        assert!(stderr(&out).contains("not available yet"), "{args:?}: {}", stderr(&out));
+        assert!(stdout(&out).is_empty());
+        assert!(!bundle.exists(), "{args:?} wrote output");
+    }
+}
