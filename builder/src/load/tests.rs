@@ -267,3 +267,27 @@ fn shared_scenes_load_with_their_documented_sizes() {
         assert_eq!(scene.stats.missing_textures, 0, "{relative}");
     }
 }
+
+#[test]
+fn hostile_gltf_accessors_are_errors_not_panics() {
+    // Accessors that claim more data than their buffers hold, or index past the vertices.
+    let dir = tempfile::tempdir().unwrap();
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let uri = format!("data:application/octet-stream;base64,{}", base64_encode(&positions));
+    let make = |count: u32, view_length: u32, buffer_length: u32| {
+        serde_json::json!({
+            "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]}],
+            "bufferViews": [{"buffer": 0, "byteLength": view_length}],
+            "buffers": [{"byteLength": buffer_length, "uri": uri}]
+        })
+        .to_string()
+    };
+    for (i, (count, view, buffer)) in [(300, 36, 36), (3, 3600, 36), (3, 36, 3600), (1_000_000_000, 36, 36)].into_iter().enumerate() {
+        let path = write(dir.path(), &format!("h{i}.gltf"), make(count, view, buffer).as_bytes());
+        let result = std::panic::catch_unwind(|| load_default(&path));
+        let result = result.unwrap_or_else(|_| panic!("case {i} panicked"));
+        assert!(result.is_err(), "case {i} loaded");
+    }
+}
