@@ -1,0 +1,424 @@
+//! Navigation: where the viewer is, where it looks and where it can go, as pure
+//! logic on the bundle graph, unit-tested without a GPU (DESIGN.md section 3.12).
+//!
+//! States: at a probe (look around); travelling along a path (its 360° video
+//! plays while the view blends from the user's direction to the arrival
+//! direction); cross-fading to a probe that no path reaches. Paths can be
+//! travelled either way. Angles: yaw 0 looks toward −Z and π/2 toward +X;
+//! pitch is positive upward.
+
+use exploremaps_format::{Graph, Path};
+use std::f32::consts::{PI, TAU};
+
+/// Seconds a jump between unconnected probes takes.
+pub const CROSS_FADE_S: f32 = 0.8;
+const MIN_FOV_Y: f32 = 0.35;
+const MAX_FOV_Y: f32 = 2.0;
+const MAX_PITCH: f32 = 1.45;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    pub yaw: f32,
+    pub pitch: f32,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+}
+
+/// Unit direction of a yaw and pitch.
+pub fn direction(yaw: f32, pitch: f32) -> [f32; 3] {
+    [yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos()]
+}
+
+/// Yaw and pitch of a direction (need not be unit length; zero gives (0, 0)).
+pub fn yaw_pitch(d: [f32; 3]) -> (f32, f32) {
+    let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
+    if horizontal == 0.0 && d[1] == 0.0 {
+        return (0.0, 0.0);
+    }
+    (d[0].atan2(-d[2]), d[1].atan2(horizontal))
+}
+
+/// Angle between two view directions, radians.
+fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
+    let (u, v) = (direction(a.0, a.1), direction(b.0, b.1));
+    (u[0] * v[0] + u[1] * v[1] + u[2] * v[2]).clamp(-1.0, 1.0).acos()
+}
+
+/// Wraps an angle into (−π, π].
+fn wrap(a: f32) -> f32 {
+    let w = (a + PI).rem_euclid(TAU) - PI;
+    if w <= -PI { w + TAU } else { w }
+}
+
+fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
+    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+}
+
+fn smoothstep(t: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum State {
+    AtProbe { probe: u32 },
+    Travelling { path: u32, reversed: bool, elapsed_s: f32, start: View },
+    CrossFading { from: u32, to: u32, elapsed_s: f32 },
+}
+
+/// One entry of the path bar: a path leaving the current probe.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathChoice {
+    pub path: u32,
+    pub to: u32,
+    pub reversed: bool,
+    /// Angle between the view and the path's departure direction, radians.
+    pub angle: f32,
+}
+
+#[derive(Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NavError {
+    #[error("path {path} does not leave probe {probe}")]
+    NotFromHere { path: u32, probe: u32 },
+    #[error("no probe {0} in this bundle")]
+    NoSuchProbe(u32),
+    #[error("already on the way; wait until arrival")]
+    Busy,
+}
+
+pub struct Navigator<'g> {
+    graph: &'g Graph,
+    pub state: State,
+    pub view: View,
+    rng: u64,
+}
+
+impl<'g> Navigator<'g> {
+    /// Starts at `probe` (default: first in the bar order) facing its preferred direction.
+    pub fn new(graph: &'g Graph, probe: Option<u32>, seed: u64) -> Result<Navigator<'g>, NavError> {
+        let probe = probe.or_else(|| graph.bar_order.first().copied()).unwrap_or(0);
+        if probe as usize >= graph.probes.len() {
+            return Err(NavError::NoSuchProbe(probe));
+        }
+        let mut nav = Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1 };
+        (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
+        Ok(nav)
+    }
+
+    /// The probe the viewer is at, or is leaving.
+    pub fn probe(&self) -> u32 {
+        match self.state {
+            State::AtProbe { probe } => probe,
+            State::Travelling { path, reversed, .. } => self.endpoints(path, reversed).0,
+            State::CrossFading { from, .. } => from,
+        }
+    }
+
+    fn endpoints(&self, path: u32, reversed: bool) -> (u32, u32) {
+        let p = &self.graph.paths[path as usize];
+        if reversed { (p.to, p.from) } else { (p.from, p.to) }
+    }
+
+    /// Direction of travel at the start (`at_end == false`) or end of a path.
+    fn travel_direction(path: &Path, reversed: bool, at_end: bool) -> (f32, f32) {
+        let n = path.polyline.len();
+        // Points in the order of travel.
+        let point = |i: usize| path.polyline[if reversed { n - 1 - i } else { i }];
+        // From the endpoint, walk inward to the first point a tenth of the path away.
+        let order: Vec<usize> = if at_end { (0..n).rev().collect() } else { (0..n).collect() };
+        let reach = path.length * 0.1;
+        let a = point(order[0]);
+        let b = order[1..].iter().map(|&i| point(i)).find(|b| dist(a, *b) >= reach).unwrap_or(point(order[n - 1]));
+        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        yaw_pitch(if at_end { [-d[0], -d[1], -d[2]] } else { d })
+    }
+
+    /// The direction to face on arriving at `probe`: its best preferred direction,
+    /// else the direction of travel.
+    fn arrival_direction(&self, probe: u32, via: Option<(u32, bool)>) -> (f32, f32) {
+        if let Some(d) = self.graph.probes[probe as usize].preferred_directions.first() {
+            return (d.yaw, d.pitch);
+        }
+        match via {
+            Some((path, reversed)) => Self::travel_direction(&self.graph.paths[path as usize], reversed, true),
+            None => (self.view.yaw, self.view.pitch),
+        }
+    }
+
+    /// Paths leaving the current probe, best aligned with the view first.
+    pub fn path_bar(&self) -> Vec<PathChoice> {
+        let here = self.probe();
+        let mut choices: Vec<PathChoice> = self
+            .graph
+            .paths
+            .iter()
+            .filter(|p| p.from == here || p.to == here)
+            .map(|p| {
+                let reversed = p.to == here;
+                let departure = Self::travel_direction(p, reversed, false);
+                PathChoice { path: p.id, to: if reversed { p.from } else { p.to }, reversed, angle: angle_between((self.view.yaw, self.view.pitch), departure) }
+            })
+            .collect();
+        choices.sort_by(|a, b| a.angle.total_cmp(&b.angle).then(a.path.cmp(&b.path)));
+        choices
+    }
+
+    pub fn take_path(&mut self, path: u32) -> Result<(), NavError> {
+        let State::AtProbe { probe } = self.state else { return Err(NavError::Busy) };
+        let p = self.graph.paths.get(path as usize).ok_or(NavError::NotFromHere { path, probe })?;
+        if p.from != probe && p.to != probe {
+            return Err(NavError::NotFromHere { path, probe });
+        }
+        self.state = State::Travelling { path, reversed: p.to == probe, elapsed_s: 0.0, start: self.view };
+        Ok(())
+    }
+
+    /// Goes to any probe: along a path when one joins them, else by cross-fading.
+    pub fn go_to(&mut self, target: u32) -> Result<(), NavError> {
+        let State::AtProbe { probe } = self.state else { return Err(NavError::Busy) };
+        if target as usize >= self.graph.probes.len() {
+            return Err(NavError::NoSuchProbe(target));
+        }
+        if target == probe {
+            return Ok(());
+        }
+        match self.path_bar().iter().find(|c| c.to == target) {
+            Some(c) => self.take_path(c.path),
+            None => {
+                self.state = State::CrossFading { from: probe, to: target, elapsed_s: 0.0 };
+                Ok(())
+            }
+        }
+    }
+
+    /// Fraction of the current travel or cross-fade done, if moving.
+    pub fn progress(&self) -> Option<f32> {
+        match self.state {
+            State::AtProbe { .. } => None,
+            State::Travelling { path, elapsed_s, .. } => Some((elapsed_s / self.graph.paths[path as usize].duration_s.max(1e-3)).min(1.0)),
+            State::CrossFading { elapsed_s, .. } => Some((elapsed_s / CROSS_FADE_S).min(1.0)),
+        }
+    }
+
+    /// Advances time: moves along the path, blends the view, arrives.
+    pub fn update(&mut self, dt_s: f32) {
+        match &mut self.state {
+            State::AtProbe { .. } => return,
+            State::Travelling { elapsed_s, .. } | State::CrossFading { elapsed_s, .. } => *elapsed_s += dt_s.max(0.0),
+        }
+        let t = self.progress().unwrap_or(1.0);
+        match self.state {
+            State::Travelling { path, reversed, start, .. } => {
+                let to = self.endpoints(path, reversed).1;
+                let (yaw, pitch) = self.arrival_direction(to, Some((path, reversed)));
+                let s = smoothstep(t);
+                self.view.yaw = wrap(start.yaw + wrap(yaw - start.yaw) * s);
+                self.view.pitch = start.pitch + (pitch - start.pitch) * s;
+                if t >= 1.0 {
+                    self.state = State::AtProbe { probe: to };
+                }
+            }
+            State::CrossFading { to, .. } if t >= 1.0 => {
+                (self.view.yaw, self.view.pitch) = self.arrival_direction(to, None);
+                self.state = State::AtProbe { probe: to };
+            }
+            _ => {}
+        }
+    }
+
+    /// Where the camera is: the probe, or the point along the path reached with
+    /// slow-in/slow-out timing (by arc length of the polyline).
+    pub fn camera_position(&self) -> [f32; 3] {
+        let State::Travelling { path, reversed, .. } = self.state else {
+            return self.graph.probes[self.probe() as usize].position;
+        };
+        let pts = &self.graph.paths[path as usize].polyline;
+        let s = smoothstep(self.progress().unwrap_or(0.0));
+        let s = if reversed { 1.0 - s } else { s };
+        let seg_len = |i: usize| dist(pts[i], pts[i + 1]);
+        let total: f32 = (0..pts.len() - 1).map(seg_len).sum();
+        let mut remaining = s * total;
+        for i in 0..pts.len() - 1 {
+            let l = seg_len(i);
+            if remaining <= l && l > 0.0 {
+                let f = remaining / l;
+                let (a, b) = (pts[i], pts[i + 1]);
+                return [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f];
+            }
+            remaining -= l;
+        }
+        pts[pts.len() - 1]
+    }
+
+    /// Turns the view (drag, keys); pitch is clamped short of straight up/down.
+    pub fn look(&mut self, d_yaw: f32, d_pitch: f32) {
+        self.view.yaw = wrap(self.view.yaw + d_yaw);
+        self.view.pitch = (self.view.pitch + d_pitch).clamp(-MAX_PITCH, MAX_PITCH);
+    }
+
+    /// Zooms (pinch, wheel): factor < 1 narrows the field of view.
+    pub fn zoom(&mut self, factor: f32) {
+        if factor.is_finite() && factor > 0.0 {
+            self.view.fov_y = (self.view.fov_y * factor).clamp(MIN_FOV_Y, MAX_FOV_Y);
+        }
+    }
+
+    /// One step of the automatic tour: a seeded random path from here, avoiding
+    /// going straight back when there is another way. Returns the path taken.
+    pub fn random_walk_step(&mut self, came_by: Option<u32>) -> Option<u32> {
+        if !matches!(self.state, State::AtProbe { .. }) {
+            return None;
+        }
+        let mut choices: Vec<u32> = self.path_bar().iter().map(|c| c.path).collect();
+        choices.sort_unstable();
+        if choices.len() > 1 {
+            choices.retain(|&p| Some(p) != came_by);
+        }
+        if choices.is_empty() {
+            return None;
+        }
+        // xorshift64: tiny, seeded, identical on every platform (native and wasm).
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        let path = choices[(self.rng % choices.len() as u64) as usize];
+        self.take_path(path).ok()?;
+        Some(path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use exploremaps_format::{PathAssets, Probe, SceneInfo, ViewDirection};
+
+    /// Probe 0 at the origin with paths to probes 1 (+X), 2 (−Z) and 3 (+Z, bent);
+    /// probe 4 unconnected. Probe 2 prefers to look toward +X.
+    fn graph() -> Graph {
+        let mut g = Graph::new(SceneInfo {
+            name: "t".into(),
+            source: "test".into(),
+            triangles: 1,
+            bounds_min: [-10.0; 3],
+            bounds_max: [10.0; 3],
+            metres_per_unit: 1.0,
+            scale_source: "file".into(),
+            space: None,
+            near_distance: None,
+            credits: vec![],
+        });
+        let positions = [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 0.0, -4.0], [2.0, 0.0, 4.0], [9.0, 0.0, 9.0]];
+        for (i, p) in positions.iter().enumerate() {
+            let preferred = if i == 2 { vec![ViewDirection { yaw: PI / 2.0, pitch: 0.0, goodness: 1.0 }] } else { vec![] };
+            g.probes.push(Probe { id: i as u32, position: *p, cluster: None, preferred_directions: preferred, user_placed: false, assets: Default::default() });
+        }
+        let mut add = |from: u32, to: u32, polyline: Vec<[f32; 3]>| {
+            let length = polyline.windows(2).map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt()).sum();
+            let id = g.paths.len() as u32;
+            g.paths.push(Path { id, from, to, polyline, length, duration_s: 2.0, camera: vec![], assets: PathAssets::default() });
+        };
+        add(0, 1, vec![[0.0, 0.0, 0.0], [4.0, 0.0, 0.0]]);
+        add(2, 0, vec![[0.0, 0.0, -4.0], [0.0, 0.0, 0.0]]);
+        add(0, 3, vec![[0.0, 0.0, 0.0], [0.0, 0.0, 4.0], [2.0, 0.0, 4.0]]);
+        g.validate().unwrap();
+        g
+    }
+
+    #[test]
+    fn directions_round_trip() {
+        for (yaw, pitch) in [(0.0, 0.0), (1.0, 0.3), (-2.5, -1.0), (PI / 2.0, 0.0)] {
+            let (y, p) = yaw_pitch(direction(yaw, pitch));
+            assert!((wrap(y - yaw)).abs() < 1e-5 && (p - pitch).abs() < 1e-5);
+        }
+        let d = direction(PI / 2.0, 0.0);
+        assert!((d[0] - 1.0).abs() < 1e-6, "yaw π/2 looks toward +X");
+        let d = direction(0.0, 0.0);
+        assert!((d[2] + 1.0).abs() < 1e-6, "yaw 0 looks toward −Z");
+    }
+
+    #[test]
+    fn path_bar_is_sorted_by_angle_to_the_view() {
+        let g = graph();
+        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        nav.view.yaw = 0.0; // toward −Z: the path to probe 2 (travelled in reverse) comes first
+        let bar = nav.path_bar();
+        assert_eq!(bar.iter().map(|c| c.to).collect::<Vec<_>>(), vec![2, 1, 3]);
+        assert!(bar[0].reversed && bar[0].angle < 1e-5);
+        assert!((bar[1].angle - PI / 2.0).abs() < 1e-4);
+        nav.look(PI / 2.0, 0.0); // toward +X
+        assert_eq!(nav.path_bar()[0].to, 1);
+    }
+
+    #[test]
+    fn travelling_arrives_facing_the_arrival_direction() {
+        let g = graph();
+        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        nav.view.yaw = 3.0;
+        nav.go_to(2).unwrap();
+        assert!(matches!(nav.state, State::Travelling { path: 1, reversed: true, .. }));
+        assert_eq!(nav.go_to(1), Err(NavError::Busy));
+        nav.update(1.0);
+        let mid = nav.camera_position();
+        assert!((mid[2] + 2.0).abs() < 1e-4 && mid[0].abs() < 1e-6, "half-way in time is half-way in space: {mid:?}");
+        assert!(nav.view.yaw != 3.0, "the view blends during travel");
+        nav.update(1.5);
+        assert_eq!(nav.state, State::AtProbe { probe: 2 });
+        assert!((nav.view.yaw - PI / 2.0).abs() < 1e-5, "faces probe 2's preferred direction");
+        assert_eq!(nav.camera_position(), [0.0, 0.0, -4.0]);
+    }
+
+    #[test]
+    fn without_a_preferred_direction_arrival_faces_the_direction_of_travel() {
+        let g = graph();
+        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        nav.go_to(3).unwrap();
+        nav.update(10.0);
+        assert_eq!(nav.state, State::AtProbe { probe: 3 });
+        assert!((nav.view.yaw - PI / 2.0).abs() < 1e-4, "the bent path ends heading +X: {}", nav.view.yaw);
+    }
+
+    #[test]
+    fn unconnected_probes_cross_fade() {
+        let g = graph();
+        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        nav.go_to(4).unwrap();
+        assert!(matches!(nav.state, State::CrossFading { from: 0, to: 4, .. }));
+        nav.update(CROSS_FADE_S * 0.5);
+        assert!((nav.progress().unwrap() - 0.5).abs() < 1e-5);
+        nav.update(CROSS_FADE_S);
+        assert_eq!(nav.state, State::AtProbe { probe: 4 });
+        assert_eq!(nav.go_to(9), Err(NavError::NoSuchProbe(9)));
+        assert_eq!(nav.take_path(0), Err(NavError::NotFromHere { path: 0, probe: 4 }));
+    }
+
+    #[test]
+    fn look_and_zoom_are_clamped() {
+        let g = graph();
+        let mut nav = Navigator::new(&g, None, 1).unwrap();
+        nav.look(10.0 * TAU + 0.5, 5.0);
+        assert!((nav.view.yaw - 0.5).abs() < 1e-3 && nav.view.pitch == MAX_PITCH);
+        nav.zoom(0.01);
+        assert_eq!(nav.view.fov_y, MIN_FOV_Y);
+        nav.zoom(f32::NAN);
+        assert_eq!(nav.view.fov_y, MIN_FOV_Y);
+    }
+
+    #[test]
+    fn random_walk_is_seeded_and_follows_paths() {
+        let g = graph();
+        let walk = |seed| {
+            let mut nav = Navigator::new(&g, Some(0), seed).unwrap();
+            let mut visited = vec![];
+            let mut came_by = None;
+            for _ in 0..20 {
+                came_by = nav.random_walk_step(came_by);
+                nav.update(10.0);
+                visited.push(nav.probe());
+            }
+            visited
+        };
+        assert_eq!(walk(7), walk(7));
+        assert!(walk(7).iter().all(|&p| p != 4), "never reaches the unconnected probe");
+        assert!((1..=3).all(|p| walk(7).contains(&p)), "visits every connected probe: {:?}", walk(7));
+    }
+}
