@@ -82,6 +82,15 @@ fn bad_input_exits_2_with_a_message_naming_it() {
     let binary = dir.path().join("noise.obj");
     std::fs::write(&binary, [0u8, 1, 2, 3, 255, 0, 7]).unwrap();
     let missing = dir.path().join("missing.glb");
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let cut_obj = write("cut.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 1.");
+    let range_obj = write("range.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+    let empty_obj = write("empty.obj", b"# just a comment\n");
+    let cut_glb = write("cut.glb", b"glTF\x02\x00\x00\x00\xff\xff\x00\x00\x10\x00\x00\x00JSON{\"asset\"");
     let unknown = dir.path().join("scene.blend");
     std::fs::write(&unknown, "x").unwrap();
     for (scene, needle) in [
@@ -90,6 +99,10 @@ fn bad_input_exits_2_with_a_message_naming_it() {
         (cut.to_str().unwrap(), "cut.ply"),
         (binary.to_str().unwrap(), "binary data"),
         ("castle", "not a built-in scene"),
+        (cut_obj.as_str(), "cut.obj"),
+        (range_obj.as_str(), "out of bounds"),
+        (empty_obj.as_str(), "no usable triangles"),
+        (cut_glb.as_str(), "cut.glb"),
     ] {
         let out = exploremaps(&["info", scene]);
         assert_eq!(out.status.code(), Some(2), "{scene}: {}", stderr(&out));
@@ -102,6 +115,21 @@ fn bad_input_exits_2_with_a_message_naming_it() {
     assert_eq!(out.status.code(), Some(2));
     let out = exploremaps(&["info", "--no-such-flag"]);
     assert_eq!(out.status.code(), Some(2), "clap reports usage errors with 2");
+}
+
+#[test]
+fn recoverable_problems_are_warnings_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.png"), b"not an image").unwrap();
+    std::fs::write(dir.path().join("m.mtl"), b"newmtl red\nKd 1 0 0\nmap_Kd bad.png\n").unwrap();
+    let obj = dir.path().join("warn.obj");
+    std::fs::write(&obj, b"mtllib m.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nf 1 2 3\nf 1 2 4\n").unwrap();
+    let out = exploremaps(&["info", obj.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("bad.png") && err.contains("cannot be decoded"), "{err}");
+    assert!(err.contains("warn.obj") && err.contains("1 non-finite"), "{err}");
+    assert!(stdout(&out).contains("triangles   1 "));
 }
 
 #[test]
