@@ -355,33 +355,34 @@ impl RayScene {
     /// Closest hits of `rays` written to `out` (same length). Hot loops call this
     /// with a reused buffer: a fresh one costs page faults comparable to the tracing.
     pub fn intersect_into(&self, rays: &[Ray], out: &mut [Option<Hit>], packing: Packing) {
-        assert_eq!(rays.len(), out.len());
-        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
-            let _mode = FlushDenormals::new();
-            match packing {
-                Packing::Single => o.iter_mut().zip(r).for_each(|(o1, r1)| *o1 = self.intersect(r1)),
-                Packing::Packets8 | Packing::Coherent8 => {
-                    let coherent = packing == Packing::Coherent8;
-                    o.chunks_mut(8).zip(r.chunks(8)).for_each(|(o8, r8)| self.intersect8(r8, o8, coherent))
-                }
-            }
-        });
+        let coherent = packing == Packing::Coherent8;
+        batched(rays, out, packing, |r| self.intersect(r), |r8, o8| self.intersect8(r8, o8, coherent));
     }
 
     /// Occlusion of `rays` written to `out` (same length).
     pub fn occluded_into(&self, rays: &[Ray], out: &mut [bool], packing: Packing) {
-        assert_eq!(rays.len(), out.len());
-        out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
-            let _mode = FlushDenormals::new();
-            match packing {
-                Packing::Single => o.iter_mut().zip(r).for_each(|(o1, r1)| *o1 = self.occluded(r1)),
-                Packing::Packets8 | Packing::Coherent8 => {
-                    let coherent = packing == Packing::Coherent8;
-                    o.chunks_mut(8).zip(r.chunks(8)).for_each(|(o8, r8)| self.occluded8(r8, o8, coherent))
-                }
-            }
-        });
+        let coherent = packing == Packing::Coherent8;
+        batched(rays, out, packing, |r| self.occluded(r), |r8, o8| self.occluded8(r8, o8, coherent));
     }
+}
+
+/// Spreads rays over rayon's threads in chunks of [`BATCH`], each answered one
+/// ray at a time or in packets of 8, with denormals flushed while tracing.
+fn batched<O: Send>(
+    rays: &[Ray],
+    out: &mut [O],
+    packing: Packing,
+    one: impl Fn(&Ray) -> O + Sync,
+    eight: impl Fn(&[Ray], &mut [O]) + Sync,
+) {
+    assert_eq!(rays.len(), out.len());
+    out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
+        let _mode = FlushDenormals::new();
+        match packing {
+            Packing::Single => o.iter_mut().zip(r).for_each(|(o1, r1)| *o1 = one(r1)),
+            Packing::Packets8 | Packing::Coherent8 => o.chunks_mut(8).zip(r.chunks(8)).for_each(|(o8, r8)| eight(r8, o8)),
+        }
+    });
 }
 
 /// How batches hand rays to Embree.

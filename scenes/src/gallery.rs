@@ -32,7 +32,7 @@ pub fn gallery(seed: u64) -> Scene {
 }
 
 /// Late-morning sun over the courtyard.
-pub(crate) const SUN: Light = Light::Sun { direction: Vec3::new(0.424, 0.848, 0.318), irradiance: Vec3::new(3.0, 2.9, 2.6) };
+pub(crate) const SUN: Light = Light::Sun { direction: Vec3::new(0.4243, 0.8485, 0.3182), irradiance: Vec3::new(3.0, 2.9, 2.6) };
 
 /// Footprint of one wing on the ground, x by z, with a margin.
 pub(crate) const WING_SIZE: (f32, f32) = (42.0, 38.0);
@@ -90,7 +90,8 @@ pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64M
     m.begin_object(&format!("{prefix}walls"));
     let door = |c: f32| (c, DOOR_W, DOOR_H);
     // (material, along x, line, from, to, doors) in wing coordinates.
-    let walls: [(u32, bool, f32, f32, f32, &[(f32, f32, f32)]); 12] = [
+    type Wall<'a> = (u32, bool, f32, f32, f32, &'a [(f32, f32, f32)]);
+    let walls: [Wall; 12] = [
         // Corridor walls: south (courtyard and D doors), north (A, B, C doors); outer walls.
         (mat.wall, true, 0.0, 0.0, 40.0, &[door(12.0), door(32.0)]),
         (mat.wall, true, 4.0, 0.0, 40.0, &[door(6.0), door(16.0), door(30.0)]),

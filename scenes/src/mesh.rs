@@ -3,7 +3,7 @@
 //! object. Boxes get planar texture coordinates in metres / `tile_m`, so textures
 //! keep their size whatever the box.
 
-use crate::scene::{Material, Scene, ScaleSource, SceneStats, Texture, Light};
+use crate::scene::{Light, Material, Scene, Texture};
 use glam::{Vec2, Vec3};
 
 pub struct MeshBuilder {
@@ -17,22 +17,7 @@ pub struct MeshBuilder {
 impl MeshBuilder {
     pub fn new(name: &str) -> MeshBuilder {
         MeshBuilder {
-            scene: Scene {
-                name: name.to_string(),
-                positions: Vec::new(),
-                normals: Vec::new(),
-                uvs: Vec::new(),
-                triangles: Vec::new(),
-                triangle_material: Vec::new(),
-                triangle_object: Vec::new(),
-                objects: Vec::new(),
-                materials: Vec::new(),
-                textures: Vec::new(),
-                lights: Vec::new(),
-                metres_per_unit: 1.0,
-                scale_source: ScaleSource::File,
-                stats: SceneStats::default(),
-            },
+            scene: Scene::empty(name),
             material: 0,
             object: 0,
             tile_m: 2.0,

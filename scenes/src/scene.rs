@@ -128,6 +128,26 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene with no geometry, metres as its unit (as stated by its maker).
+    pub fn empty(name: &str) -> Scene {
+        Scene {
+            name: name.to_string(),
+            positions: Vec::new(),
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            triangles: Vec::new(),
+            triangle_material: Vec::new(),
+            triangle_object: Vec::new(),
+            objects: Vec::new(),
+            materials: Vec::new(),
+            textures: Vec::new(),
+            lights: Vec::new(),
+            metres_per_unit: 1.0,
+            scale_source: ScaleSource::File,
+            stats: SceneStats::default(),
+        }
+    }
+
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(self.positions.iter().copied())
     }

@@ -4,7 +4,7 @@
 //! flipped to the image convention (v down) used by the whole pipeline.
 
 use super::{decode_texture, require_text, resolve_path, LoadError};
-use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, SceneStats, Texture};
+use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -62,23 +62,9 @@ pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     Ok(scene)
 }
 
+/// An empty scene to fill, with the scale left to be guessed.
 pub(super) fn empty_scene(materials: Vec<Material>, textures: Vec<Texture>) -> Scene {
-    Scene {
-        name: String::new(),
-        positions: Vec::new(),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        triangles: Vec::new(),
-        triangle_material: Vec::new(),
-        triangle_object: Vec::new(),
-        objects: Vec::new(),
-        materials,
-        textures,
-        lights: Vec::new(),
-        metres_per_unit: 1.0,
-        scale_source: ScaleSource::Guessed,
-        stats: SceneStats::default(),
-    }
+    Scene { materials, textures, scale_source: ScaleSource::Guessed, ..Scene::empty("") }
 }
 
 /// The file name in an MTL map statement, which may carry options before it
