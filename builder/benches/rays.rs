@@ -30,7 +30,7 @@ fn main() {
         rayon::current_num_threads()
     );
 
-    let bounds = scene.bounds();
+    let _bounds = scene.bounds();
     // A probe at eye height in the pillared hall of the first wing.
     let eye = Vec3::new(28.0, 1.6, 10.0);
     let primary: Vec<Ray> = CUBE_FACES.iter().flat_map(|&(forward, up)| camera_rays(eye, forward, up, 512)).collect();

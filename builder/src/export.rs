@@ -112,7 +112,7 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     let mut views = Vec::new();
     let mut accessors = Vec::new();
     let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: Option<u32>| -> usize {
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let mut view = json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len() });
@@ -188,7 +188,7 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
             out
         })
         .collect();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
@@ -207,7 +207,7 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         "buffers": [{ "byteLength": bin.len() }],
     });
     let mut text = serde_json::to_vec(&document).expect("JSON of plain values");
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let total = 12 + 8 + text.len() + 8 + bin.len();

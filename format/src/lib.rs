@@ -217,7 +217,7 @@ impl Graph {
             return Err(FormatError::Version { found: self.format_version, expected: FORMAT_VERSION });
         }
         let s = &self.scene;
-        if !all_finite(&s.bounds_min) || !all_finite(&s.bounds_max) || !(s.metres_per_unit.is_finite() && s.metres_per_unit > 0.0) {
+        if !(all_finite(&s.bounds_min) && all_finite(&s.bounds_max) && s.metres_per_unit.is_finite() && s.metres_per_unit > 0.0) {
             return bad("scene bounds or metres_per_unit are not finite and positive".into());
         }
         if s.near_distance.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
@@ -384,7 +384,8 @@ mod tests {
 
     #[test]
     fn each_inconsistency_is_named() {
-        let cases: Vec<(&str, Box<dyn Fn(&mut Graph)>)> = vec![
+        type Mutation = Box<dyn Fn(&mut Graph)>;
+        let cases: Vec<(&str, Mutation)> = vec![
             ("probe at index 1 has id 5", Box::new(|g| g.probes[1].id = 5)),
             ("non-finite position", Box::new(|g| g.probes[0].position[1] = f32::NAN)),
             ("path 0 joins probes 0 and 9", Box::new(|g| g.paths[0].to = 9)),

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     require_text(path, bytes, "OBJ")?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |mtl| match resolve_path(&dir, &mtl.to_string_lossy()) {
         Some(found) => tobj::load_mtl(found),
         None => Err(tobj::LoadError::OpenFileFailed),
