@@ -6,6 +6,7 @@
 
 pub mod export;
 pub mod files;
+pub mod freespace;
 pub mod load;
 pub mod raycast;
 
