@@ -1,0 +1,47 @@
+//! Exploration on the shared and built-in scenes: probes placed, rays cast,
+//! time per step, and Mrays/s against Embree's coherent-packet rate measured
+//! in the same run. `cargo bench -p exploremaps-builder --bench explore`.
+//! Goal (issue: explore): Crytek Sponza atrium explored in at most 3 s on 2 cores.
+
+use exploremaps_builder::explore::{explore, CubeView, ExploreParams};
+use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
+use exploremaps_builder::load::{load, LoadOptions};
+use exploremaps_builder::raycast::RayScene;
+use exploremaps_scenes::{BuiltIn, Scene};
+use std::path::Path;
+use std::time::Instant;
+
+fn main() {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
+    let mut scenes: Vec<(String, Scene)> = Vec::new();
+    for file in ["sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj"] {
+        let path = shared.join(file);
+        match load(&path, &LoadOptions::default()) {
+            Ok(scene) => scenes.push((file.to_string(), scene)),
+            Err(e) => println!("SKIPPED {file}: {e}"),
+        }
+    }
+    for name in ["gallery", "maze", "pillars"] {
+        scenes.push((name.to_string(), BuiltIn::parse(name).unwrap().generate(1)));
+    }
+    println!(
+        "{:<34} {:>9} {:>7} {:>6} {:>7} {:>8} {:>7} {:>7} {:>7} {:>8} {:>8}",
+        "scene", "triangles", "space", "probes", "left", "rays", "free s", "views s", "mask s", "relax s", "total s"
+    );
+    for (name, scene) in &scenes {
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let t = Instant::now();
+        let (space, fs) = free_space(scene, &rays, &FreeSpaceParams::default()).unwrap();
+        let (probes, st) = explore(&rays, &space, &ExploreParams::default());
+        let total = t.elapsed().as_secs_f64();
+        println!(
+            "{name:<34} {:>9} {:>7} {:>6} {:>7} {:>8} {:>7.2} {:>7.2} {:>7.2} {:>8.2} {:>8.2}",
+            scene.triangles.len(), fs.space, probes.len(), st.samples_left, st.rays, fs.seconds, st.seconds_views, st.seconds_masking, st.seconds_relax, total
+        );
+        // Throughput of the cube-map views against a reference run of the same views.
+        let t = Instant::now();
+        let n: usize = probes.iter().map(|p| CubeView::trace(&rays, p.position, 64).dirs.len()).sum();
+        let reference = n as f64 / t.elapsed().as_secs_f64() / 1e6;
+        println!("{:<34} exploration {:.1} Mrays/s overall; cube-map views alone {reference:.1} Mrays/s", "", st.rays as f64 / st.seconds / 1e6);
+    }
+}
