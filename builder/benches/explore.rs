@@ -3,6 +3,7 @@
 //! in the same run. `cargo bench -p exploremaps-builder --bench explore`.
 //! Goal (issue: explore): Crytek Sponza atrium explored in at most 3 s on 2 cores.
 
+use exploremaps_builder::coverage::{coverage, CoverageParams};
 use exploremaps_builder::explore::{explore, CubeView, ExploreParams};
 use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
 use exploremaps_builder::load::{load, LoadOptions};
@@ -43,5 +44,12 @@ fn main() {
         let n: usize = probes.iter().map(|p| CubeView::trace(&rays, p.position, 64).dirs.len()).sum();
         let reference = n as f64 / t.elapsed().as_secs_f64() / 1e6;
         println!("{:<34} exploration {:.1} Mrays/s overall; cube-map views alone {reference:.1} Mrays/s", "", st.rays as f64 / st.seconds / 1e6);
+        let positions: Vec<_> = probes.iter().map(|p| p.position).collect();
+        let report = coverage(scene, &rays, &space, &positions, &CoverageParams::default());
+        let need = |f: f64| report.probes_for(f).map_or("-".to_string(), |n| n.to_string());
+        println!(
+            "{:<34} coverage {:.2} % of {:.0} units² reachable; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
+            "", 100.0 * report.fraction(), report.reachable_area, need(0.90), need(0.95), need(0.98), need(0.99), report.seconds
+        );
     }
 }

@@ -135,8 +135,8 @@ impl CubeView {
         self.hits[pixel].map(|h| self.origin + self.dirs[pixel] * h.t)
     }
 
-    /// Pairs of neighbouring pixels (same face) whose depths jump by more than
-    /// τ + two pixel footprints: (near pixel, far depth).
+    /// Pairs of neighbouring pixels (same face) where one point lies more than
+    /// τ + two pixel footprints off the other's tangent plane: (near pixel, far depth).
     fn depth_jumps(&self, tau: f32) -> Vec<(usize, f32)> {
         let r = self.res;
         let mut jumps = Vec::new();
@@ -149,8 +149,10 @@ impl CubeView {
                         let (Some(ha), Some(hb)) = (self.hits[a], self.hits[b]) else { continue };
                         let (near, far, hn, hf) = if ha.t <= hb.t { (a, b, ha, hb) } else { (b, a, hb, ha) };
                         let (pn, pf) = (self.origin + self.dirs[near] * hn.t, self.origin + self.dirs[far] * hf.t);
-                        // Far point off the near pixel's plane, beyond the slack of sampling.
-                        if (pf - pn).dot(hn.normal).abs() > tau + 2.0 * footprint * hf.t {
+                        // Either point off the other's tangent plane, beyond the slack of
+                        // sampling (one test alone misses a wall that continues past an opening).
+                        let off = (pf - pn).dot(hn.normal).abs().max((pn - pf).dot(hf.normal).abs());
+                        if off > tau + 2.0 * footprint * hf.t {
                             jumps.push((near, hf.t));
                         }
                     }

@@ -10,7 +10,8 @@
 //! from each voxel centre to the nearest occupied centre; (3) classify blocks of
 //! voxels with a few ray casts from their most open voxel: *solid* (inside a
 //! closed object: most hits are back faces), *inside* (a floor below and walls
-//! around: the downward ray and most horizontal rays hit front faces), or *open*;
+//! around: the downward ray and most horizontal rays hit front faces, the
+//! horizontal ones steep faces), or *open*;
 //! (4) navigable voxels are free, have clearance ≥ r, and are *inside* blocks
 //! (`inside`) or non-solid blocks reachable from the grid border (`outside`);
 //! (5) 6-connected components; `--start` picks one, else the one the scene's
@@ -462,10 +463,12 @@ fn front_hit(hits: &[Option<crate::raycast::Hit>], i: usize) -> bool {
 }
 
 /// Classifies a point from the hits of the [`probe_directions`] rays cast from it.
+/// Walls must be steep: above the eaves of a courtyard, horizontal rays meet
+/// roof slopes, and that space is above the roof, not inside.
 fn classify(hits: &[Option<crate::raycast::Hit>]) -> Class {
     let fronts = (0..hits.len()).filter(|&i| front_hit(hits, i)).count();
     let backs = hits.iter().filter(|h| h.is_some()).count() - fronts;
-    let walls = (0..8).filter(|&i| front_hit(hits, i)).count();
+    let walls = (0..8).filter(|&i| front_hit(hits, i) && hits[i].is_some_and(|h| h.normal.y.abs() < 0.7)).count();
     if backs > fronts {
         Class::Solid
     } else if front_hit(hits, 9) && walls >= 6 {

@@ -4,6 +4,7 @@
 //! `Scene`) → `raycast` (Embree, the only module that talks to it) → … the
 //! planning and rendering stages land here one module each.
 
+pub mod coverage;
 pub mod explore;
 pub mod export;
 pub mod files;
