@@ -4,7 +4,7 @@
 //! Goal (issue: explore): Crytek Sponza atrium explored in at most 3 s on 2 cores.
 
 use exploremaps_builder::coverage::{coverage, CoverageParams};
-use exploremaps_builder::explore::{explore, CubeView, ExploreParams};
+use exploremaps_builder::explore::{explore, CubeView, ExploreParams, Strategy};
 use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::raycast::RayScene;
@@ -22,18 +22,32 @@ fn main() {
             Err(e) => println!("SKIPPED {file}: {e}"),
         }
     }
-    for name in ["gallery", "maze", "pillars"] {
+    for name in std::env::var("BUILTINS").unwrap_or("gallery,maze,pillars".into()).split(',').filter(|s| !s.is_empty()) {
         scenes.push((name.to_string(), BuiltIn::parse(name).unwrap().generate(1)));
     }
     println!(
         "{:<34} {:>9} {:>7} {:>6} {:>7} {:>8} {:>7} {:>7} {:>7} {:>8} {:>8}",
         "scene", "triangles", "space", "probes", "left", "rays", "free s", "views s", "mask s", "relax s", "total s"
     );
-    for (name, scene) in &scenes {
+    let strategies: Vec<Strategy> = match std::env::var("STRATEGY").as_deref() {
+        Ok("greedy") => vec![Strategy::Greedy],
+        Ok("occluded") => vec![Strategy::Occluded],
+        _ => vec![Strategy::Greedy, Strategy::Occluded],
+    };
+    for ((name, scene), strategy) in scenes.iter().flat_map(|s| strategies.iter().map(move |&st| (s, st))) {
+        let name = format!("{name} ({strategy:?})");
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let t = Instant::now();
         let (space, fs) = free_space(scene, &rays, &FreeSpaceParams::default()).unwrap();
-        let (probes, st) = explore(&rays, &space, &ExploreParams::default());
+        let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        let params = ExploreParams {
+            strategy,
+            selection_samples: env("SEL", 20_000.0) as usize,
+            candidates: env("CANDS", 2000.0) as usize,
+            coverage_target: env("TARGET", exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET),
+            ..Default::default()
+        };
+        let (probes, st) = explore(scene, &rays, &space, &params);
         let total = t.elapsed().as_secs_f64();
         println!(
             "{name:<34} {:>9} {:>7} {:>6} {:>7} {:>8} {:>7.2} {:>7.2} {:>7.2} {:>8.2} {:>8.2}",

@@ -132,7 +132,7 @@ fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
 }
 
 /// Which side of each sample navigable space reaches (+1 front, −1 back, 0 none).
-fn reachability(rays: &RayScene, space: &FreeSpace, samples: &SurfaceSamples, dirs: usize, seed: u64) -> (Vec<i8>, usize) {
+pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &SurfaceSamples, dirs: usize, seed: u64) -> (Vec<i8>, usize) {
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let step = space.grid.voxel * 0.5;
     // Largest distance worth marching: the grid's diagonal.
