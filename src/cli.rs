@@ -32,23 +32,30 @@ pub enum Command {
         #[arg(short, long, default_value = "bundle")]
         output: PathBuf,
     },
-    /// Place probes, cluster them, find paths: writes graph.json without rendering.
+    /// Place probes and measure their coverage: writes graph.json, coverage.json and
+    /// pictures of what is not covered, without rendering.
     Plan {
         #[command(flatten)]
         scene: SceneArgs,
         /// Bundle folder to write.
         #[arg(short, long, default_value = "bundle")]
         output: PathBuf,
+        #[command(flatten)]
+        planning: PlanArgs,
     },
     /// Render what a planned bundle is missing (resumable).
     Render {
         /// Bundle folder written by `plan`.
         bundle: PathBuf,
     },
-    /// Measure how much reachable surface a bundle's probes see.
+    /// Measure again how much reachable surface a bundle's probes see; rewrites
+    /// coverage.json and the coverage pictures.
     Coverage {
         /// Bundle folder written by `plan`.
         bundle: PathBuf,
+        /// Area-uniform surface samples.
+        #[arg(long, default_value_t = 200_000)]
+        samples: usize,
     },
     /// Open a bundle in the native viewer.
     View {
@@ -89,4 +96,64 @@ pub struct SceneArgs {
     /// Metres per scene unit, when the file does not say (OBJ and PLY never do; it is guessed otherwise).
     #[arg(long)]
     pub metres_per_unit: Option<f32>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Space {
+    /// Decide from how enclosed the scene is, and say which was chosen.
+    Auto,
+    /// Architecture and interiors: enclosed space above a floor.
+    Inside,
+    /// Objects and exteriors: the space around the scene.
+    Outside,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// Greedy set cover over random navigable candidates: fewest probes.
+    Greedy,
+    /// The ExploreMaps paper's: probes behind depth discontinuities, relaxed.
+    Occluded,
+}
+
+/// How probes are placed.
+#[derive(Args, Debug, Clone)]
+pub struct PlanArgs {
+    /// Which free space is navigable.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub space: Space,
+    /// A point in the navigable space to use (x,y,z in scene units); picks that part of it.
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub start: Option<[f32; 3]>,
+    /// A probe to place first and keep (x,y,z in scene units; repeatable).
+    #[arg(long = "probe", value_parser = parse_point, allow_hyphen_values = true)]
+    pub probes: Vec<[f32; 3]>,
+    /// Stop placing probes once this fraction of the reachable surface is seen. The
+    /// default leaves out only nooks seen through narrow gaps, each of which would
+    /// cost a probe; 1 places probes until none adds anything.
+    #[arg(long, default_value_t = 0.995)]
+    pub coverage: f64,
+    /// Near distance r in metres: the least clearance of probes (default 0.5 % of the
+    /// scene's bounding-box diagonal).
+    #[arg(long)]
+    pub near_m: Option<f32>,
+    /// How probes are placed.
+    #[arg(long, value_enum, default_value = "greedy")]
+    pub strategy: Strategy,
+    /// Voxels on the longest side of the free-space grid. Memory stays at most about
+    /// 0.5 GiB for any scene: the grid never exceeds 40 million cells of 13 bytes.
+    #[arg(long, default_value_t = 256)]
+    pub max_cells: usize,
+    /// Area-uniform surface samples of the coverage metric.
+    #[arg(long, default_value_t = 200_000)]
+    pub samples: usize,
+}
+
+/// `x,y,z` as three finite numbers.
+fn parse_point(text: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| format!("{text}: {e}; expected x,y,z"))?;
+    match parts.as_slice() {
+        [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("{text}: expected three finite numbers x,y,z")),
+    }
 }

@@ -6,7 +6,14 @@ mod cli;
 
 use anyhow::{bail, Result};
 use clap::Parser;
-use cli::{Cli, Command, SceneArgs};
+use cli::{Cli, Command, PlanArgs, SceneArgs};
+use exploremaps_builder::explore::{ExploreParams, Strategy};
+use exploremaps_builder::freespace::{FreeSpaceParams, SpaceMode};
+use exploremaps_builder::pipeline::{self, PlanParams};
+use exploremaps_builder::coverage::CoverageParams;
+use exploremaps_format::{Graph, GRAPH_FILE};
+use glam::Vec3;
+use std::path::Path;
 use exploremaps_builder::load::{self, LoadError, LoadOptions};
 use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
 use std::process::ExitCode;
@@ -57,7 +64,9 @@ fn init_logging(verbose: u8, quiet: u8) {
 
 fn run(cli: &Cli) -> Result<()> {
     match &cli.command {
-        Command::Info { scene } => info(&load_scene(scene, cli.seed)?),
+        Command::Info { scene } => info(&load_scene(scene, cli.seed)?.0),
+        Command::Plan { scene, output, planning } => plan(scene, output, planning, cli.seed),
+        Command::Coverage { bundle, samples } => remeasure(bundle, *samples),
         Command::Scenes { name: None, .. } => {
             println!("Built-in scenes (use as SCENE, e.g. `exploremaps info maze:12`):");
             for (name, parameter, about) in CATALOGUE {
@@ -79,16 +88,15 @@ fn run(cli: &Cli) -> Result<()> {
             }
         }
         Command::Build { .. } => Err(NotBuiltYet("build").into()),
-        Command::Plan { .. } => Err(NotBuiltYet("plan").into()),
         Command::Render { .. } => Err(NotBuiltYet("render").into()),
-        Command::Coverage { .. } => Err(NotBuiltYet("coverage").into()),
         Command::View { .. } => Err(NotBuiltYet("view").into()),
         Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
     }
 }
 
-/// A file if one exists at that path, else a built-in scene by name.
-fn load_scene(args: &SceneArgs, seed: u64) -> Result<Scene> {
+/// A file if one exists at that path, else a built-in scene by name; with the
+/// source to record in the bundle (an absolute path, or `builtin:<spec>`).
+fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
     let up = load::parse_up_axis(&args.up).ok_or_else(|| BadInput(format!("--up {}: expected x, y or z, optionally signed (e.g. -z)", args.up)))?;
     if let Some(m) = args.metres_per_unit {
         if !(m.is_finite() && m > 0.0) {
@@ -103,7 +111,8 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<Scene> {
         let scene = load::load(path, &LoadOptions { up, metres_per_unit: args.metres_per_unit })?;
         spinner.finish_and_clear();
         tracing::info!("loaded {} in {:.2} s", path.display(), started.elapsed().as_secs_f64());
-        return Ok(scene);
+        let source = std::fs::canonicalize(path).unwrap_or(path.to_path_buf()).display().to_string();
+        return Ok((scene, source));
     }
     let name = builtin_name.unwrap_or(&args.scene);
     let builtin = BuiltIn::parse(name)
@@ -113,7 +122,131 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<Scene> {
         scene.metres_per_unit = m;
         scene.scale_source = ScaleSource::User;
     }
-    Ok(scene)
+    Ok((scene, format!("builtin:{name}")))
+}
+
+fn plan_params(planning: &PlanArgs, seed: u64) -> Result<PlanParams> {
+    if !(planning.coverage > 0.0 && planning.coverage <= 1.0) {
+        bail!(BadInput(format!("--coverage {}: must be a fraction in (0, 1]", planning.coverage)));
+    }
+    if planning.near_m.is_some_and(|m| !(m.is_finite() && m > 0.0)) {
+        bail!(BadInput("--near-m: must be a positive number of metres".into()));
+    }
+    Ok(PlanParams {
+        free_space: FreeSpaceParams {
+            space: match planning.space {
+                cli::Space::Auto => SpaceMode::Auto,
+                cli::Space::Inside => SpaceMode::Inside,
+                cli::Space::Outside => SpaceMode::Outside,
+            },
+            max_cells: planning.max_cells,
+            near_m: planning.near_m,
+            start: planning.start.map(Vec3::from),
+            ..Default::default()
+        },
+        explore: ExploreParams {
+            strategy: match planning.strategy {
+                cli::Strategy::Greedy => Strategy::Greedy,
+                cli::Strategy::Occluded => Strategy::Occluded,
+            },
+            coverage_target: planning.coverage,
+            user_probes: planning.probes.iter().map(|&p| Vec3::from(p)).collect(),
+            seed,
+            ..Default::default()
+        },
+        coverage: CoverageParams { samples: planning.samples.clamp(1, 10_000_000), seed, ..Default::default() },
+    })
+}
+
+/// `exploremaps plan`: explore, measure, write the bundle.
+fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -> Result<()> {
+    let params = plan_params(planning, seed)?;
+    let (scene, source) = load_scene(scene_args, seed)?;
+    let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
+    let result = pipeline::plan(&scene, &source, &params);
+    spinner.finish_and_clear();
+    let mut plan = result.map_err(|e| match e {
+        pipeline::PlanError::FreeSpace(e) => anyhow::Error::new(BadInput(e.to_string())),
+        other => other.into(),
+    })?;
+    // What `exploremaps coverage` needs to measure this bundle again.
+    plan.graph.stats.insert(
+        "plan".into(),
+        serde_json::json!({
+            "seed": seed,
+            "up": scene_args.up,
+            "metres_per_unit": scene_args.metres_per_unit,
+            "space": format!("{:?}", planning.space).to_lowercase(),
+            "strategy": format!("{:?}", planning.strategy).to_lowercase(),
+            "coverage_target": planning.coverage,
+            "near_m": planning.near_m,
+            "max_cells": planning.max_cells,
+            "seconds": plan.seconds,
+        }),
+    );
+    exploremaps_builder::bundle::write_plan(output, &plan)?;
+    print_plan(&scene, output, &plan);
+    Ok(())
+}
+
+/// `exploremaps coverage`: measure a planned bundle's probes again.
+fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
+    let graph_path = bundle.join(GRAPH_FILE);
+    let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
+    let graph = Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?;
+    let recorded = graph.stats.get("plan").cloned().unwrap_or_default();
+    let seed = recorded["seed"].as_u64().unwrap_or(1);
+    let scene_args = SceneArgs {
+        scene: graph.scene.source.clone(),
+        up: recorded["up"].as_str().unwrap_or("y").to_string(),
+        metres_per_unit: recorded["metres_per_unit"].as_f64().map(|m| m as f32),
+    };
+    let (scene, _) = load_scene(&scene_args, seed).map_err(|e| BadInput(format!("the bundle's scene {}: {e:#}", graph.scene.source)))?;
+    let space = match graph.scene.space.as_deref() {
+        Some("outside") => SpaceMode::Outside,
+        _ => SpaceMode::Inside,
+    };
+    let near_m = graph.scene.near_distance.map(|r| r * scene.metres_per_unit);
+    let max_cells = recorded["max_cells"].as_u64().unwrap_or(256) as usize;
+    let params = PlanParams {
+        free_space: FreeSpaceParams { space, near_m, max_cells, ..Default::default() },
+        explore: ExploreParams { seed, ..Default::default() },
+        coverage: CoverageParams { samples: samples.clamp(1, 10_000_000), seed, ..Default::default() },
+    };
+    let spinner = spinner(format!("measuring coverage of {} probes", graph.probes.len()));
+    let result = pipeline::remeasure(&scene, graph, &params);
+    spinner.finish_and_clear();
+    let plan = result.map_err(|e| anyhow::anyhow!("{e}"))?;
+    exploremaps_builder::bundle::write_plan(bundle, &plan)?;
+    print_plan(&scene, bundle, &plan);
+    Ok(())
+}
+
+fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
+    let f = &plan.free_space;
+    let c = &plan.coverage;
+    let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
+    println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
+    println!("  free space  {} ({}), voxel {:.3}, near {:.3} units, {} navigable voxels ({:.2} s)", f.space, f.space_reason, f.voxel, f.near, f.navigable, f.seconds);
+    if plan.explore.probes > 0 {
+        println!("  explore     {} probes, {:.1} M rays ({:.2} s)", plan.graph.probes.len(), plan.explore.rays as f64 / 1e6, plan.explore.seconds);
+    }
+    println!(
+        "  coverage    {:.2} % of {:.1} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
+        100.0 * c.fraction(),
+        c.reachable_area,
+        c.samples.points.len(),
+        need(0.90),
+        need(0.95),
+        need(0.98),
+        need(0.99),
+        c.seconds
+    );
+    for b in &plan.baselines {
+        println!("  baseline    {} placement, same {} probes: {:.2} %", b.name, b.probes.len(), 100.0 * b.report.fraction());
+    }
+    let files: Vec<&str> = plan.images.iter().map(|(n, _)| n.as_str()).chain(["coverage.json", GRAPH_FILE]).collect();
+    println!("  wrote       {} ({:.2} s in all)", files.join(", "), plan.seconds);
 }
 
 /// A spinner on stderr while a long step runs; hidden when stderr is not a terminal.

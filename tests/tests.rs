@@ -137,11 +137,80 @@ fn stages_not_built_yet_say_so_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("bundle");
     let b = bundle.to_str().unwrap();
-    for args in [vec!["plan", "gallery", "-o", b], vec!["build", "-o", b], vec!["render", b], vec!["coverage", b], vec!["view", b], vec!["serve", b]] {
+    for args in [vec!["build", "-o", b], vec!["render", b], vec!["view", b], vec!["serve", b]] {
         let out = exploremaps(&args);
         assert_eq!(out.status.code(), Some(3), "{args:?}");
         assert!(stderr(&out).contains("not available yet"), "{args:?}: {}", stderr(&out));
         assert!(stdout(&out).is_empty());
         assert!(!bundle.exists(), "{args:?} wrote output");
     }
+}
+
+/// Probe positions of a bundle, via the format crate (which validates it).
+fn bundle_probes(dir: &Path) -> Vec<[f32; 3]> {
+    let text = std::fs::read_to_string(dir.join("graph.json")).unwrap();
+    let graph = exploremaps_format::Graph::from_json(&text).unwrap();
+    graph.probes.iter().map(|p| p.position).collect()
+}
+
+#[test]
+fn plan_writes_a_valid_bundle_with_coverage_and_pictures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("maze");
+    let o = out.to_str().unwrap();
+    let run = exploremaps(&["plan", "maze:4", "-o", o, "--samples", "20000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(stdout(&run).contains("coverage"), "{}", stdout(&run));
+    let probes = bundle_probes(&out);
+    assert!(!probes.is_empty());
+    let coverage: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+    assert!(coverage["fraction"].as_f64().unwrap() > 0.98, "{coverage}");
+    assert_eq!(coverage["baselines"].as_array().unwrap().len(), 2);
+    for picture in ["coverage_curve.png", "coverage_top.png", "coverage_view_0.png"] {
+        let img = image::open(out.join(picture)).unwrap_or_else(|e| panic!("{picture}: {e}"));
+        assert!(img.width() >= 200, "{picture}");
+    }
+    // No temporary files are left behind.
+    assert!(std::fs::read_dir(&out).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().ends_with(".tmp")));
+
+    // Same seed, one thread: the same probes.
+    let again = dir.path().join("again");
+    let run = exploremaps(&["--threads", "1", "plan", "maze:4", "-o", again.to_str().unwrap(), "--samples", "20000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert_eq!(bundle_probes(&again), probes);
+
+    // `coverage` measures the bundle again, with more samples.
+    let run = exploremaps(&["coverage", o, "--samples", "40000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let coverage: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+    assert_eq!(coverage["samples"].as_u64(), Some(40_000));
+    assert_eq!(bundle_probes(&out), probes, "re-measuring keeps the probes");
+}
+
+#[test]
+fn plan_user_probes_and_bad_planning_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p");
+    let o = out.to_str().unwrap();
+    let run = exploremaps(&["plan", "maze:3", "-o", o, "--samples", "5000", "--probe", "1,1.5,1", "--strategy", "occluded"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert_eq!(bundle_probes(&out)[0], [1.0, 1.5, 1.0]);
+    for (args, needle) in [
+        (vec!["--start", "1000,0,0"], "outside the scene's bounds"),
+        (vec!["--start", "1,2"], "x,y,z"),
+        (vec!["--coverage", "1.5"], "fraction"),
+        (vec!["--max-cells", "3"], "max-cells"),
+        (vec!["--space", "sideways"], "sideways"),
+    ] {
+        let bad = dir.path().join("bad");
+        let mut all = vec!["plan", "maze:3", "-o", bad.to_str().unwrap(), "--samples", "5000"];
+        all.extend(args.iter());
+        let run = exploremaps(&all);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {}", stderr(&run));
+        assert!(stderr(&run).contains(needle), "{args:?}: {}", stderr(&run));
+        assert!(!bad.join("graph.json").exists());
+    }
+    let run = exploremaps(&["coverage", dir.path().join("nowhere").to_str().unwrap()]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(stderr(&run).contains("graph.json"));
 }

@@ -101,7 +101,7 @@ pub struct Candidate {
     pub user_placed: bool,
 }
 
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ExploreStats {
     pub probes: usize,
     /// Rays cast in cube maps, masking and relaxation.

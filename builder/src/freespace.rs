@@ -161,7 +161,7 @@ pub struct FreeSpace {
     pub bounds: Aabb,
 }
 
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FreeSpaceStats {
     pub dims: [usize; 3],
     pub voxel: f32,
@@ -671,6 +671,8 @@ mod tests {
         assert!(matches!(err(Vec3::new(0.14, 1.5, 2.0)), FreeSpaceError::StartTooNarrow { .. }));
         assert!(matches!(err(Vec3::new(50.0, 1.5, 2.0)), FreeSpaceError::StartOutside(_)));
         assert!(matches!(err(Vec3::new(2.5, -0.5, 2.0)), FreeSpaceError::StartNotNavigable(..)));
+        // A closed box with the start outside it and no opening: a clear error, not a hang.
+        assert!(matches!(err(Vec3::new(-0.4, 1.5, 2.0)), FreeSpaceError::StartNotNavigable(..)));
     }
 
     #[test]

@@ -1,15 +1,20 @@
 //! The ExploreMaps builder: loads a scene and runs the pipeline stages on it.
 //!
-//! Stages, in pipeline order (DESIGN.md section 2): `load` (scene files into a
-//! `Scene`) → `raycast` (Embree, the only module that talks to it) → … the
-//! planning and rendering stages land here one module each.
+//! Stages, in pipeline order (DESIGN.md section 2), one module each:
+//! `load` (scene files into a `Scene`) → `raycast` (Embree; the only module
+//! that talks to it) → `freespace` → `explore` → `coverage`; `report` draws the
+//! pictures, `pipeline` wires the stages, `bundle` writes the result, `export`
+//! and `files` are utilities.
 
+pub mod bundle;
 pub mod coverage;
 pub mod explore;
 pub mod export;
 pub mod files;
 pub mod freespace;
 pub mod load;
+pub mod pipeline;
 pub mod raycast;
+pub mod report;
 
 pub use exploremaps_scenes as scenes;

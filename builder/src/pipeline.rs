@@ -1,0 +1,225 @@
+//! The pipeline, step by step: what `exploremaps plan` runs. Each step is one
+//! stage module; this file only wires their results together.
+//!
+//! Planning today: ray casting → free space → explore → coverage (with random
+//! and grid baselines of the same probe count) → pictures → graph. Clustering,
+//! orientation, paths, ordering and rendering join here as they land.
+
+use crate::coverage::{coverage, CoverageParams, CoverageReport};
+use crate::explore::{explore, ExploreParams, ExploreStats};
+use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
+use crate::raycast::{RayScene, RaycastError};
+use crate::report;
+use exploremaps_format as format;
+use exploremaps_scenes::{ScaleSource, Scene};
+use glam::Vec3;
+use image::{Rgb, RgbImage};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanParams {
+    pub free_space: FreeSpaceParams,
+    pub explore: ExploreParams,
+    pub coverage: CoverageParams,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error(transparent)]
+    Raycast(#[from] RaycastError),
+    #[error(transparent)]
+    FreeSpace(#[from] FreeSpaceError),
+}
+
+/// Coverage of a baseline placement with the same number of probes.
+pub struct Baseline {
+    pub name: &'static str,
+    pub probes: Vec<Vec3>,
+    pub report: CoverageReport,
+}
+
+pub struct Plan {
+    pub graph: format::Graph,
+    pub coverage: CoverageReport,
+    pub baselines: Vec<Baseline>,
+    pub free_space: FreeSpaceStats,
+    pub explore: ExploreStats,
+    /// (file name, picture) to write into the bundle.
+    pub images: Vec<(String, RgbImage)>,
+    /// Per material and per object: (name, reachable area, covered area).
+    pub per_material: Vec<(String, f64, f64)>,
+    pub per_object: Vec<(String, f64, f64)>,
+    pub seconds: f64,
+}
+
+const EXPLORED: Rgb<u8> = Rgb([20, 150, 40]);
+const RANDOM: Rgb<u8> = Rgb([230, 120, 20]);
+const GRID: Rgb<u8> = Rgb([40, 90, 220]);
+
+/// Plans a scene: every step from ray casting to the graph.
+pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, PlanError> {
+    let started = Instant::now();
+    let (rays, space, free_stats) = prepare(scene, &params.free_space)?;
+    let (candidates, explore_stats) = {
+        let _span = tracing::info_span!("explore").entered();
+        explore(scene, &rays, &space, &params.explore)
+    };
+    tracing::info!("explore: {} probes in {:.2} s", candidates.len(), explore_stats.seconds);
+    let mut graph = new_graph(scene, source, &space, &candidates);
+    graph.stats.insert("free_space".into(), serde_json::to_value(&free_stats).unwrap_or_default());
+    graph.stats.insert("explore".into(), serde_json::to_value(&explore_stats).unwrap_or_default());
+    Ok(measure(scene, &rays, &space, graph, free_stats, explore_stats, params, started))
+}
+
+/// Measures the coverage of a planned graph's probes again (e.g. with more
+/// samples). The navigable component is the one holding the first probe.
+pub fn remeasure(scene: &Scene, graph: format::Graph, params: &PlanParams) -> Result<Plan, PlanError> {
+    let started = Instant::now();
+    let mut free_params = params.free_space.clone();
+    free_params.start = graph.probes.first().map(|p| Vec3::from(p.position));
+    let (rays, space, free_stats) = prepare(scene, &free_params)?;
+    Ok(measure(scene, &rays, &space, graph, free_stats, ExploreStats::default(), params, started))
+}
+
+fn prepare(scene: &Scene, params: &FreeSpaceParams) -> Result<(RayScene, FreeSpace, FreeSpaceStats), PlanError> {
+    let rays = {
+        let _span = tracing::info_span!("raycast").entered();
+        RayScene::new(&scene.positions, &scene.triangles, 0)?
+    };
+    let (space, stats) = {
+        let _span = tracing::info_span!("free space").entered();
+        free_space(scene, &rays, params)?
+    };
+    tracing::info!("free space: {} ({}), {} navigable voxels of {:.3} units, near distance {:.3}", stats.space, stats.space_reason, stats.navigable, stats.voxel, stats.near);
+    Ok((rays, space, stats))
+}
+
+/// Coverage, baselines and pictures for the graph's probes.
+#[allow(clippy::too_many_arguments)]
+fn measure(
+    scene: &Scene,
+    rays: &RayScene,
+    space: &FreeSpace,
+    mut graph: format::Graph,
+    free_space: FreeSpaceStats,
+    explore: ExploreStats,
+    params: &PlanParams,
+    started: Instant,
+) -> Plan {
+    let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+    let report = {
+        let _span = tracing::info_span!("coverage").entered();
+        coverage(scene, rays, space, &probes, &params.coverage)
+    };
+    let baselines = baselines(scene, rays, space, probes.len(), params);
+    let floor = ([&report].into_iter().chain(baselines.iter().map(|b| &b.report)))
+        .filter_map(|r| r.curve.first().map(|c| c.1))
+        .fold(1.0f64, f64::min);
+    let mut curves: Vec<(&[(u32, f64)], Rgb<u8>)> = vec![(&report.curve, EXPLORED)];
+    for b in &baselines {
+        curves.push((&b.report.curve, if b.name == "random" { RANDOM } else { GRID }));
+    }
+    let mut images = vec![
+        ("coverage_curve.png".to_string(), report::coverage_chart(&curves, (floor - 0.05).clamp(0.0, 0.9), 640, 400)),
+        ("coverage_top.png".to_string(), report::top_view(scene, rays, space, &report, &probes, 800)),
+    ];
+    if let Some(eye) = space.most_open_point() {
+        let e = scene.bounds().extent();
+        let long = if e.x >= e.z { Vec3::X } else { Vec3::Z };
+        for (k, forward) in [long, -long].into_iter().enumerate() {
+            images.push((format!("coverage_view_{k}.png"), report::perspective_view(scene, rays, &report, &probes, eye, forward, 640)));
+        }
+    }
+    let per_material = report.per_group(&scene.triangle_material, &scene.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>());
+    let per_object = report.per_group(&scene.triangle_object, &scene.objects);
+    graph.coverage = Some(format::Coverage {
+        samples: report.samples.points.len() as u32,
+        reachable_area: report.reachable_area,
+        covered_area: report.covered_area,
+        per_group: per_material.iter().map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c }).collect(),
+        curve: report.curve.clone(),
+    });
+    graph.stats.insert(
+        "coverage".into(),
+        serde_json::json!({ "seconds": report.seconds, "rays": report.rays, "fraction": report.fraction() }),
+    );
+    Plan {
+        graph,
+        coverage: report,
+        baselines,
+        free_space,
+        explore,
+        images,
+        per_material,
+        per_object,
+        seconds: started.elapsed().as_secs_f64(),
+    }
+}
+
+/// Random navigable points and a regular lattice of navigable points, as many
+/// as the explored probes, measured with the same metric.
+fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, params: &PlanParams) -> Vec<Baseline> {
+    let navigable = space.navigable_points();
+    if navigable.is_empty() || count == 0 {
+        return Vec::new();
+    }
+    let mut rng = Pcg64Mcg::seed_from_u64(params.explore.seed ^ 0x7261_6e64);
+    let random: Vec<Vec3> = (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect();
+    // The coarsest lattice (in voxels) with at least `count` navigable nodes, thinned evenly.
+    let mut lattice = Vec::new();
+    for step in (1..=64usize).rev() {
+        lattice = (0..space.grid.len())
+            .filter(|&i| space.navigable[i] && space.grid.coords(i).iter().all(|&c| c % step == step / 2))
+            .map(|i| space.grid.center(space.grid.coords(i)))
+            .collect();
+        if lattice.len() >= count {
+            break;
+        }
+    }
+    let stride = lattice.len() as f64 / count as f64;
+    let grid: Vec<Vec3> = (0..count.min(lattice.len())).map(|k| lattice[(k as f64 * stride) as usize]).collect();
+    [("random", random), ("grid", grid)]
+        .into_iter()
+        .map(|(name, probes)| {
+            let report = coverage(scene, rays, space, &probes, &params.coverage);
+            Baseline { name, probes, report }
+        })
+        .collect()
+}
+
+/// A graph holding the scene's description and the explored probes.
+fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, candidates: &[crate::explore::Candidate]) -> format::Graph {
+    let b = scene.bounds();
+    let mut graph = format::Graph::new(format::SceneInfo {
+        name: scene.name.clone(),
+        source: source.to_string(),
+        triangles: scene.triangles.len() as u64,
+        bounds_min: b.min.to_array(),
+        bounds_max: b.max.to_array(),
+        metres_per_unit: scene.metres_per_unit,
+        scale_source: match scene.scale_source {
+            ScaleSource::File => "file",
+            ScaleSource::User => "user",
+            ScaleSource::Guessed => "guessed",
+        }
+        .to_string(),
+        space: Some(space.space.name().to_string()),
+        near_distance: Some(space.near),
+        credits: Vec::new(),
+    });
+    graph.probes = candidates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| format::Probe {
+            id: i as u32,
+            position: c.position.to_array(),
+            cluster: None,
+            preferred_directions: Vec::new(),
+            user_placed: c.user_placed,
+            assets: format::ProbeAssets::default(),
+        })
+        .collect();
+    graph
+}
