@@ -117,7 +117,7 @@ fn measure(
     let floor = ([&report].into_iter().chain(baselines.iter().map(|b| &b.report)))
         .filter_map(|r| r.curve.first().map(|c| c.1))
         .fold(1.0f64, f64::min);
-    let mut curves: Vec<(&[(u32, f64)], Rgb<u8>)> = vec![(&report.curve, EXPLORED)];
+    let mut curves: Vec<report::Curve> = vec![(&report.curve, EXPLORED)];
     for b in &baselines {
         curves.push((&b.report.curve, if b.name == "random" { RANDOM } else { GRID }));
     }

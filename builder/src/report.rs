@@ -160,11 +160,14 @@ pub fn perspective_view(scene: &Scene, rays: &RayScene, report: &CoverageReport,
     })
 }
 
+/// A coverage curve, (probes, covered fraction) points, and its colour.
+pub type Curve<'a> = (&'a [(u32, f64)], Rgb<u8>);
+
 /// Coverage against probe count: one polyline per curve (fractions in [0, 1]),
 /// on a grid with lines every 10 % and every 10 probes; the y axis runs from
 /// `floor` to 100 %. Colours: as given per curve. No text: the numbers are in
 /// coverage.json.
-pub fn coverage_chart(curves: &[(&[(u32, f64)], Rgb<u8>)], floor: f64, width: u32, height: u32) -> RgbImage {
+pub fn coverage_chart(curves: &[Curve], floor: f64, width: u32, height: u32) -> RgbImage {
     let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
     let max_n = curves.iter().flat_map(|(c, _)| c.iter().map(|p| p.0)).max().unwrap_or(1).max(1) as f32;
     let margin = 24.0;
