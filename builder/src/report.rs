@@ -18,15 +18,17 @@ use image::{Rgb, RgbImage};
 
 const PROBE: Rgb<u8> = Rgb([40, 230, 60]);
 
-/// Per triangle: whether the coverage metric found any of it reachable.
+/// Per triangle: whether the coverage metric found any of it reachable. A
+/// triangle no sample landed on (small ones often) counts as reachable, so its
+/// pixels are judged by the probes rather than dimmed.
 fn reachable_triangles(scene: &Scene, report: &CoverageReport) -> Vec<bool> {
+    let mut sampled = vec![false; scene.triangles.len()];
     let mut reachable = vec![false; scene.triangles.len()];
     for (i, &t) in report.samples.triangles.iter().enumerate() {
-        if report.reached_side[i] != 0 {
-            reachable[t as usize] = true;
-        }
+        sampled[t as usize] = true;
+        reachable[t as usize] |= report.reached_side[i] != 0;
     }
-    reachable
+    reachable.iter().zip(&sampled).map(|(&r, &s)| r || !s).collect()
 }
 
 #[derive(Clone, Copy, PartialEq)]
