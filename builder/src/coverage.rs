@@ -97,20 +97,48 @@ impl CoverageReport {
 
 /// Samples the surface uniformly by area with a seeded generator.
 pub fn surface_samples(scene: &Scene, count: usize, seed: u64) -> SurfaceSamples {
-    let mut cumulative = Vec::with_capacity(scene.triangles.len());
+    let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x636f_7665);
+    let mut s = SurfaceSamples::default();
+    let total = sample_triangles(scene, &all, count, &mut rng, &mut s);
+    s.area_each = total / count.max(1) as f64;
+    s
+}
+
+/// Area-uniform samples plus, for every object that got fewer than
+/// `min_per_object`, extra samples on it up to that number: a small detailed
+/// object in a large hall (the paper's "teapot in a stadium") then weighs in
+/// the selection like a wall does. `area_each` is meaningless here: count samples.
+pub fn stratified_samples(scene: &Scene, count: usize, min_per_object: usize, seed: u64) -> SurfaceSamples {
+    let mut s = surface_samples(scene, count, seed);
+    let mut per_object = vec![0usize; scene.objects.len()];
+    for &t in &s.triangles {
+        per_object[scene.triangle_object[t as usize] as usize] += 1;
+    }
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x7374_7261);
+    for (object, &have) in per_object.iter().enumerate() {
+        if have < min_per_object {
+            let triangles: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&t| scene.triangle_object[t as usize] == object as u32).collect();
+            sample_triangles(scene, &triangles, min_per_object - have, &mut rng, &mut s);
+        }
+    }
+    s
+}
+
+/// Appends `count` area-uniform samples over `triangles`; returns their total area.
+fn sample_triangles(scene: &Scene, triangles: &[u32], count: usize, rng: &mut Pcg64Mcg, s: &mut SurfaceSamples) -> f64 {
+    let mut cumulative = Vec::with_capacity(triangles.len());
     let mut total = 0.0f64;
-    for t in 0..scene.triangles.len() {
-        total += scene.triangle_area(t) as f64;
+    for &t in triangles {
+        total += scene.triangle_area(t as usize) as f64;
         cumulative.push(total);
     }
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x636f_7665);
-    let mut s = SurfaceSamples { area_each: total / count.max(1) as f64, ..Default::default() };
     if total <= 0.0 {
-        return s;
+        return 0.0;
     }
     for _ in 0..count {
         let x = rng.random::<f64>() * total;
-        let t = cumulative.partition_point(|&c| c <= x).min(cumulative.len() - 1);
+        let t = triangles[cumulative.partition_point(|&c| c <= x).min(cumulative.len() - 1)] as usize;
         let [a, b, c] = scene.triangle(t);
         let (mut u, mut v): (f32, f32) = (rng.random(), rng.random());
         if u + v > 1.0 {
@@ -120,7 +148,7 @@ pub fn surface_samples(scene: &Scene, count: usize, seed: u64) -> SurfaceSamples
         s.normals.push((b - a).cross(c - a).normalize_or_zero());
         s.triangles.push(t as u32);
     }
-    s
+    total
 }
 
 fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
@@ -164,8 +192,12 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
 
 /// Measures coverage of `probes` (in placement order).
 pub fn coverage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &CoverageParams) -> CoverageReport {
+    coverage_of(surface_samples(scene, params.samples, params.seed), rays, space, probes, params)
+}
+
+/// Measures coverage of `probes` over given surface samples.
+pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &CoverageParams) -> CoverageReport {
     let started = Instant::now();
-    let samples = surface_samples(scene, params.samples, params.seed);
     let (reached_side, mut ray_count) = reachability(rays, space, &samples, params.reach_dirs, params.seed);
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let mut first_seen_by: Vec<Option<u32>> = vec![None; samples.points.len()];
