@@ -160,7 +160,7 @@ fn measure(
 
 /// Random navigable points and a regular lattice of navigable points, as many
 /// as the explored probes, measured with the same metric.
-fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, params: &PlanParams) -> Vec<Baseline> {
+pub fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, params: &PlanParams) -> Vec<Baseline> {
     let navigable = space.navigable_points();
     if navigable.is_empty() || count == 0 {
         return Vec::new();
