@@ -140,6 +140,13 @@ pub struct PlanArgs {
     /// How probes are placed.
     #[arg(long, value_enum, default_value = "greedy")]
     pub strategy: Strategy,
+    /// Walk mode: probes stand at eye height above walkable floors, with a person's
+    /// head room, as a visitor would see the place (uses the scene's unit scale).
+    #[arg(long)]
+    pub walk: bool,
+    /// Eye height in metres for --walk.
+    #[arg(long, default_value_t = 1.6, requires = "walk")]
+    pub eye_height_m: f32,
     /// Voxels on the longest side of the free-space grid. Memory stays at most about
     /// 0.5 GiB for any scene: the grid never exceeds 40 million cells of 13 bytes.
     #[arg(long, default_value_t = 256)]

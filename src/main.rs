@@ -125,12 +125,15 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
     Ok((scene, format!("builtin:{name}")))
 }
 
-fn plan_params(planning: &PlanArgs, seed: u64) -> Result<PlanParams> {
+fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> Result<PlanParams> {
     if !(planning.coverage > 0.0 && planning.coverage <= 1.0) {
         bail!(BadInput(format!("--coverage {}: must be a fraction in (0, 1]", planning.coverage)));
     }
     if planning.near_m.is_some_and(|m| !(m.is_finite() && m > 0.0)) {
         bail!(BadInput("--near-m: must be a positive number of metres".into()));
+    }
+    if !(planning.eye_height_m.is_finite() && planning.eye_height_m > 0.0) {
+        bail!(BadInput("--eye-height-m: must be a positive number of metres".into()));
     }
     Ok(PlanParams {
         free_space: FreeSpaceParams {
@@ -151,6 +154,7 @@ fn plan_params(planning: &PlanArgs, seed: u64) -> Result<PlanParams> {
             },
             coverage_target: planning.coverage,
             user_probes: planning.probes.iter().map(|&p| Vec3::from(p)).collect(),
+            eye_height: planning.walk.then(|| planning.eye_height_m / metres_per_unit),
             seed,
             ..Default::default()
         },
@@ -160,8 +164,9 @@ fn plan_params(planning: &PlanArgs, seed: u64) -> Result<PlanParams> {
 
 /// `exploremaps plan`: explore, measure, write the bundle.
 fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -> Result<()> {
-    let params = plan_params(planning, seed)?;
+    plan_params(planning, seed, 1.0)?; // arguments are checked before the scene is loaded
     let (scene, source) = load_scene(scene_args, seed)?;
+    let params = plan_params(planning, seed, scene.metres_per_unit)?;
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
     let result = pipeline::plan(&scene, &source, &params);
     spinner.finish_and_clear();
@@ -181,6 +186,7 @@ fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -
             "coverage_target": planning.coverage,
             "near_m": planning.near_m,
             "max_cells": planning.max_cells,
+            "walk_eye_height_m": planning.walk.then_some(planning.eye_height_m),
             "seconds": plan.seconds,
         }),
     );

@@ -195,12 +195,19 @@ fn plan_user_probes_and_bad_planning_arguments() {
     let run = exploremaps(&["plan", "maze:3", "-o", o, "--samples", "5000", "--probe", "1,1.5,1", "--strategy", "occluded"]);
     assert!(run.status.success(), "{}", stderr(&run));
     assert_eq!(bundle_probes(&out)[0], [1.0, 1.5, 1.0]);
+    // Walk mode: every probe at eye height above the maze floor (y = 0).
+    let walk = dir.path().join("walk");
+    let run = exploremaps(&["plan", "maze:3", "-o", walk.to_str().unwrap(), "--samples", "5000", "--walk", "--eye-height-m", "1.5"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let probes = bundle_probes(&walk);
+    assert!(!probes.is_empty() && probes.iter().all(|p| (p[1] - 1.5).abs() < 1e-3), "{probes:?}");
     for (args, needle) in [
         (vec!["--start", "1000,0,0"], "outside the scene's bounds"),
         (vec!["--start", "1,2"], "x,y,z"),
         (vec!["--coverage", "1.5"], "fraction"),
         (vec!["--max-cells", "3"], "max-cells"),
         (vec!["--space", "sideways"], "sideways"),
+        (vec!["--eye-height-m", "1.7"], "--walk"),
     ] {
         let bad = dir.path().join("bad");
         let mut all = vec!["plan", "maze:3", "-o", bad.to_str().unwrap(), "--samples", "5000"];

@@ -26,6 +26,9 @@
 //!   random one and relaxes toward the area-weighted barycentre of the surface
 //!   it newly sees, halfway to any obstruction.
 //!
+//! Walk mode (`eye_height`, the paper's future work) stands every probe at eye
+//! height above a walkable floor with a person's room above the floor.
+//!
 //! Parameters (defaults): greedy: 2,000 candidates, 20,000 samples, target
 //! 99.5 %; occluded: `face_res` 64, τ = 2r plus two pixel footprints, 3 samples
 //! per depth jump, 6 relaxation steps; both: at most 256 probes. Deterministic:
@@ -70,6 +73,9 @@ pub struct ExploreParams {
     pub max_probes: usize,
     /// Placed first, never moved.
     pub user_probes: Vec<Vec3>,
+    /// Walk mode: probes stand at this eye height (scene units) above walkable
+    /// floors, with head room above; `None` lets them float anywhere navigable.
+    pub eye_height: Option<f32>,
     pub seed: u64,
 }
 
@@ -85,6 +91,7 @@ impl Default for ExploreParams {
             relax_steps: 6,
             max_probes: 256,
             user_probes: Vec::new(),
+            eye_height: None,
             seed: 1,
         }
     }
@@ -245,11 +252,17 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
     if !navigable.is_empty() {
         let half = Vec3::splat(0.5 * space.grid.voxel);
-        positions.extend((0..params.candidates).map(|_| {
-            let c = navigable[rng.random_range(0..navigable.len())];
-            // Jitter inside the voxel so candidates are not locked to the grid.
-            (c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half, false)
-        }));
+        let drawn: Vec<Vec3> = (0..params.candidates)
+            .map(|_| {
+                let c = navigable[rng.random_range(0..navigable.len())];
+                // Jitter inside the voxel so candidates are not locked to the grid.
+                c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
+            })
+            .collect();
+        positions.extend(drawn.into_iter().filter_map(|c| match params.eye_height {
+            Some(eye) => eye_level(rays, space, c, eye),
+            None => Some(c),
+        }).map(|c| (c, false)));
     }
     let t = Instant::now();
     let words = targets.len().div_ceil(64);
@@ -364,7 +377,22 @@ fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) 
             None => (pending[rng.random_range(0..pending.len())], false),
         };
         let t = Instant::now();
-        let position = if user_placed { start } else { relax(rays, space, start, &seen_triangles, params, &mut stats) };
+        let position = if user_placed {
+            start
+        } else {
+            let relaxed = relax(rays, space, start, &seen_triangles, params, &mut stats);
+            match params.eye_height {
+                // Stand the probe up at eye level, or drop it if there is no floor below.
+                Some(eye) => match eye_level(rays, space, relaxed, eye).or_else(|| eye_level(rays, space, start, eye)) {
+                    Some(p) => p,
+                    None => {
+                        pending.retain(|&q| q != start);
+                        continue;
+                    }
+                },
+                None => relaxed,
+            }
+        };
         stats.seconds_relax += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
@@ -396,6 +424,20 @@ fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) 
     stats.samples_left = pending.len();
     stats.seconds = started.elapsed().as_secs_f64();
     (probes, stats)
+}
+
+/// Walk mode: the point `eye` units above the walkable floor under `p` (a
+/// surface facing up within 45°), if it is navigable and a standing person fits:
+/// nothing between the floor and the eye plus a fifth of the eye height.
+pub fn eye_level(rays: &RayScene, space: &FreeSpace, p: Vec3, eye: f32) -> Option<Vec3> {
+    let hit = rays.intersect(&Ray::new(p, Vec3::NEG_Y))?;
+    if hit.normal.y.abs() < 0.7 {
+        return None;
+    }
+    let floor = p - Vec3::Y * hit.t;
+    let standing = floor + Vec3::Y * eye;
+    let clear = !rays.occluded(&Ray { t_min: 1e-3, t_max: 1.2, ..Ray::new(floor, Vec3::Y * eye) });
+    (clear && space.is_navigable(standing)).then_some(standing)
 }
 
 /// Whether `eye` sees each point (nothing in between).
@@ -616,6 +658,20 @@ mod tests {
         let report = crate::coverage::coverage_of(samples, &rays, &space, &positions, &Default::default());
         assert!(report.reachable_area > 1000.0, "most of the teapot is reachable: {}", report.reachable_area);
         assert!(report.fraction() > 0.97, "teapot {:.3} seen with {} probes ({stats:?})", report.fraction(), probes.len());
+    }
+
+    #[test]
+    fn walk_mode_puts_every_probe_at_eye_height_above_a_floor() {
+        let scene = BuiltIn::Gallery.generate(1);
+        for strategy in STRATEGIES {
+            let (probes, stats, space) = plan(&scene, &ExploreParams { eye_height: Some(1.6), ..with(strategy) });
+            assert!(probes.len() >= 5, "{strategy:?}: {stats:?}");
+            for p in &probes {
+                assert!((p.position.y - 1.6).abs() < 1e-3, "{strategy:?}: probe at {} is not at eye height above the ground floor", p.position);
+            }
+            let c = covered(&scene, &space, &probes);
+            assert!(c > MIN_COVERAGE[strategy as usize] - 0.05, "{strategy:?}: {c}");
+        }
     }
 
     #[test]
