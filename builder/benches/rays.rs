@@ -9,10 +9,12 @@
 //! Reference limits measured on these 2-core machines (DESIGN.md section 4):
 //! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
 
+use exploremaps_builder::coverage::cosine_dir;
+use exploremaps_builder::explore::CubeView;
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::BuiltIn;
 use glam::Vec3;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use std::time::Instant;
 
 fn main() {
@@ -33,7 +35,7 @@ fn main() {
     let _bounds = scene.bounds();
     // A probe at eye height in the pillared hall of the first wing.
     let eye = Vec3::new(28.0, 1.6, 10.0);
-    let primary: Vec<Ray> = CUBE_FACES.iter().flat_map(|&(forward, up)| camera_rays(eye, forward, up, 512)).collect();
+    let (primary, _) = CubeView::tiled_rays(eye, 512);
     // A 1024² view down the 40 m corridor: large walls and floor, the most coherent case.
     let corridor = camera_rays(Vec3::new(0.8, 1.6, 2.0), Vec3::X, Vec3::Y, 1024);
     let hits = rays.intersect_batch(&primary, Packing::Coherent8);
@@ -80,10 +82,6 @@ fn time(f: impl Fn()) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// (forward, up) of the six 90° faces of a cube map.
-const CUBE_FACES: [(Vec3, Vec3); 6] =
-    [(Vec3::X, Vec3::Y), (Vec3::NEG_X, Vec3::Y), (Vec3::Z, Vec3::Y), (Vec3::NEG_Z, Vec3::Y), (Vec3::Y, Vec3::NEG_Z), (Vec3::NEG_Y, Vec3::Z)];
-
 /// Pinhole camera rays, 90° field of view, ordered in 4×2 pixel tiles so each
 /// 8-ray packet is spatially coherent.
 fn camera_rays(eye: Vec3, forward: Vec3, up: Vec3, size: u32) -> Vec<Ray> {
@@ -102,12 +100,4 @@ fn camera_rays(eye: Vec3, forward: Vec3, up: Vec3, size: u32) -> Vec<Ray> {
         }
     }
     rays
-}
-
-fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
-    let (u1, u2): (f32, f32) = (rng.random(), rng.random());
-    let r = u1.sqrt();
-    let phi = std::f32::consts::TAU * u2;
-    let (t, b) = n.any_orthonormal_pair();
-    (t * r * phi.cos() + b * r * phi.sin() + n * (1.0 - u1).max(0.0).sqrt()).normalize()
 }

@@ -151,7 +151,8 @@ fn sample_triangles(scene: &Scene, triangles: &[u32], count: usize, rng: &mut Pc
     total
 }
 
-fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
+/// A direction around `n` with density proportional to the cosine.
+pub fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
     let (u1, u2): (f32, f32) = (rng.random(), rng.random());
     let r = u1.sqrt();
     let phi = std::f32::consts::TAU * u2;
@@ -248,22 +249,9 @@ pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, 
 mod tests {
     use super::*;
     use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
 
-    fn rooms(count: usize, w: f32, doors: &[usize]) -> Scene {
-        let (h, d, t) = (3.0, 4.0, 0.2);
-        let mut m = MeshBuilder::new("rooms");
-        let x1 = count as f32 * w;
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(x1 + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(x1 + t, h + t, d + t));
-        m.wall(true, 0.0, 0.0, x1, 0.0, h, t, &[]);
-        m.wall(true, d, 0.0, x1, 0.0, h, t, &[]);
-        for k in 0..=count {
-            let door: &[(f32, f32, f32)] = if doors.contains(&k) { &[(0.5 * d, 1.2, 2.2)] } else { &[] };
-            m.wall(false, k as f32 * w, 0.0, d, 0.0, h, t, door);
-        }
-        m.finish()
-    }
 
     fn setup(scene: &Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
@@ -284,7 +272,7 @@ mod tests {
 
     #[test]
     fn one_probe_in_a_closed_box_covers_all_of_it() {
-        let scene = rooms(1, 6.0, &[]);
+        let scene = rooms(1, 6.0, 3.0, 4.0, &[]);
         let (rays, space) = setup(&scene);
         let report = coverage(&scene, &rays, &space, &[Vec3::new(3.0, 1.5, 2.0)], &CoverageParams { samples: 20_000, ..Default::default() });
         // Only the inner faces are reachable: the walls are 0.2 thick, centred on the
@@ -296,7 +284,7 @@ mod tests {
 
     #[test]
     fn a_probe_in_one_of_two_rooms_sees_its_room_and_some_of_the_next_through_the_door() {
-        let scene = rooms(2, 5.0, &[1]);
+        let scene = rooms(2, 5.0, 3.0, 4.0, &[1]);
         let (rays, space) = setup(&scene);
         let params = CoverageParams { samples: 20_000, ..Default::default() };
         let one = coverage(&scene, &rays, &space, &[Vec3::new(2.5, 1.5, 2.0)], &params);
@@ -310,7 +298,7 @@ mod tests {
 
     #[test]
     fn no_probes_no_coverage_and_deterministic() {
-        let scene = rooms(1, 6.0, &[]);
+        let scene = rooms(1, 6.0, 3.0, 4.0, &[]);
         let (rays, space) = setup(&scene);
         let params = CoverageParams { samples: 5_000, ..Default::default() };
         let a = coverage(&scene, &rays, &space, &[], &params);

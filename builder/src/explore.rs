@@ -156,8 +156,22 @@ impl CubeView {
     /// Traces the cube map with coherent packets of 4×2 pixel tiles.
     pub fn trace(rays: &RayScene, origin: Vec3, res: usize) -> CubeView {
         let res = res.max(2).next_multiple_of(4);
-        let mut dirs = vec![Vec3::ZERO; 6 * res * res];
-        let mut order = Vec::with_capacity(dirs.len());
+        let (tiled, order) = Self::tiled_rays(origin, res);
+        let traced = rays.intersect_batch(&tiled, Packing::Coherent8);
+        let mut hits = vec![None; tiled.len()];
+        let mut dirs = vec![Vec3::ZERO; tiled.len()];
+        for ((&p, h), r) in order.iter().zip(traced).zip(&tiled) {
+            hits[p] = h;
+            dirs[p] = r.dir;
+        }
+        CubeView { origin, res, dirs, hits }
+    }
+
+    /// The cube map's rays in tracing order (4×2 pixel tiles, face by face; `res`
+    /// a multiple of 4), with the pixel index (face, row, column) of each.
+    pub fn tiled_rays(origin: Vec3, res: usize) -> (Vec<Ray>, Vec<usize>) {
+        let mut rays = Vec::with_capacity(6 * res * res);
+        let mut order = Vec::with_capacity(6 * res * res);
         for (f, &(forward, right, up)) in CUBE_FACES.iter().enumerate() {
             for ty in (0..res).step_by(2) {
                 for tx in (0..res).step_by(4) {
@@ -165,21 +179,14 @@ impl CubeView {
                         for x in tx..tx + 4 {
                             let sx = 2.0 * (x as f32 + 0.5) / res as f32 - 1.0;
                             let sy = 1.0 - 2.0 * (y as f32 + 0.5) / res as f32;
-                            let pixel = (f * res + y) * res + x;
-                            dirs[pixel] = (forward + right * sx + up * sy).normalize();
-                            order.push(pixel);
+                            rays.push(Ray::new(origin, (forward + right * sx + up * sy).normalize()));
+                            order.push((f * res + y) * res + x);
                         }
                     }
                 }
             }
         }
-        let tiled: Vec<Ray> = order.iter().map(|&p| Ray::new(origin, dirs[p])).collect();
-        let traced = rays.intersect_batch(&tiled, Packing::Coherent8);
-        let mut hits = vec![None; dirs.len()];
-        for (&p, h) in order.iter().zip(traced) {
-            hits[p] = h;
-        }
-        CubeView { origin, res, dirs, hits }
+        (rays, order)
     }
 
     /// Surface area a pixel covers at its hit (solid angle × t² / cos).
@@ -515,6 +522,7 @@ fn relax(rays: &RayScene, space: &FreeSpace, start: Vec3, seen: &[bool], params:
 mod tests {
     use super::*;
     use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
     use exploremaps_scenes::BuiltIn;
 
@@ -525,21 +533,6 @@ mod tests {
         (c, s, space)
     }
 
-    /// Rooms in a row along x, `w` wide, with doors in the listed walls (see freespace tests).
-    fn rooms(count: usize, w: f32, doors: &[usize]) -> Scene {
-        let (h, d, t) = (3.0, 4.0, 0.2);
-        let mut m = MeshBuilder::new("rooms");
-        let x1 = count as f32 * w;
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(x1 + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(x1 + t, h + t, d + t));
-        m.wall(true, 0.0, 0.0, x1, 0.0, h, t, &[]);
-        m.wall(true, d, 0.0, x1, 0.0, h, t, &[]);
-        for k in 0..=count {
-            let door: &[(f32, f32, f32)] = if doors.contains(&k) { &[(0.5 * d, 1.2, 2.2)] } else { &[] };
-            m.wall(false, k as f32 * w, 0.0, d, 0.0, h, t, door);
-        }
-        m.finish()
-    }
 
     const STRATEGIES: [Strategy; 2] = [Strategy::Greedy, Strategy::Occluded];
     /// Coverage each strategy must reach on the small scenes (indexed by strategy):
@@ -560,7 +553,7 @@ mod tests {
 
     #[test]
     fn one_probe_sees_all_of_a_closed_box() {
-        let scene = rooms(1, 6.0, &[]);
+        let scene = rooms(1, 6.0, 3.0, 4.0, &[]);
         for strategy in STRATEGIES {
             let (probes, stats, space) = plan(&scene, &with(strategy));
             assert_eq!(probes.len(), 1, "{strategy:?}: {stats:?}");
@@ -570,7 +563,7 @@ mod tests {
 
     #[test]
     fn two_rooms_joined_by_a_door_need_a_probe_each() {
-        let scene = rooms(2, 5.0, &[1]);
+        let scene = rooms(2, 5.0, 3.0, 4.0, &[1]);
         for strategy in STRATEGIES {
             let (probes, stats, space) = plan(&scene, &with(strategy));
             assert!(probes.len() >= 2, "{strategy:?}: {stats:?}");
@@ -675,8 +668,22 @@ mod tests {
     }
 
     #[test]
+    fn every_builtin_scene_is_covered_to_99_percent() {
+        for spec in ["gallery", "maze", "pillars", "big:100000"] {
+            let scene = BuiltIn::parse(spec).unwrap().generate(1);
+            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+            let (space, _) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
+            let (probes, stats) = explore(&scene, &rays, &space, &ExploreParams::default());
+            let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
+            let params = crate::coverage::CoverageParams { samples: 50_000, seed: 9, ..Default::default() };
+            let c = crate::coverage::coverage(&scene, &rays, &space, &positions, &params).fraction();
+            assert!(c >= 0.99, "{spec}: {c:.4} with {} probes ({stats:?})", probes.len());
+        }
+    }
+
+    #[test]
     fn the_occluded_strategy_stops_when_no_sample_is_left() {
-        let (_, stats, _) = plan(&rooms(3, 5.0, &[1, 2]), &with(Strategy::Occluded));
+        let (_, stats, _) = plan(&rooms(3, 5.0, 3.0, 4.0, &[1, 2]), &with(Strategy::Occluded));
         assert_eq!(stats.samples_left, 0);
     }
 
@@ -684,7 +691,7 @@ mod tests {
     fn user_probes_come_first_and_stay() {
         let user = Vec3::new(1.0, 1.5, 1.0);
         for strategy in STRATEGIES {
-            let (probes, _, _) = plan(&rooms(2, 5.0, &[1]), &ExploreParams { user_probes: vec![user], ..with(strategy) });
+            let (probes, _, _) = plan(&rooms(2, 5.0, 3.0, 4.0, &[1]), &ExploreParams { user_probes: vec![user], ..with(strategy) });
             assert_eq!(probes[0], Candidate { position: user, user_placed: true }, "{strategy:?}");
             assert!(probes[1..].iter().all(|p| !p.user_placed));
         }

@@ -16,5 +16,7 @@ pub mod load;
 pub mod pipeline;
 pub mod raycast;
 pub mod report;
+#[cfg(test)]
+mod testing;
 
 pub use exploremaps_scenes as scenes;

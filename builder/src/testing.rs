@@ -1,0 +1,22 @@
+//! Scenes with exact answers for the stage tests.
+
+use exploremaps_scenes::mesh::MeshBuilder;
+use exploremaps_scenes::Scene;
+use glam::Vec3;
+
+/// Closed rooms in a row along x, each `w` wide, `h` high and `d` deep, sharing
+/// 0.2-thick walls, with a door (1.2 × 2.2, at z = d/2) in the walls listed in
+/// `doors` (0 = the west outer wall, 1 = between rooms 0 and 1, …).
+pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
+    let mut m = MeshBuilder::new("rooms");
+    let (t, x1) = (0.2, count as f32 * w);
+    m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(x1 + t, 0.0, d + t));
+    m.cuboid(Vec3::new(-t, h, -t), Vec3::new(x1 + t, h + t, d + t));
+    m.wall(true, 0.0, 0.0, x1, 0.0, h, t, &[]);
+    m.wall(true, d, 0.0, x1, 0.0, h, t, &[]);
+    for k in 0..=count {
+        let door: &[(f32, f32, f32)] = if doors.contains(&k) { &[(0.5 * d, 1.2, 2.2)] } else { &[] };
+        m.wall(false, k as f32 * w, 0.0, d, 0.0, h, t, door);
+    }
+    m.finish()
+}
