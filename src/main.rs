@@ -228,19 +228,28 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     Ok(())
 }
 
+/// Three significant digits at any scale (scenes run from millimetres to kilometres).
+fn num(x: f64) -> String {
+    if x == 0.0 || (0.01..1e6).contains(&x.abs()) {
+        format!("{:.3}", x).trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
 fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     let f = &plan.free_space;
     let c = &plan.coverage;
     let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
-    println!("  free space  {} ({}), voxel {:.3}, near {:.3} units, {} navigable voxels ({:.2} s)", f.space, f.space_reason, f.voxel, f.near, f.navigable, f.seconds);
+    println!("  free space  {} ({}), voxel {}, near {} units, {} navigable voxels ({:.2} s)", f.space, f.space_reason, num(f.voxel as f64), num(f.near as f64), f.navigable, f.seconds);
     if plan.explore.probes > 0 {
         println!("  explore     {} probes, {:.1} M rays ({:.2} s)", plan.graph.probes.len(), plan.explore.rays as f64 / 1e6, plan.explore.seconds);
     }
     println!(
-        "  coverage    {:.2} % of {:.1} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
+        "  coverage    {:.2} % of {} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
         100.0 * c.fraction(),
-        c.reachable_area,
+        num(c.reachable_area),
         c.samples.points.len(),
         need(0.90),
         need(0.95),
