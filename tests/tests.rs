@@ -163,6 +163,10 @@ fn plan_writes_a_valid_bundle_with_coverage_and_pictures() {
     assert!(stdout(&run).contains("coverage"), "{}", stdout(&run));
     let probes = bundle_probes(&out);
     assert!(!probes.is_empty());
+    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(out.join("graph.json")).unwrap()).unwrap();
+    assert_eq!(graph.bar_order.len(), probes.len(), "every probe is in the thumbnail bar");
+    let order = &graph.stats["order"];
+    assert!(order["cost"].as_f64().unwrap() <= order["random_cost"].as_f64().unwrap(), "{order}");
     let coverage: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
     assert!(coverage["fraction"].as_f64().unwrap() > 0.98, "{coverage}");
     assert_eq!(coverage["baselines"].as_array().unwrap().len(), 2);

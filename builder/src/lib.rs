@@ -13,6 +13,7 @@ pub mod export;
 pub mod files;
 pub mod freespace;
 pub mod load;
+pub mod order;
 pub mod pipeline;
 pub mod raycast;
 pub mod report;

@@ -1,14 +1,16 @@
 //! The pipeline, step by step: what `exploremaps plan` runs. Each step is one
 //! stage module; this file only wires their results together.
 //!
-//! Planning today: ray casting → free space → explore → coverage (with random
-//! and grid baselines of the same probe count) → pictures → graph. Clustering,
+//! Planning today: ray casting → free space → explore → order (thumbnail bar)
+//! → coverage (with random and grid baselines of the same probe count) →
+//! pictures → graph. Clustering,
 //! orientation, paths, ordering and rendering join here as they land.
 
 use crate::coverage::{coverage, CoverageParams, CoverageReport};
 use crate::explore::{explore, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
 use crate::raycast::{RayScene, RaycastError};
+use crate::order;
 use crate::report;
 use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
@@ -68,8 +70,13 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     };
     tracing::info!("explore: {} probes in {:.2} s", candidates.len(), explore_stats.seconds);
     let mut graph = new_graph(scene, source, &space, &candidates);
+    // Until paths exist, the bar order weighs probe pairs by 1 / Euclidean distance.
+    let points: Vec<[f32; 3]> = graph.probes.iter().map(|p| p.position).collect();
+    let (bar_order, order_stats) = order::order(points.len(), &order::euclidean_edges(&points), params.explore.seed);
+    graph.bar_order = bar_order;
     graph.stats.insert("free_space".into(), serde_json::to_value(&free_stats).unwrap_or_default());
     graph.stats.insert("explore".into(), serde_json::to_value(&explore_stats).unwrap_or_default());
+    graph.stats.insert("order".into(), serde_json::to_value(&order_stats).unwrap_or_default());
     Ok(measure(scene, &rays, &space, graph, free_stats, explore_stats, params, started))
 }
 
