@@ -7,6 +7,7 @@
 //! and `files` are utilities.
 
 pub mod bundle;
+pub mod cluster;
 pub mod coverage;
 pub mod explore;
 pub mod export;
