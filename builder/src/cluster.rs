@@ -41,12 +41,12 @@ pub fn overlap(seen: &[Vec<u64>], area_each: f64) -> Vec<Vec<f64>> {
 }
 
 fn normalize_columns(m: &mut [Vec<f64>]) {
-    let n = m.len();
-    for j in 0..n {
-        let sum: f64 = (0..n).map(|i| m[i][j]).sum();
-        if sum > 0.0 {
-            (0..n).for_each(|i| m[i][j] /= sum);
-        }
+    let mut sums = vec![0.0; m.len()];
+    for row in m.iter() {
+        sums.iter_mut().zip(row).for_each(|(s, v)| *s += v);
+    }
+    for row in m.iter_mut() {
+        row.iter_mut().zip(&sums).filter(|(_, &s)| s > 0.0).for_each(|(v, s)| *v /= s);
     }
 }
 
