@@ -15,6 +15,7 @@ pub mod files;
 pub mod freespace;
 pub mod load;
 pub mod order;
+pub mod orient;
 pub mod pipeline;
 pub mod raycast;
 pub mod report;

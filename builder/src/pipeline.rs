@@ -1,8 +1,8 @@
 //! The pipeline, step by step: what `exploremaps plan` runs. Each step is one
 //! stage module; this file only wires their results together.
 //!
-//! Planning today: ray casting → free space → explore → order (thumbnail bar)
-//! → coverage (with random and grid baselines of the same probe count) →
+//! Planning today: ray casting → free space → explore → orient (preferred
+//! view directions) → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
 //! pictures → graph. Clustering,
 //! orientation, paths, ordering and rendering join here as they land.
 
@@ -11,6 +11,8 @@ use crate::explore::{explore, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
 use crate::raycast::{RayScene, RaycastError};
 use crate::order;
+use crate::orient;
+use rayon::prelude::*;
 use crate::report;
 use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
@@ -70,6 +72,18 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     };
     tracing::info!("explore: {} probes in {:.2} s", candidates.len(), explore_stats.seconds);
     let mut graph = new_graph(scene, source, &space, &candidates);
+    let oriented = Instant::now();
+    let diagonal = scene.bounds().diagonal();
+    let directions: Vec<Vec<orient::Preferred>> =
+        candidates.par_iter().map(|c| orient::preferred_directions(&rays, c.position, space.near, diagonal)).collect();
+    for (probe, preferred) in graph.probes.iter_mut().zip(directions) {
+        probe.preferred_directions = preferred
+            .into_iter()
+            .take(3)
+            .map(|p| format::ViewDirection { yaw: p.yaw, pitch: p.pitch, goodness: p.goodness })
+            .collect();
+    }
+    graph.stats.insert("orient".into(), serde_json::json!({ "seconds": oriented.elapsed().as_secs_f64() }));
     // Until paths exist, the bar order weighs probe pairs by 1 / Euclidean distance.
     let points: Vec<[f32; 3]> = graph.probes.iter().map(|p| p.position).collect();
     let (bar_order, order_stats) = order::order(points.len(), &order::euclidean_edges(&points), params.explore.seed);
