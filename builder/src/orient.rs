@@ -25,9 +25,9 @@ pub const ALPHA: f32 = 0.5;
 pub const BETA: f32 = 0.5;
 const FACE_RES: usize = 24;
 const DIRECTIONS: usize = 96;
-const CONE_COS: f32 = 0.7071; // 45°
+const CONE_COS: f32 = std::f32::consts::FRAC_1_SQRT_2; // 45°
 const BINS: usize = 16;
-const MAX_PITCH: f32 = 0.5236; // 30°
+const MAX_PITCH: f32 = std::f32::consts::FRAC_PI_6; // 30°
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Preferred {
