@@ -191,6 +191,75 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
     (reached, samples.points.len() * dirs * 2)
 }
 
+/// The reachable ones among a set of surface samples, as bit positions, for
+/// the stages that choose probes by what they see (exploration's greedy cover,
+/// cluster synthesis). Sampling as in [`stratified_samples`].
+pub struct Targets {
+    pub samples: SurfaceSamples,
+    /// Side each sample is reached from (+1 front, −1 back, 0 never).
+    pub side: Vec<i8>,
+    /// Indices of the reachable samples: bit k stands for `samples[index[k]]`.
+    pub index: Vec<usize>,
+    eps: f32,
+}
+
+impl Targets {
+    /// Samples the surface and keeps the reachable samples; returns the rays cast.
+    pub fn new(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, min_per_object: usize, seed: u64) -> (Targets, usize) {
+        let samples = stratified_samples(scene, count, min_per_object, seed);
+        let (side, cast) = reachability(rays, space, &samples, 8, seed);
+        let index = (0..samples.points.len()).filter(|&i| side[i] != 0).collect();
+        (Targets { samples, side, index, eps: 1e-3 * space.bounds.diagonal().max(1e-6) }, cast)
+    }
+
+    pub fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// 64-bit words of a bitset over the targets.
+    pub fn words(&self) -> usize {
+        self.index.len().div_ceil(64)
+    }
+
+    /// The targets `eye` sees from the side they are reached from, among those
+    /// set in `among` (all when `None`); returns the bitset and the rays cast.
+    pub fn seen_by(&self, rays: &RayScene, eye: Vec3, among: Option<&[u64]>) -> (Vec<u64>, usize) {
+        let s = &self.samples;
+        let facing: Vec<usize> = (0..self.index.len())
+            .filter(|&k| among.is_none_or(|m| m[k / 64] >> (k % 64) & 1 == 1))
+            .filter(|&k| {
+                let i = self.index[k];
+                (eye - s.points[i]).dot(s.normals[i]) * self.side[i] as f32 > 0.0
+            })
+            .collect();
+        let segments: Vec<Ray> = facing
+            .iter()
+            .map(|&k| {
+                let i = self.index[k];
+                Ray::segment(eye, s.points[i] + s.normals[i] * (self.eps * self.side[i] as f32))
+            })
+            .collect();
+        let mut blocked = vec![false; segments.len()];
+        rays.occluded_into(&segments, &mut blocked, Packing::Packets8);
+        let mut bits = vec![0u64; self.words()];
+        for (&k, b) in facing.iter().zip(blocked) {
+            if !b {
+                bits[k / 64] |= 1 << (k % 64);
+            }
+        }
+        (bits, segments.len())
+    }
+}
+
+/// Set bits of a bitset.
+pub fn count_bits(bits: &[u64]) -> usize {
+    bits.iter().map(|w| w.count_ones() as usize).sum()
+}
+
 /// Measures coverage of `probes` (in placement order).
 pub fn coverage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &CoverageParams) -> CoverageReport {
     coverage_of(surface_samples(scene, params.samples, params.seed), rays, space, probes, params)

@@ -34,7 +34,7 @@
 //! per depth jump, 6 relaxation steps; both: at most 256 probes. Deterministic:
 //! rays are traced in fixed order and all randomness is seeded.
 
-use crate::coverage::{reachability, stratified_samples};
+use crate::coverage::Targets;
 use crate::freespace::FreeSpace;
 use exploremaps_scenes::Scene;
 use rayon::prelude::*;
@@ -247,11 +247,8 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let started = Instant::now();
     let mut stats = ExploreStats::default();
     let seed = params.seed ^ 0x6772_6565;
-    let samples = stratified_samples(scene, params.selection_samples, MIN_SAMPLES_PER_OBJECT, seed);
-    let (side, reach_rays) = reachability(rays, space, &samples, 8, seed);
+    let (targets, reach_rays) = Targets::new(scene, rays, space, params.selection_samples, MIN_SAMPLES_PER_OBJECT, seed);
     stats.rays += reach_rays;
-    let targets: Vec<usize> = (0..samples.points.len()).filter(|&i| side[i] != 0).collect();
-    let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
 
     // Candidates: user probes, then seeded random navigable voxel centres.
     let navigable = space.navigable_points();
@@ -272,41 +269,15 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         }).map(|c| (c, false)));
     }
     let t = Instant::now();
-    let words = targets.len().div_ceil(64);
-    // Which reachable samples each candidate sees: segments, reached side facing it.
-    let visibility: Vec<(Vec<u64>, usize)> = positions
-        .par_iter()
-        .map(|&(c, _)| {
-            let facing: Vec<usize> = (0..targets.len())
-                .filter(|&k| {
-                    let i = targets[k];
-                    (c - samples.points[i]).dot(samples.normals[i]) * side[i] as f32 > 0.0
-                })
-                .collect();
-            let segments: Vec<Ray> = facing
-                .iter()
-                .map(|&k| {
-                    let i = targets[k];
-                    Ray::segment(c, samples.points[i] + samples.normals[i] * (eps * side[i] as f32))
-                })
-                .collect();
-            let mut blocked = vec![false; segments.len()];
-            rays.occluded_into(&segments, &mut blocked, Packing::Packets8);
-            let mut bits = vec![0u64; words];
-            for (&k, b) in facing.iter().zip(blocked) {
-                if !b {
-                    bits[k / 64] |= 1 << (k % 64);
-                }
-            }
-            (bits, segments.len())
-        })
-        .collect();
+    let words = targets.words();
+    // Which reachable samples each candidate sees.
+    let visibility: Vec<(Vec<u64>, usize)> = positions.par_iter().map(|&(c, _)| targets.seen_by(rays, c, None)).collect();
     stats.rays += visibility.iter().map(|v| v.1).sum::<usize>();
     stats.seconds_views = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
     // Per object: reachable samples, and how many are seen so far.
-    let object_of: Vec<usize> = targets.iter().map(|&i| scene.triangle_object[samples.triangles[i] as usize] as usize).collect();
+    let object_of: Vec<usize> = targets.index.iter().map(|&i| scene.triangle_object[targets.samples.triangles[i] as usize] as usize).collect();
     let mut object_total = vec![0usize; scene.objects.len()];
     object_of.iter().for_each(|&o| object_total[o] += 1);
     let mut object_seen = vec![0usize; scene.objects.len()];
