@@ -140,6 +140,10 @@ pub struct PlanArgs {
     /// How probes are placed.
     #[arg(long, value_enum, default_value = "greedy")]
     pub strategy: Strategy,
+    /// Keep every explored probe instead of merging probes that see the same
+    /// surface into one synthesized probe per cluster.
+    #[arg(long)]
+    pub no_cluster: bool,
     /// Walk mode: probes stand at eye height above walkable floors, with a person's
     /// head room, as a visitor would see the place (uses the scene's unit scale).
     #[arg(long)]

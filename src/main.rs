@@ -10,6 +10,7 @@ use cli::{Cli, Command, PlanArgs, SceneArgs};
 use exploremaps_builder::explore::{ExploreParams, Strategy};
 use exploremaps_builder::freespace::{FreeSpaceParams, SpaceMode};
 use exploremaps_builder::pipeline::{self, PlanParams};
+use exploremaps_builder::cluster::SynthesisParams;
 use exploremaps_builder::coverage::CoverageParams;
 use exploremaps_format::{Graph, GRAPH_FILE};
 use glam::Vec3;
@@ -158,6 +159,11 @@ fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> Result<P
             seed,
             ..Default::default()
         },
+        synthesis: (!planning.no_cluster).then(|| SynthesisParams {
+            eye_height: planning.walk.then(|| planning.eye_height_m / metres_per_unit),
+            seed,
+            ..Default::default()
+        }),
         coverage: CoverageParams { samples: planning.samples.clamp(1, 10_000_000), seed, ..Default::default() },
     })
 }
@@ -186,6 +192,7 @@ fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -
             "coverage_target": planning.coverage,
             "near_m": planning.near_m,
             "max_cells": planning.max_cells,
+            "cluster": !planning.no_cluster,
             "walk_eye_height_m": planning.walk.then_some(planning.eye_height_m),
             "seconds": plan.seconds,
         }),
@@ -217,6 +224,7 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     let params = PlanParams {
         free_space: FreeSpaceParams { space, near_m, max_cells, ..Default::default() },
         explore: ExploreParams { seed, ..Default::default() },
+        synthesis: None,
         coverage: CoverageParams { samples: samples.clamp(1, 10_000_000), seed, ..Default::default() },
     };
     let spinner = spinner(format!("measuring coverage of {} probes", graph.probes.len()));
@@ -244,7 +252,13 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
     println!("  free space  {} ({}), voxel {}, near {} units, {} navigable voxels ({:.2} s)", f.space, f.space_reason, num(f.voxel as f64), num(f.near as f64), f.navigable, f.seconds);
     if plan.explore.probes > 0 {
-        println!("  explore     {} probes, {:.1} M rays ({:.2} s)", plan.graph.probes.len(), plan.explore.rays as f64 / 1e6, plan.explore.seconds);
+        println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", plan.explore.probes, plan.explore.rays as f64 / 1e6, plan.explore.seconds);
+    }
+    if let Some(c) = plan.graph.stats.get("cluster") {
+        println!(
+            "  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)",
+            c["clusters"], c["final_probes"], c["added_back"], c["seconds"].as_f64().unwrap_or(0.0)
+        );
     }
     println!(
         "  coverage    {:.2} % of {} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",

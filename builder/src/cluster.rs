@@ -1,5 +1,6 @@
 //! Cluster: group probes that see the same surface, with the Markov Cluster
-//! algorithm (van Dongen 2000; DESIGN.md section 3.5, the paper's section 5).
+//! algorithm (van Dongen 2000), and replace each group by one synthesized
+//! probe (DESIGN.md section 3.5, the paper's section 5).
 //!
 //! Inputs: per probe, the set of surface samples it sees (bitsets over the
 //! same samples) and the area each sample stands for. Output: a cluster label
@@ -22,6 +23,218 @@ pub struct ClusterStats {
     /// Largest entry change in the last iteration.
     pub residual: f64,
 }
+
+/// Synthesis parameters (defaults in `Default`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthesisParams {
+    /// Selection samples (and at least 256 per object), as exploration's.
+    pub selection_samples: usize,
+    /// Simulated-annealing steps per cluster.
+    pub anneal_steps: usize,
+    /// Weight of view goodness against coverage of the cluster's surface.
+    pub goodness_weight: f32,
+    /// Probes are added back until the final set's coverage is within this of the candidates'.
+    pub tolerance: f64,
+    /// Walk mode: keep synthesized probes at this eye height above floors.
+    pub eye_height: Option<f32>,
+    pub seed: u64,
+}
+
+impl Default for SynthesisParams {
+    fn default() -> Self {
+        SynthesisParams { selection_samples: 20_000, anneal_steps: 40, goodness_weight: 0.25, tolerance: 0.01, eye_height: None, seed: 1 }
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SynthesisStats {
+    pub candidates: usize,
+    pub clusters: usize,
+    pub mcl_iterations: usize,
+    /// Candidates put back because the synthesized set lost coverage.
+    pub added_back: usize,
+    pub final_probes: usize,
+    /// Selection-sample coverage of the candidates and of the final set.
+    pub candidate_coverage: f64,
+    pub final_coverage: f64,
+    pub rays: usize,
+    pub seconds: f64,
+}
+
+/// The final probes and the clusters they stand for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Synthesized {
+    pub probes: Vec<Vec3>,
+    pub user_placed: Vec<bool>,
+    /// Per final probe: its cluster (user probes and added-back ones keep theirs).
+    pub cluster_of: Vec<u32>,
+    /// Per cluster: (its synthesized probe, how many candidates it merged).
+    pub clusters: Vec<(usize, usize)>,
+}
+
+/// Clusters the candidates and synthesizes one probe per cluster by simulated
+/// annealing, maximising coverage of the cluster's surface plus view goodness;
+/// then puts candidates back until coverage is within `tolerance` of the
+/// candidates'. User probes stay as they are, each its own cluster.
+pub fn synthesize(
+    scene: &Scene,
+    rays: &RayScene,
+    space: &FreeSpace,
+    candidates: &[Candidate],
+    params: &SynthesisParams,
+) -> (Synthesized, SynthesisStats) {
+    let started = Instant::now();
+    let mut stats = SynthesisStats { candidates: candidates.len(), ..Default::default() };
+    let (targets, cast) = Targets::new(scene, rays, space, params.selection_samples, 256, params.seed ^ 0x7379_6e74);
+    stats.rays += cast;
+    let seen: Vec<Vec<u64>> = candidates.par_iter().map(|c| targets.seen_by(rays, c.position, None).0).collect();
+    let (labels, mcl) = markov_cluster(&similarity(&overlap(&seen, 1.0)));
+    stats.mcl_iterations = mcl.iterations;
+    // User probes are clusters of their own and are not moved.
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    let mut group_of_label = vec![usize::MAX; mcl.clusters];
+    for (k, c) in candidates.iter().enumerate() {
+        if c.user_placed {
+            groups.push(vec![k]);
+        } else {
+            let l = labels[k] as usize;
+            if group_of_label[l] == usize::MAX {
+                group_of_label[l] = groups.len();
+                groups.push(Vec::new());
+            }
+            groups[group_of_label[l]].push(k);
+        }
+    }
+    let diagonal = scene.bounds().diagonal();
+    let results: Vec<(Vec3, usize)> = groups
+        .par_iter()
+        .enumerate()
+        .map(|(g, members)| {
+            if members.len() == 1 && candidates[members[0]].user_placed {
+                return (candidates[members[0]].position, 0);
+            }
+            anneal(rays, space, &targets, &seen, candidates, members, diagonal, params, params.seed ^ (g as u64).wrapping_mul(0x9e37_79b9))
+        })
+        .collect();
+    stats.rays += results.iter().map(|r| r.1).sum::<usize>();
+
+    let mut out = Synthesized { probes: Vec::new(), user_placed: Vec::new(), cluster_of: Vec::new(), clusters: Vec::new() };
+    for (g, (position, _)) in results.iter().enumerate() {
+        out.clusters.push((out.probes.len(), groups[g].len()));
+        out.probes.push(*position);
+        out.user_placed.push(groups[g].len() == 1 && candidates[groups[g][0]].user_placed);
+        out.cluster_of.push(g as u32);
+    }
+    // Coverage check on the selection samples, and add-back.
+    let union = |sets: &mut dyn Iterator<Item = &Vec<u64>>| {
+        let mut u = vec![0u64; targets.words()];
+        for s in sets {
+            u.iter_mut().zip(s).for_each(|(a, b)| *a |= b);
+        }
+        u
+    };
+    let total = targets.len().max(1) as f64;
+    stats.candidate_coverage = count_bits(&union(&mut seen.iter())) as f64 / total;
+    let finals: Vec<Vec<u64>> = out.probes.par_iter().map(|&p| targets.seen_by(rays, p, None).0).collect();
+    let mut covered = union(&mut finals.iter());
+    let group_of_candidate: Vec<usize> = {
+        let mut g = vec![0; candidates.len()];
+        groups.iter().enumerate().for_each(|(i, members)| members.iter().for_each(|&k| g[k] = i));
+        g
+    };
+    while (count_bits(&covered) as f64) / total < stats.candidate_coverage - params.tolerance {
+        let gain = |k: usize| seen[k].iter().zip(&covered).map(|(s, c)| (s & !c).count_ones()).sum::<u32>();
+        let Some(best) = (0..candidates.len()).max_by(|&a, &b| gain(a).cmp(&gain(b)).then(b.cmp(&a))) else { break };
+        if gain(best) == 0 {
+            break;
+        }
+        covered.iter_mut().zip(&seen[best]).for_each(|(c, s)| *c |= s);
+        out.probes.push(candidates[best].position);
+        out.user_placed.push(candidates[best].user_placed);
+        out.cluster_of.push(group_of_candidate[best] as u32);
+        stats.added_back += 1;
+    }
+    stats.final_coverage = count_bits(&covered) as f64 / total;
+    stats.clusters = groups.len();
+    stats.final_probes = out.probes.len();
+    stats.seconds = started.elapsed().as_secs_f64();
+    (out, stats)
+}
+
+/// Simulated annealing of one cluster's probe: from the member that sees most
+/// of the cluster's surface, random moves shrinking from the cluster's spread
+/// to a voxel, accepted by the Metropolis rule; the best position wins.
+#[allow(clippy::too_many_arguments)]
+fn anneal(
+    rays: &RayScene,
+    space: &FreeSpace,
+    targets: &Targets,
+    seen: &[Vec<u64>],
+    candidates: &[Candidate],
+    members: &[usize],
+    diagonal: f32,
+    params: &SynthesisParams,
+    seed: u64,
+) -> (Vec3, usize) {
+    let mut union = vec![0u64; targets.words()];
+    for &k in members {
+        union.iter_mut().zip(&seen[k]).for_each(|(u, s)| *u |= s);
+    }
+    let size = count_bits(&union).max(1) as f32;
+    let mut cast = 0usize;
+    let mut score = |p: Vec3| -> f32 {
+        let (bits, n) = targets.seen_by(rays, p, Some(&union));
+        let best_view = orient::goodness(rays, p, space.near, diagonal).iter().map(|g| g.1).fold(0.0f32, f32::max);
+        cast += n + 5 * 6 * 24 * 24;
+        count_bits(&bits) as f32 / size + params.goodness_weight * best_view
+    };
+    let start = *members.iter().max_by_key(|&&k| count_bits(&seen[k])).expect("clusters are not empty");
+    let mut current = candidates[start].position;
+    let mut current_score = score(current);
+    let (mut best, mut best_score) = (current, current_score);
+    let centre = members.iter().map(|&k| candidates[k].position).sum::<Vec3>() / members.len() as f32;
+    let spread = members.iter().map(|&k| (candidates[k].position - centre).length()).fold(0.0f32, f32::max).max(4.0 * space.grid.voxel);
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let steps = params.anneal_steps.max(1);
+    for step in 0..steps {
+        let progress = step as f32 / steps as f32;
+        let temperature = 0.05 * (0.02f32).powf(progress);
+        let radius = spread * (1.0 - progress) + space.grid.voxel;
+        let offset = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * radius;
+        let proposal = match params.eye_height {
+            Some(eye) => match eye_level(rays, space, current + offset, eye) {
+                Some(p) => p,
+                None => continue,
+            },
+            None => current + offset,
+        };
+        if !space.is_navigable(proposal) {
+            continue;
+        }
+        let s = score(proposal);
+        if s >= current_score || rng.random::<f32>() < ((s - current_score) / temperature).exp() {
+            current = proposal;
+            current_score = s;
+            if s > best_score {
+                best = proposal;
+                best_score = s;
+            }
+        }
+    }
+    (best, cast)
+}
+
+use crate::coverage::{count_bits, Targets};
+use crate::explore::{eye_level, Candidate};
+use crate::freespace::FreeSpace;
+use crate::orient;
+use crate::raycast::RayScene;
+use exploremaps_scenes::Scene;
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use std::time::Instant;
 
 const PRUNE: f64 = 1e-6;
 const MAX_ITERATIONS: usize = 200;
@@ -175,6 +388,29 @@ mod tests {
         assert_eq!(w[0], vec![2.0, 1.0, 0.5]);
         assert_eq!(w[1][2], 0.0);
         assert_eq!(w[2][2], 0.5);
+    }
+
+    #[test]
+    fn synthesis_keeps_coverage_within_a_point_with_fewer_probes() {
+        use crate::coverage::{coverage, CoverageParams};
+        use crate::explore::{explore, ExploreParams};
+        use crate::freespace::{free_space, FreeSpaceParams};
+        use crate::raycast::RayScene;
+        let scene = exploremaps_scenes::BuiltIn::Pillars.generate(2);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
+        let (candidates, _) = explore(&scene, &rays, &space, &ExploreParams::default());
+        let (out, stats) = synthesize(&scene, &rays, &space, &candidates, &SynthesisParams::default());
+        assert!(stats.clusters < candidates.len(), "{stats:?}");
+        assert!(out.probes.len() <= candidates.len(), "{stats:?}");
+        assert_eq!(out.probes.len(), stats.clusters + stats.added_back);
+        assert!(out.probes.iter().all(|&p| space.is_navigable(p)));
+        assert!(out.clusters.iter().map(|c| c.1).sum::<usize>() == candidates.len());
+        // The independent metric: within one point of the candidates.
+        let params = CoverageParams { samples: 50_000, seed: 4, ..Default::default() };
+        let before = coverage(&scene, &rays, &space, &candidates.iter().map(|c| c.position).collect::<Vec<_>>(), &params).fraction();
+        let after = coverage(&scene, &rays, &space, &out.probes, &params).fraction();
+        assert!(after >= before - 0.01, "{after} vs {before}: {stats:?}");
     }
 
     #[test]

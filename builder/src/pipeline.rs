@@ -1,11 +1,13 @@
 //! The pipeline, step by step: what `exploremaps plan` runs. Each step is one
 //! stage module; this file only wires their results together.
 //!
-//! Planning today: ray casting → free space → explore → orient (preferred
-//! view directions) → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
+//! Planning today: ray casting → free space → explore (candidate probes) →
+//! cluster and synthesize (final probes) → orient (preferred view directions)
+//! → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
 //! pictures → graph. Clustering,
 //! orientation, paths, ordering and rendering join here as they land.
 
+use crate::cluster::{self, SynthesisParams};
 use crate::coverage::{coverage, CoverageParams, CoverageReport};
 use crate::explore::{explore, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
@@ -26,6 +28,8 @@ use std::time::Instant;
 pub struct PlanParams {
     pub free_space: FreeSpaceParams,
     pub explore: ExploreParams,
+    /// `None` keeps the explored candidates as the final probes.
+    pub synthesis: Option<SynthesisParams>,
     pub coverage: CoverageParams,
 }
 
@@ -70,12 +74,31 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
         let _span = tracing::info_span!("explore").entered();
         explore(scene, &rays, &space, &params.explore)
     };
-    tracing::info!("explore: {} probes in {:.2} s", candidates.len(), explore_stats.seconds);
-    let mut graph = new_graph(scene, source, &space, &candidates);
+    tracing::info!("explore: {} candidate probes in {:.2} s", candidates.len(), explore_stats.seconds);
+    let synthesized = match &params.synthesis {
+        Some(synthesis) => {
+            let _span = tracing::info_span!("cluster").entered();
+            let (out, stats) = cluster::synthesize(scene, &rays, &space, &candidates, synthesis);
+            tracing::info!("cluster: {} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
+            Some((out, stats))
+        }
+        None => None,
+    };
+    let mut graph = match &synthesized {
+        Some((out, _)) => new_graph(scene, source, &space, &out.probes, &out.user_placed, Some(out)),
+        None => {
+            let positions: Vec<Vec3> = candidates.iter().map(|c| c.position).collect();
+            let user: Vec<bool> = candidates.iter().map(|c| c.user_placed).collect();
+            new_graph(scene, source, &space, &positions, &user, None)
+        }
+    };
+    if let Some((_, stats)) = &synthesized {
+        graph.stats.insert("cluster".into(), serde_json::to_value(stats).unwrap_or_default());
+    }
     let oriented = Instant::now();
     let diagonal = scene.bounds().diagonal();
     let directions: Vec<Vec<orient::Preferred>> =
-        candidates.par_iter().map(|c| orient::preferred_directions(&rays, c.position, space.near, diagonal)).collect();
+        graph.probes.par_iter().map(|p| orient::preferred_directions(&rays, Vec3::from(p.position), space.near, diagonal)).collect();
     for (probe, preferred) in graph.probes.iter_mut().zip(directions) {
         probe.preferred_directions = preferred
             .into_iter()
@@ -210,8 +233,9 @@ pub fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize
         .collect()
 }
 
-/// A graph holding the scene's description and the explored probes.
-fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, candidates: &[crate::explore::Candidate]) -> format::Graph {
+/// A graph holding the scene's description and the final probes (with their
+/// clusters when synthesis ran).
+fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, probes: &[Vec3], user_placed: &[bool], clusters: Option<&cluster::Synthesized>) -> format::Graph {
     let b = scene.bounds();
     let mut graph = format::Graph::new(format::SceneInfo {
         name: scene.name.clone(),
@@ -230,17 +254,20 @@ fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, candidates: &[crate
         near_distance: Some(space.near),
         credits: Vec::new(),
     });
-    graph.probes = candidates
+    graph.probes = probes
         .iter()
         .enumerate()
-        .map(|(i, c)| format::Probe {
+        .map(|(i, p)| format::Probe {
             id: i as u32,
-            position: c.position.to_array(),
-            cluster: None,
+            position: p.to_array(),
+            cluster: clusters.map(|c| c.cluster_of[i]),
             preferred_directions: Vec::new(),
-            user_placed: c.user_placed,
+            user_placed: user_placed[i],
             assets: format::ProbeAssets::default(),
         })
         .collect();
+    if let Some(c) = clusters {
+        graph.clusters = c.clusters.iter().enumerate().map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 }).collect();
+    }
     graph
 }
