@@ -70,6 +70,24 @@ fn main() {
             "{:<34} coverage {:.2} % of {:.0} units² reachable; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
             "", 100.0 * report.fraction(), report.reachable_area, need(0.90), need(0.95), need(0.98), need(0.99), report.seconds
         );
+        if strategy == Strategy::Greedy {
+            // Cluster, synthesize and orient the candidates (issue: cluster).
+            let t = Instant::now();
+            let (out, cs) = exploremaps_builder::cluster::synthesize(scene, &rays, &space, &probes, &Default::default());
+            let cluster_s = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let diagonal = scene.bounds().diagonal();
+            for &p in &out.probes {
+                std::hint::black_box(exploremaps_builder::orient::preferred_directions(&rays, p, space.near, diagonal));
+            }
+            let orient_s = t.elapsed().as_secs_f64();
+            let final_report = coverage(scene, &rays, &space, &out.probes, &CoverageParams::default());
+            let need = |f: f64| final_report.probes_for(f).map_or("-".to_string(), |n| n.to_string());
+            println!(
+                "{:<34} cluster: {} clusters -> {} final probes ({} added back), {:.2} % coverage (95 % with {}); cluster+synthesis {:.2} s, orient {:.2} s",
+                "", cs.clusters, out.probes.len(), cs.added_back, 100.0 * final_report.fraction(), need(0.95), cluster_s, orient_s
+            );
+        }
         let baselines = exploremaps_builder::pipeline::baselines(scene, &rays, &space, probes.len(), &Default::default());
         let line: Vec<String> = baselines.iter().map(|b| format!("{} {:.2} %", b.name, 100.0 * b.report.fraction())).collect();
         println!("{:<34} baselines with the same {} probes: {}", "", probes.len(), line.join(", "));
