@@ -260,6 +260,19 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
             c["clusters"], c["final_probes"], c["added_back"], c["seconds"].as_f64().unwrap_or(0.0)
         );
     }
+    if let (Some(c), Some(m)) = (plan.graph.stats.get("connect"), plan.graph.stats.get("smooth")) {
+        println!(
+            "  paths       {} paths ({} pairs share a view, {} pruned), {} component(s); smoothed at {:.1} ms a path, clearance ≥ {} (r = {}) ({:.2} s)",
+            c["paths"],
+            c["pairs_sharing_view"],
+            c["pruned"],
+            c["components"],
+            m["ms_per_path"].as_f64().unwrap_or(0.0),
+            num(m["min_clearance"].as_f64().unwrap_or(0.0)),
+            num(m["near_distance"].as_f64().unwrap_or(0.0)),
+            c["seconds"].as_f64().unwrap_or(0.0) + m["seconds"].as_f64().unwrap_or(0.0)
+        );
+    }
     println!(
         "  coverage    {:.2} % of {} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
         100.0 * c.fraction(),

@@ -166,6 +166,12 @@ fn plan_writes_a_valid_bundle_with_coverage_and_pictures() {
     let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(out.join("graph.json")).unwrap()).unwrap();
     assert_eq!(graph.bar_order.len(), probes.len(), "every probe is in the thumbnail bar");
     assert!(graph.probes.iter().all(|p| !p.preferred_directions.is_empty()), "every probe has a preferred direction");
+    if graph.probes.len() > 1 {
+        assert!(!graph.paths.is_empty(), "probes are joined by paths");
+        assert_eq!(graph.stats["connect"]["components"], 1, "the maze is one connected space");
+        assert_eq!(graph.stats["smooth"]["blocked_segments"], 0);
+        assert!(graph.paths.iter().all(|p| p.duration_s >= 1.5 && !p.camera.is_empty()));
+    }
     let order = &graph.stats["order"];
     assert!(order["cost"].as_f64().unwrap() <= order["random_cost"].as_f64().unwrap(), "{order}");
     let coverage: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();

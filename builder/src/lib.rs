@@ -8,6 +8,7 @@
 
 pub mod bundle;
 pub mod cluster;
+pub mod connect;
 pub mod coverage;
 pub mod explore;
 pub mod export;
@@ -19,6 +20,7 @@ pub mod orient;
 pub mod pipeline;
 pub mod raycast;
 pub mod report;
+pub mod smooth;
 #[cfg(test)]
 mod testing;
 

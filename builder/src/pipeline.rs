@@ -3,11 +3,13 @@
 //!
 //! Planning today: ray casting → free space → explore (candidate probes) →
 //! cluster and synthesize (final probes) → orient (preferred view directions)
-//! → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
+//! → connect and smooth (paths) → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
 //! pictures → graph. Clustering,
 //! orientation, paths, ordering and rendering join here as they land.
 
 use crate::cluster::{self, SynthesisParams};
+use crate::connect::{self, ConnectParams};
+use crate::smooth;
 use crate::coverage::{coverage, CoverageParams, CoverageReport};
 use crate::explore::{explore, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
@@ -107,14 +109,71 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
             .collect();
     }
     graph.stats.insert("orient".into(), serde_json::json!({ "seconds": oriented.elapsed().as_secs_f64() }));
-    // Until paths exist, the bar order weighs probe pairs by 1 / Euclidean distance.
+    route(scene, &rays, &space, &mut graph, params.explore.seed);
+    // The bar order weighs probe pairs by 1 / path length, or by 1 / Euclidean
+    // distance when no path joins any probes.
     let points: Vec<[f32; 3]> = graph.probes.iter().map(|p| p.position).collect();
-    let (bar_order, order_stats) = order::order(points.len(), &order::euclidean_edges(&points), params.explore.seed);
+    let edges = if graph.paths.is_empty() {
+        order::euclidean_edges(&points)
+    } else {
+        graph.paths.iter().map(|p| (p.from as usize, p.to as usize, 1.0 / (p.length as f64).max(1e-9))).collect()
+    };
+    let (bar_order, order_stats) = order::order(points.len(), &edges, params.explore.seed);
     graph.bar_order = bar_order;
     graph.stats.insert("free_space".into(), serde_json::to_value(&free_stats).unwrap_or_default());
     graph.stats.insert("explore".into(), serde_json::to_value(&explore_stats).unwrap_or_default());
     graph.stats.insert("order".into(), serde_json::to_value(&order_stats).unwrap_or_default());
     Ok(measure(scene, &rays, &space, graph, free_stats, explore_stats, params, started))
+}
+
+/// Connects the graph's probes, smooths and times the paths, and writes them
+/// into the graph with their stats.
+fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, graph: &mut format::Graph, seed: u64) {
+    let _span = tracing::info_span!("connect").entered();
+    let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+    let (raw, connect_stats) = connect::connect(rays, space, &probes, &ConnectParams { seed, ..Default::default() });
+    let started = Instant::now();
+    let smoothed: Vec<(Vec<Vec3>, smooth::SmoothingStats)> = raw.par_iter().map(|r| smooth::smooth(rays, space, &r.polyline)).collect();
+    let smoothing_s = started.elapsed().as_secs_f64();
+    graph.paths = raw
+        .iter()
+        .zip(&smoothed)
+        .enumerate()
+        .map(|(id, (r, (polyline, _)))| {
+            let length = connect::polyline_length(polyline);
+            let duration_s = smooth::duration(length, scene.metres_per_unit);
+            let arrival = graph.probes[r.to].preferred_directions.first().map(|d| (d.yaw, d.pitch));
+            format::Path {
+                id: id as u32,
+                from: r.from as u32,
+                to: r.to as u32,
+                polyline: polyline.iter().map(|p| p.to_array()).collect(),
+                length,
+                duration_s,
+                camera: smooth::camera_keys(polyline, duration_s, arrival)
+                    .into_iter()
+                    .map(|(t_s, position, yaw, pitch)| format::CameraKey { t_s, position: position.to_array(), yaw, pitch })
+                    .collect(),
+                assets: format::PathAssets::default(),
+            }
+        })
+        .collect();
+    tracing::info!("connect: {} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
+    let n = smoothed.len().max(1) as f64;
+    graph.stats.insert("connect".into(), serde_json::to_value(&connect_stats).unwrap_or_default());
+    graph.stats.insert(
+        "smooth".into(),
+        serde_json::json!({
+            "paths": smoothed.len(),
+            "seconds": smoothing_s,
+            "ms_per_path": 1000.0 * smoothing_s / n,
+            "iterations_max": smoothed.iter().map(|s| s.1.iterations).max().unwrap_or(0),
+            "blocked_segments": smoothed.iter().map(|s| s.1.blocked_segments).sum::<usize>(),
+            "min_clearance": smoothed.iter().map(|s| s.1.min_clearance).fold(f32::INFINITY, f32::min),
+            "mean_clearance": smoothed.iter().map(|s| s.1.mean_clearance as f64).sum::<f64>() / n,
+            "near_distance": space.near,
+        }),
+    );
 }
 
 /// Measures the coverage of a planned graph's probes again (e.g. with more

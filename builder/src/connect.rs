@@ -1,0 +1,336 @@
+//! Connect: which probes get a path between them, and the raw path
+//! (DESIGN.md section 3.7; the paper's section 6).
+//!
+//! Inputs: the ray-casting scene, the navigable [`FreeSpace`], final probes.
+//! Output: raw polylines between connected probe pairs, and [`ConnectStats`].
+//!
+//! Two probes are connected when some point of navigable space is visible from
+//! both (not only when they see each other: a probe in a room and one outside
+//! its window connect). Each probe sees a set of seeded random navigable points
+//! (occlusion rays); shared points make a pair. The route: the straight segment
+//! if it keeps clearance r; else through the shared point minimising the
+//! detour, if both legs keep clearance; else A* over navigable voxels
+//! (26-neighbours, each step's cost its length times 1 + r / clearance, so
+//! routes keep to open space; heuristic 1.5 × distance), run nearest pairs
+//! first and skipped where a two-arc detour already makes the arc redundant. Pairs with no route are rejected. Arcs whose
+//! length exceeds 1.25 times a two-arc detour through a third probe are pruned
+//! (longest first, never disconnecting the graph), so the graph stays readable.
+
+use crate::freespace::FreeSpace;
+use crate::raycast::{Packing, Ray, RayScene};
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::time::Instant;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConnectParams {
+    /// Random navigable points tested for shared visibility.
+    pub witness_points: usize,
+    /// An arc is pruned when a detour through another probe is at most this much longer.
+    pub prune_ratio: f32,
+    pub seed: u64,
+}
+
+impl Default for ConnectParams {
+    fn default() -> Self {
+        ConnectParams { witness_points: 4000, prune_ratio: 1.25, seed: 1 }
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ConnectStats {
+    pub pairs_tested: usize,
+    pub pairs_sharing_view: usize,
+    pub straight: usize,
+    pub via_witness: usize,
+    pub a_star: usize,
+    pub unroutable: usize,
+    pub pruned: usize,
+    pub paths: usize,
+    /// Connected components of the final graph (1 when every probe is reachable).
+    pub components: usize,
+    pub seconds: f64,
+}
+
+/// A raw path between probes `from` and `to` (indices), as a polyline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawPath {
+    pub from: usize,
+    pub to: usize,
+    pub polyline: Vec<Vec3>,
+}
+
+pub fn polyline_length(p: &[Vec3]) -> f32 {
+    p.windows(2).map(|w| (w[1] - w[0]).length()).sum()
+}
+
+/// Whether the segment stays in navigable space (sampled every half voxel) and
+/// crosses no geometry.
+pub fn segment_clear(rays: &RayScene, space: &FreeSpace, a: Vec3, b: Vec3) -> bool {
+    let steps = ((b - a).length() / (0.5 * space.grid.voxel)).ceil().max(1.0) as usize;
+    (0..=steps).all(|k| space.is_navigable(a + (b - a) * (k as f32 / steps as f32))) && !rays.occluded(&Ray::segment(a, b))
+}
+
+/// Connects probes: raw routes between every pair that shares a view, pruned.
+pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &ConnectParams) -> (Vec<RawPath>, ConnectStats) {
+    let started = Instant::now();
+    let mut stats = ConnectStats::default();
+    let navigable = space.navigable_points();
+    let mut rng = Pcg64Mcg::seed_from_u64(params.seed ^ 0x636f_6e6e);
+    let witnesses: Vec<Vec3> = if navigable.is_empty() { Vec::new() } else { (0..params.witness_points).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
+    let seen: Vec<Vec<bool>> = probes
+        .par_iter()
+        .map(|&p| {
+            let segments: Vec<Ray> = witnesses.iter().map(|&w| Ray::segment(p, w)).collect();
+            rays.occluded_batch(&segments, Packing::Packets8).into_iter().map(|b| !b).collect()
+        })
+        .collect();
+    let pairs: Vec<(usize, usize)> = (0..probes.len()).flat_map(|i| (i + 1..probes.len()).map(move |j| (i, j))).collect();
+    stats.pairs_tested = pairs.len();
+    // Phase 1, in parallel: the straight segment, or two legs through a shared point.
+    let shares = |i: usize, j: usize| (0..witnesses.len()).any(|k| seen[i][k] && seen[j][k]);
+    let cheap: Vec<Option<RawPath>> = pairs
+        .par_iter()
+        .map(|&(i, j)| {
+            let (a, b) = (probes[i], probes[j]);
+            if segment_clear(rays, space, a, b) {
+                return Some(RawPath { from: i, to: j, polyline: vec![a, b] });
+            }
+            let mut shared: Vec<Vec3> = (0..witnesses.len()).filter(|&k| seen[i][k] && seen[j][k]).map(|k| witnesses[k]).collect();
+            shared.sort_by(|x, y| ((*x - a).length() + (*x - b).length()).total_cmp(&((*y - a).length() + (*y - b).length())));
+            shared.into_iter().take(8).find(|&w| segment_clear(rays, space, a, w) && segment_clear(rays, space, w, b)).map(|w| RawPath { from: i, to: j, polyline: vec![a, w, b] })
+        })
+        .collect();
+    let mut paths = Vec::new();
+    let mut searches = Vec::new();
+    for (&(i, j), route) in pairs.iter().zip(cheap) {
+        let share = shares(i, j);
+        stats.pairs_sharing_view += share as usize;
+        match route {
+            Some(path) => {
+                if path.polyline.len() == 2 {
+                    stats.straight += 1
+                } else {
+                    stats.via_witness += 1
+                }
+                paths.push(path);
+            }
+            None if share => searches.push((i, j)),
+            None => {}
+        }
+    }
+    // Phase 2, nearest pairs first: A* only where no two-arc detour already
+    // beats the pruning bound (an A* route is never shorter than the straight line).
+    searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
+    for (i, j) in searches {
+        let bound = params.prune_ratio * (probes[i] - probes[j]).length();
+        let arc = |x: usize, y: usize| paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline));
+        let detour = (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));
+        if detour {
+            stats.pruned += 1;
+            continue;
+        }
+        match a_star(space, probes[i], probes[j]) {
+            Some(polyline) => {
+                stats.a_star += 1;
+                paths.push(RawPath { from: i, to: j, polyline });
+            }
+            None => stats.unroutable += 1,
+        }
+    }
+    let before = paths.len();
+    let paths = prune(probes.len(), paths, params.prune_ratio);
+    stats.pruned += before - paths.len();
+    stats.paths = paths.len();
+    stats.components = components(probes.len(), &paths);
+    stats.seconds = started.elapsed().as_secs_f64();
+    (paths, stats)
+}
+
+/// Removes arcs with a short enough two-arc detour, longest first, keeping the
+/// detour's arcs and never disconnecting the graph.
+fn prune(n: usize, mut paths: Vec<RawPath>, ratio: f32) -> Vec<RawPath> {
+    paths.sort_by(|a, b| polyline_length(&b.polyline).total_cmp(&polyline_length(&a.polyline)).then((a.from, a.to).cmp(&(b.from, b.to))));
+    let mut k = 0;
+    while k < paths.len() {
+        let length = |p: &RawPath| polyline_length(&p.polyline);
+        let arc = |x: usize, y: usize, paths: &[RawPath], skip: usize| {
+            paths.iter().enumerate().filter(|&(m, _)| m != skip).find(|(_, p)| (p.from, p.to) == (x.min(y), x.max(y))).map(|(_, p)| length(p))
+        };
+        let (i, j, l) = (paths[k].from, paths[k].to, length(&paths[k]));
+        let detour = (0..n).filter(|&m| m != i && m != j).any(|m| match (arc(i, m, &paths, k), arc(m, j, &paths, k)) {
+            (Some(a), Some(b)) => a + b <= ratio * l,
+            _ => false,
+        });
+        if detour {
+            let mut without = paths.clone();
+            without.remove(k);
+            if components(n, &without) == components(n, &paths) {
+                paths = without;
+                continue;
+            }
+        }
+        k += 1;
+    }
+    paths.sort_by_key(|p| (p.from, p.to));
+    paths
+}
+
+/// Connected components of probes joined by paths (union-find).
+pub fn components(n: usize, paths: &[RawPath]) -> usize {
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    for p in paths {
+        let (a, b) = (root(&mut parent, p.from), root(&mut parent, p.to));
+        parent[a] = b;
+    }
+    (0..n).filter(|&x| root(&mut parent, x) == x).count()
+}
+
+/// A* over navigable voxels from the voxel of `a` to that of `b`; the polyline
+/// runs a → voxel centres → b. Step cost: length × (1 + r / clearance).
+fn a_star(space: &FreeSpace, a: Vec3, b: Vec3) -> Option<Vec<Vec3>> {
+    let g = &space.grid;
+    let (start, goal) = (g.index(g.cell(a)?), g.index(g.cell(b)?));
+    if !space.navigable[start] || !space.navigable[goal] {
+        return None;
+    }
+    // The heuristic is inflated by half: a slightly longer route (smoothing
+    // straightens it) for a search that goes to the goal instead of flooding rooms.
+    let h = |i: usize| 1.5 * (g.center(g.coords(i)) - b).length();
+    let mut cost = vec![f32::INFINITY; g.len()];
+    let mut parent = vec![u32::MAX; g.len()];
+    let mut closed = vec![false; g.len()];
+    cost[start] = 0.0;
+    parent[start] = start as u32;
+    let mut open = BinaryHeap::from([(Reverse(ordered(h(start))), start)]);
+    while let Some((Reverse(key), i)) = open.pop() {
+        if closed[i] || key > ordered(cost[i] + h(i)) {
+            continue; // expanded already, or a stale entry
+        }
+        closed[i] = true;
+        if i == goal {
+            let mut cells = vec![goal];
+            while parent[*cells.last().unwrap()] as usize != *cells.last().unwrap() {
+                cells.push(parent[*cells.last().unwrap()] as usize);
+            }
+            cells.reverse();
+            let mut polyline = vec![a];
+            polyline.extend(cells.iter().skip(1).take(cells.len().saturating_sub(2)).map(|&c| g.center(g.coords(c))));
+            polyline.push(b);
+            return Some(polyline);
+        }
+        let c = g.coords(i);
+        for dz in -1i64..=1 {
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    if dx == 0 && dy == 0 && dz == 0 {
+                        continue;
+                    }
+                    let n = [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz];
+                    if n.iter().zip(g.dims).any(|(&v, d)| v < 0 || v >= d as i64) {
+                        continue;
+                    }
+                    let j = g.index(n.map(|v| v as usize));
+                    if !space.navigable[j] || closed[j] {
+                        continue;
+                    }
+                    let step = ((dx * dx + dy * dy + dz * dz) as f32).sqrt() * g.voxel;
+                    let through = cost[i] + step * (1.0 + space.near / space.clearance[j].max(1e-6));
+                    if through < cost[j] {
+                        cost[j] = through;
+                        parent[j] = i as u32;
+                        open.push((Reverse(ordered(through + h(j))), j));
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
+/// f32 as a totally ordered integer key (costs are non-negative).
+fn ordered(x: f32) -> u32 {
+    x.max(0.0).to_bits()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::testing::rooms;
+
+    fn setup(scene: &exploremaps_scenes::Scene) -> (RayScene, FreeSpace) {
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        (rays, space)
+    }
+
+    #[test]
+    fn two_rooms_with_a_door_connect_through_the_door() {
+        let scene = rooms(2, 6.0, 3.0, 6.0, &[1]);
+        let (rays, space) = setup(&scene);
+        // Probes off the door's line: no straight path.
+        let probes = [Vec3::new(2.0, 1.5, 1.0), Vec3::new(10.0, 1.5, 5.0)];
+        let (paths, stats) = connect(&rays, &space, &probes, &ConnectParams::default());
+        assert_eq!(paths.len(), 1, "{stats:?}");
+        let p = &paths[0].polyline;
+        // The path crosses the wall at x = 6 inside the door (z ∈ [2.4, 3.6], y < 2.2).
+        let crossing = p.windows(2).find(|w| (w[0].x - 6.0) * (w[1].x - 6.0) <= 0.0).expect("crosses x = 6");
+        let t = (6.0 - crossing[0].x) / (crossing[1].x - crossing[0].x);
+        let at = crossing[0] + (crossing[1] - crossing[0]) * t;
+        assert!(at.z > 2.4 && at.z < 3.6 && at.y < 2.2, "crosses the wall at {at}, not through the door");
+        for w in p.windows(2) {
+            assert!(segment_clear(&rays, &space, w[0], w[1]), "segment {w:?} is not clear");
+        }
+        assert_eq!(stats.components, 1);
+    }
+
+    #[test]
+    fn sealed_rooms_stay_unconnected_and_are_reported() {
+        let scene = rooms(2, 6.0, 3.0, 6.0, &[]);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        // Both rooms navigable: take one, then the other, by start point, and pool them.
+        let (a, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, start: Some(Vec3::new(3.0, 1.5, 3.0)), ..Default::default() }).unwrap();
+        let (paths, stats) = connect(&rays, &a, &[Vec3::new(2.0, 1.5, 3.0), Vec3::new(10.0, 1.5, 3.0)], &ConnectParams::default());
+        assert!(paths.is_empty());
+        assert_eq!(stats.components, 2);
+    }
+
+    #[test]
+    fn a_star_goes_around_a_pillar_with_clearance() {
+        let mut m = exploremaps_scenes::mesh::MeshBuilder::new("pillar");
+        let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
+        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
+        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
+        for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
+            m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
+        }
+        m.cylinder(Vec3::new(5.0, 0.0, 3.0), 1.0, h, 32);
+        let scene = m.finish();
+        let (rays, space) = setup(&scene);
+        let path = a_star(&space, Vec3::new(2.0, 1.5, 3.0), Vec3::new(8.0, 1.5, 3.0)).expect("a route around the pillar");
+        assert!(path.iter().all(|p| ((p.x - 5.0).powi(2) + (p.z - 3.0).powi(2)).sqrt() > 1.0 + space.near * 0.9), "too close to the pillar");
+        assert!(path.windows(2).all(|w| !rays.occluded(&Ray::segment(w[0], w[1]))));
+    }
+
+    #[test]
+    fn redundant_arcs_are_pruned_without_disconnecting() {
+        // Three probes in a row: the long arc 0-2 has a detour via 1 of the same length.
+        let line = |a: f32, b: f32, from, to| RawPath { from, to, polyline: vec![Vec3::new(a, 0.0, 0.0), Vec3::new(b, 0.0, 0.0)] };
+        let paths = vec![line(0.0, 1.0, 0, 1), line(1.0, 2.0, 1, 2), line(0.0, 2.0, 0, 2)];
+        let kept = prune(3, paths, 1.25);
+        assert_eq!(kept.iter().map(|p| (p.from, p.to)).collect::<Vec<_>>(), vec![(0, 1), (1, 2)]);
+        assert_eq!(components(3, &kept), 1);
+    }
+}
