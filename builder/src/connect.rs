@@ -325,6 +325,30 @@ mod tests {
     }
 
     #[test]
+    fn maze_paths_exist_stay_in_the_corridors_and_are_deterministic() {
+        use crate::explore::{explore, ExploreParams};
+        use crate::smooth::smooth;
+        let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
+        let (rays, space) = setup(&scene);
+        let (candidates, _) = explore(&scene, &rays, &space, &ExploreParams::default());
+        let probes: Vec<Vec3> = candidates.iter().map(|c| c.position).collect();
+        let (paths, stats) = connect(&rays, &space, &probes, &ConnectParams::default());
+        assert!(probes.len() >= 3 && !paths.is_empty(), "{stats:?}");
+        assert_eq!(stats.components, 1, "the maze is one corridor system: {stats:?}");
+        for p in &paths {
+            let (smoothed, s) = smooth(&rays, &space, &p.polyline);
+            assert_eq!(s.blocked_segments, 0);
+            assert!(s.min_clearance >= space.near, "{s:?}");
+            for w in smoothed.windows(2) {
+                assert!(segment_clear(&rays, &space, w[0], w[1]), "a smoothed segment leaves the corridors");
+            }
+        }
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let (again, _) = one.install(|| connect(&rays, &space, &probes, &ConnectParams::default()));
+        assert_eq!(again, paths);
+    }
+
+    #[test]
     fn redundant_arcs_are_pruned_without_disconnecting() {
         // Three probes in a row: the long arc 0-2 has a detour via 1 of the same length.
         let line = |a: f32, b: f32, from, to| RawPath { from, to, polyline: vec![Vec3::new(a, 0.0, 0.0), Vec3::new(b, 0.0, 0.0)] };

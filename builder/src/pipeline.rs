@@ -118,11 +118,15 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     } else {
         graph.paths.iter().map(|p| (p.from as usize, p.to as usize, 1.0 / (p.length as f64).max(1e-9))).collect()
     };
+    let ordered = Instant::now();
     let (bar_order, order_stats) = order::order(points.len(), &edges, params.explore.seed);
     graph.bar_order = bar_order;
+    let order_s = ordered.elapsed().as_secs_f64();
     graph.stats.insert("free_space".into(), serde_json::to_value(&free_stats).unwrap_or_default());
     graph.stats.insert("explore".into(), serde_json::to_value(&explore_stats).unwrap_or_default());
-    graph.stats.insert("order".into(), serde_json::to_value(&order_stats).unwrap_or_default());
+    let mut order_json = serde_json::to_value(&order_stats).unwrap_or_default();
+    order_json["seconds"] = serde_json::json!(order_s);
+    graph.stats.insert("order".into(), order_json);
     Ok(measure(scene, &rays, &space, graph, free_stats, explore_stats, params, started))
 }
 
