@@ -309,15 +309,7 @@ mod tests {
 
     #[test]
     fn a_star_goes_around_a_pillar_with_clearance() {
-        let mut m = exploremaps_scenes::mesh::MeshBuilder::new("pillar");
-        let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
-        for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
-            m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
-        }
-        m.cylinder(Vec3::new(5.0, 0.0, 3.0), 1.0, h, 32);
-        let scene = m.finish();
+        let scene = crate::testing::pillar_room(1.0);
         let (rays, space) = setup(&scene);
         let path = a_star(&space, Vec3::new(2.0, 1.5, 3.0), Vec3::new(8.0, 1.5, 3.0)).expect("a route around the pillar");
         assert!(path.iter().all(|p| ((p.x - 5.0).powi(2) + (p.z - 3.0).powi(2)).sqrt() > 1.0 + space.near * 0.9), "too close to the pillar");

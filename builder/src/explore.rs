@@ -572,16 +572,7 @@ mod tests {
 
     #[test]
     fn a_room_with_a_pillar_needs_more_than_one_probe_and_sees_behind_it() {
-        let mut m = MeshBuilder::new("pillar");
-        let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
-        m.wall(true, 0.0, 0.0, w, 0.0, h, t, &[]);
-        m.wall(true, d, 0.0, w, 0.0, h, t, &[]);
-        m.wall(false, 0.0, 0.0, d, 0.0, h, t, &[]);
-        m.wall(false, w, 0.0, d, 0.0, h, t, &[]);
-        m.cylinder(Vec3::new(5.0, 0.0, 3.0), 0.8, h, 32);
-        let scene = m.finish();
+        let scene = crate::testing::pillar_room(0.8);
         for strategy in STRATEGIES {
             let (probes, stats, space) = plan(&scene, &with(strategy));
             assert!((2..=6).contains(&probes.len()), "{strategy:?}: {stats:?}");

@@ -160,15 +160,7 @@ mod tests {
     use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
 
     fn pillar_room() -> (RayScene, FreeSpace) {
-        let mut m = exploremaps_scenes::mesh::MeshBuilder::new("pillar");
-        let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
-        for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
-            m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
-        }
-        m.cylinder(Vec3::new(5.0, 0.0, 3.0), 1.0, h, 32);
-        let scene = m.finish();
+        let scene = crate::testing::pillar_room(1.0);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
         (rays, space)

@@ -20,3 +20,16 @@ pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
     }
     m.finish()
 }
+
+/// A closed 10 × 3 × 6 room (x, y, z) with a round pillar of `radius` at (5, 3).
+pub fn pillar_room(radius: f32) -> Scene {
+    let mut m = MeshBuilder::new("pillar");
+    let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
+    m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
+    m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
+    for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
+        m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
+    }
+    m.cylinder(Vec3::new(5.0, 0.0, 3.0), radius, h, 32);
+    m.finish()
+}
