@@ -81,7 +81,7 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
         Some(synthesis) => {
             let _span = tracing::info_span!("cluster").entered();
             let (out, stats) = cluster::synthesize(scene, &rays, &space, &candidates, synthesis);
-            tracing::info!("cluster: {} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
+            tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
             Some((out, stats))
         }
         None => None,
@@ -162,7 +162,7 @@ fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, graph: &mut format::
             }
         })
         .collect();
-    tracing::info!("connect: {} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
+    tracing::info!("{} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
     let n = smoothed.len().max(1) as f64;
     graph.stats.insert("connect".into(), serde_json::to_value(&connect_stats).unwrap_or_default());
     graph.stats.insert(
