@@ -43,10 +43,17 @@ pub enum Command {
         #[command(flatten)]
         planning: PlanArgs,
     },
-    /// Render what a planned bundle is missing (resumable).
+    /// Render what a planned bundle is missing (resumable): today, preview panoramas
+    /// (photo-sphere JPEG) and thumbnails; transition videos are not built yet.
     Render {
         /// Bundle folder written by `plan`.
         bundle: PathBuf,
+        /// Width of the equirectangular panoramas (height is half).
+        #[arg(long, default_value_t = 2048)]
+        width: u32,
+        /// Render only the probes of shard i of n (i/n, 0-based); shards share the folder.
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<(usize, usize)>,
     },
     /// Measure again how much reachable surface a bundle's probes see; rewrites
     /// coverage.json and the coverage pictures.
@@ -167,4 +174,14 @@ fn parse_point(text: &str) -> Result<[f32; 3], String> {
         [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok([*x, *y, *z]),
         _ => Err(format!("{text}: expected three finite numbers x,y,z")),
     }
+}
+
+/// `i/n` with i < n.
+fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let (i, n) = text.split_once('/').ok_or_else(|| format!("{text}: expected i/n, e.g. 0/4"))?;
+    let (i, n): (usize, usize) = (i.trim().parse().map_err(|e| format!("{text}: {e}"))?, n.trim().parse().map_err(|e| format!("{text}: {e}"))?);
+    if n == 0 || i >= n {
+        return Err(format!("{text}: need 0 <= i < n"));
+    }
+    Ok((i, n))
 }

@@ -89,7 +89,7 @@ fn run(cli: &Cli) -> Result<()> {
             }
         }
         Command::Build { .. } => Err(NotBuiltYet("build").into()),
-        Command::Render { .. } => Err(NotBuiltYet("render").into()),
+        Command::Render { bundle, width, shard } => render(bundle, *width, *shard),
         Command::View { .. } => Err(NotBuiltYet("view").into()),
         Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
     }
@@ -202,19 +202,49 @@ fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -
     Ok(())
 }
 
-/// `exploremaps coverage`: measure a planned bundle's probes again.
-fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
+/// A planned bundle's graph and its scene, loaded as `plan` loaded it.
+fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
     let graph_path = bundle.join(GRAPH_FILE);
     let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
     let graph = Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?;
     let recorded = graph.stats.get("plan").cloned().unwrap_or_default();
-    let seed = recorded["seed"].as_u64().unwrap_or(1);
     let scene_args = SceneArgs {
         scene: graph.scene.source.clone(),
         up: recorded["up"].as_str().unwrap_or("y").to_string(),
         metres_per_unit: recorded["metres_per_unit"].as_f64().map(|m| m as f32),
     };
-    let (scene, _) = load_scene(&scene_args, seed).map_err(|e| BadInput(format!("the bundle's scene {}: {e:#}", graph.scene.source)))?;
+    let (scene, _) = load_scene(&scene_args, recorded["seed"].as_u64().unwrap_or(1)).map_err(|e| BadInput(format!("the bundle's scene {}: {e:#}", graph.scene.source)))?;
+    Ok((graph, scene, recorded))
+}
+
+/// `exploremaps render`: preview panoramas and thumbnails the bundle lacks.
+fn render(bundle: &Path, width: u32, shard: Option<(usize, usize)>) -> Result<()> {
+    if !(64..=8192).contains(&width) || width % 2 != 0 {
+        bail!(BadInput(format!("--width {width}: use an even number from 64 to 8192 (4096 is the safe limit on phones)")));
+    }
+    let (mut graph, scene, _) = open_bundle(bundle)?;
+    let (index, count) = shard.unwrap_or((0, 1));
+    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_message("rendering panoramas");
+    bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    let report = exploremaps_builder::bundle::render_missing(bundle, &scene, &mut graph, width, exploremaps_builder::bundle::Shard { index, count }, |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    println!(
+        "{}: rendered {} probe panoramas and thumbnails, {} already there ({:.1} s); transition videos are not built yet",
+        bundle.display(),
+        report.rendered,
+        report.skipped,
+        report.seconds
+    );
+    Ok(())
+}
+
+/// `exploremaps coverage`: measure a planned bundle's probes again.
+fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
+    let (graph, scene, recorded) = open_bundle(bundle)?;
+    let seed = recorded["seed"].as_u64().unwrap_or(1);
     let space = match graph.scene.space.as_deref() {
         Some("outside") => SpaceMode::Outside,
         _ => SpaceMode::Inside,

@@ -137,7 +137,7 @@ fn stages_not_built_yet_say_so_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("bundle");
     let b = bundle.to_str().unwrap();
-    for args in [vec!["build", "-o", b], vec!["render", b], vec!["view", b], vec!["serve", b]] {
+    for args in [vec!["build", "-o", b], vec!["view", b], vec!["serve", b]] {
         let out = exploremaps(&args);
         assert_eq!(out.status.code(), Some(3), "{args:?}");
         assert!(stderr(&out).contains("not available yet"), "{args:?}: {}", stderr(&out));
@@ -231,4 +231,45 @@ fn plan_user_probes_and_bad_planning_arguments() {
     let run = exploremaps(&["coverage", dir.path().join("nowhere").to_str().unwrap()]);
     assert_eq!(run.status.code(), Some(2));
     assert!(stderr(&run).contains("graph.json"));
+}
+
+#[test]
+fn render_fills_in_panoramas_resumably_and_in_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let sharded = dir.path().join("sharded");
+    std::fs::create_dir_all(&sharded).unwrap();
+    for f in ["graph.json"] {
+        std::fs::copy(one.join(f), sharded.join(f)).unwrap();
+    }
+    let run = exploremaps(&["render", one.to_str().unwrap(), "--width", "128"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(one.join("graph.json")).unwrap()).unwrap();
+    for p in &graph.probes {
+        let pano = p.assets.equirect.as_ref().expect("graph.json lists the panorama");
+        let img = image::open(one.join(pano)).unwrap();
+        assert_eq!((img.width(), img.height()), (128, 64));
+        assert!(one.join(p.assets.thumbnail.as_ref().unwrap()).exists());
+    }
+    // Resuming renders nothing new and leaves the files untouched.
+    let before = std::fs::metadata(one.join("probes/0.jpg")).unwrap().modified().unwrap();
+    let run = exploremaps(&["render", one.to_str().unwrap(), "--width", "128"]);
+    assert!(stdout(&run).contains("rendered 0 "), "{}", stdout(&run));
+    assert_eq!(std::fs::metadata(one.join("probes/0.jpg")).unwrap().modified().unwrap(), before);
+    // Two shards produce the same files as one run.
+    for shard in ["0/2", "1/2"] {
+        let run = exploremaps(&["render", sharded.to_str().unwrap(), "--width", "128", "--shard", shard]);
+        assert!(run.status.success(), "{}", stderr(&run));
+    }
+    for p in &graph.probes {
+        let name = format!("probes/{}.jpg", p.id);
+        assert_eq!(std::fs::read(one.join(&name)).unwrap(), std::fs::read(sharded.join(&name)).unwrap(), "{name}");
+    }
+    for bad in [vec!["--width", "7"], vec!["--shard", "2/2"]] {
+        let mut args = vec!["render", one.to_str().unwrap()];
+        args.extend(bad.iter());
+        assert_eq!(exploremaps(&args).status.code(), Some(2), "{bad:?}");
+    }
 }

@@ -66,3 +66,67 @@ pub fn write_plan(dir: &Path, plan: &Plan) -> Result<(), BundleError> {
     write(dir, "coverage.json", coverage.as_bytes())?;
     write(dir, GRAPH_FILE, plan.graph.to_json().as_bytes())
 }
+
+/// Which probes a shard renders: probe `id` belongs to shard `id % count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderReport {
+    pub rendered: usize,
+    pub skipped: usize,
+    pub seconds: f64,
+}
+
+/// Renders what the bundle is missing: a photo-sphere JPEG panorama
+/// (`probes/<id>.jpg`, `width` × `width`/2) and a thumbnail (`thumbs/<id>.jpg`)
+/// per probe of this shard. A finished file is never redone and every file is
+/// written atomically, so a killed run loses at most the probe in progress.
+/// graph.json then lists the assets of every probe whose files exist.
+pub fn render_missing(
+    dir: &Path,
+    scene: &exploremaps_scenes::Scene,
+    graph: &mut exploremaps_format::Graph,
+    width: u32,
+    shard: Shard,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<RenderReport, BundleError> {
+    use crate::render::{equirect, perspective, photo_sphere_jpeg, Shader};
+    let started = std::time::Instant::now();
+    let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)
+        .map_err(|e| BundleError::Io { path: dir.display().to_string(), source: std::io::Error::other(e.to_string()) })?;
+    let shader = Shader::new(scene, &rays);
+    let mut report = RenderReport::default();
+    let mine: Vec<usize> = (0..graph.probes.len()).filter(|id| id % shard.count == shard.index).collect();
+    for (done, &id) in mine.iter().enumerate() {
+        progress(done, mine.len());
+        let (pano, thumb) = (format!("probes/{id}.jpg"), format!("thumbs/{id}.jpg"));
+        if dir.join(&pano).exists() && dir.join(&thumb).exists() {
+            report.skipped += 1;
+            continue;
+        }
+        let probe = &graph.probes[id];
+        let eye = glam::Vec3::from(probe.position);
+        let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
+        write(dir, &pano, &photo_sphere_jpeg(&equirect(&shader, eye, width), 90))?;
+        let mut jpeg = Vec::new();
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 85)
+            .encode_image(&perspective(&shader, eye, yaw, pitch, 1.0, 320, 180))
+            .expect("JPEG encoding to memory");
+        write(dir, &thumb, &jpeg)?;
+        report.rendered += 1;
+    }
+    progress(mine.len(), mine.len());
+    for (id, probe) in graph.probes.iter_mut().enumerate() {
+        let (pano, thumb) = (format!("probes/{id}.jpg"), format!("thumbs/{id}.jpg"));
+        probe.assets.equirect = dir.join(&pano).exists().then_some(pano);
+        probe.assets.thumbnail = dir.join(&thumb).exists().then_some(thumb);
+    }
+    graph.validate()?;
+    write(dir, GRAPH_FILE, graph.to_json().as_bytes())?;
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}

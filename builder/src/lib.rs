@@ -19,6 +19,7 @@ pub mod order;
 pub mod orient;
 pub mod pipeline;
 pub mod raycast;
+pub mod render;
 pub mod report;
 pub mod smooth;
 #[cfg(test)]
