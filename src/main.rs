@@ -219,7 +219,7 @@ fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
 
 /// `exploremaps render`: preview panoramas and thumbnails the bundle lacks.
 fn render(bundle: &Path, width: u32, shard: Option<(usize, usize)>) -> Result<()> {
-    if !(64..=8192).contains(&width) || width % 2 != 0 {
+    if !(64..=8192).contains(&width) || !width.is_multiple_of(2) {
         bail!(BadInput(format!("--width {width}: use an even number from 64 to 8192 (4096 is the safe limit on phones)")));
     }
     let (mut graph, scene, _) = open_bundle(bundle)?;

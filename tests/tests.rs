@@ -241,9 +241,7 @@ fn render_fills_in_panoramas_resumably_and_in_shards() {
     assert!(run.status.success(), "{}", stderr(&run));
     let sharded = dir.path().join("sharded");
     std::fs::create_dir_all(&sharded).unwrap();
-    for f in ["graph.json"] {
-        std::fs::copy(one.join(f), sharded.join(f)).unwrap();
-    }
+    std::fs::copy(one.join("graph.json"), sharded.join("graph.json")).unwrap();
     let run = exploremaps(&["render", one.to_str().unwrap(), "--width", "128"]);
     assert!(run.status.success(), "{}", stderr(&run));
     let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(one.join("graph.json")).unwrap()).unwrap();
