@@ -24,13 +24,19 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Plan and render: scene in, finished bundle out.
+    /// Plan and render: scene in, bundle out (today: preview panoramas and thumbnails,
+    /// no transition videos yet).
     Build {
         #[command(flatten)]
         scene: SceneArgs,
         /// Bundle folder to write.
         #[arg(short, long, default_value = "bundle")]
         output: PathBuf,
+        #[command(flatten)]
+        planning: PlanArgs,
+        /// Width of the equirectangular panoramas (height is half).
+        #[arg(long, default_value_t = 2048)]
+        width: u32,
     },
     /// Place probes and measure their coverage: writes graph.json, coverage.json and
     /// pictures of what is not covered, without rendering.

@@ -88,7 +88,11 @@ fn run(cli: &Cli) -> Result<()> {
                 None => info(&scene),
             }
         }
-        Command::Build { .. } => Err(NotBuiltYet("build").into()),
+        Command::Build { scene, output, planning, width } => {
+            check_width(*width)?;
+            plan(scene, output, planning, cli.seed)?;
+            render(output, *width, None)
+        }
         Command::Render { bundle, width, shard } => render(bundle, *width, *shard),
         Command::View { .. } => Err(NotBuiltYet("view").into()),
         Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
@@ -218,10 +222,15 @@ fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
 }
 
 /// `exploremaps render`: preview panoramas and thumbnails the bundle lacks.
-fn render(bundle: &Path, width: u32, shard: Option<(usize, usize)>) -> Result<()> {
+fn check_width(width: u32) -> Result<()> {
     if !(64..=8192).contains(&width) || !width.is_multiple_of(2) {
         bail!(BadInput(format!("--width {width}: use an even number from 64 to 8192 (4096 is the safe limit on phones)")));
     }
+    Ok(())
+}
+
+fn render(bundle: &Path, width: u32, shard: Option<(usize, usize)>) -> Result<()> {
+    check_width(width)?;
     let (mut graph, scene, _) = open_bundle(bundle)?;
     let (index, count) = shard.unwrap_or((0, 1));
     let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_message("rendering panoramas");

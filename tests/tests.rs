@@ -137,7 +137,7 @@ fn stages_not_built_yet_say_so_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("bundle");
     let b = bundle.to_str().unwrap();
-    for args in [vec!["build", "-o", b], vec!["view", b], vec!["serve", b]] {
+    for args in [vec!["view", b], vec!["serve", b]] {
         let out = exploremaps(&args);
         assert_eq!(out.status.code(), Some(3), "{args:?}");
         assert!(stderr(&out).contains("not available yet"), "{args:?}: {}", stderr(&out));
@@ -265,6 +265,11 @@ fn render_fills_in_panoramas_resumably_and_in_shards() {
         let name = format!("probes/{}.jpg", p.id);
         assert_eq!(std::fs::read(one.join(&name)).unwrap(), std::fs::read(sharded.join(&name)).unwrap(), "{name}");
     }
+    // `build` is plan plus render.
+    let built = dir.path().join("built");
+    let run = exploremaps(&["build", "maze:3", "-o", built.to_str().unwrap(), "--samples", "5000", "--width", "128"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(built.join("probes/0.jpg").exists() && built.join("graph.json").exists());
     for bad in [vec!["--width", "7"], vec!["--shard", "2/2"]] {
         let mut args = vec!["render", one.to_str().unwrap()];
         args.extend(bad.iter());
