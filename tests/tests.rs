@@ -231,6 +231,18 @@ fn plan_user_probes_and_bad_planning_arguments() {
     let run = exploremaps(&["coverage", dir.path().join("nowhere").to_str().unwrap()]);
     assert_eq!(run.status.code(), Some(2));
     assert!(stderr(&run).contains("graph.json"));
+    // A bundle of another format version, or a corrupt one, is refused with a clear message.
+    let text = std::fs::read_to_string(out.join("graph.json")).unwrap();
+    std::fs::write(out.join("graph.json"), text.replacen("\"format_version\": 1", "\"format_version\": 99", 1)).unwrap();
+    for command in ["coverage", "render"] {
+        let run = exploremaps(&[command, o]);
+        assert_eq!(run.status.code(), Some(2), "{command}");
+        assert!(stderr(&run).contains("version 99"), "{command}: {}", stderr(&run));
+    }
+    std::fs::write(out.join("graph.json"), &text[..text.len() / 2]).unwrap();
+    let run = exploremaps(&["render", o]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(stderr(&run).contains("graph.json"), "{}", stderr(&run));
 }
 
 #[test]
