@@ -88,7 +88,7 @@ fn main() {
                 "", cs.clusters, out.probes.len(), cs.added_back, 100.0 * final_report.fraction(), need(0.95), cluster_s, orient_s
             );
         }
-        let baselines = exploremaps_builder::pipeline::baselines(scene, &rays, &space, probes.len(), &Default::default());
+        let baselines = exploremaps_builder::pipeline::baselines(&rays, &space, probes.len(), 1, &report);
         let line: Vec<String> = baselines.iter().map(|b| format!("{} {:.2} %", b.name, 100.0 * b.report.fraction())).collect();
         println!("{:<34} baselines with the same {} probes: {}", "", probes.len(), line.join(", "));
     }

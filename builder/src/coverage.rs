@@ -268,7 +268,25 @@ pub fn coverage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec
 /// Measures coverage of `probes` over given surface samples.
 pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &CoverageParams) -> CoverageReport {
     let started = Instant::now();
-    let (reached_side, mut ray_count) = reachability(rays, space, &samples, params.reach_dirs, params.seed);
+    let (reached_side, reach_rays) = reachability(rays, space, &samples, params.reach_dirs, params.seed);
+    let mut report = seen_from(samples, reached_side, rays, space, probes);
+    report.rays += reach_rays;
+    report.seconds = started.elapsed().as_secs_f64();
+    report
+}
+
+/// Coverage of other probes over the same samples and reachability as `base`
+/// (for baselines: the expensive reachability is done once).
+pub fn coverage_like(base: &CoverageReport, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
+    let started = Instant::now();
+    let mut report = seen_from(base.samples.clone(), base.reached_side.clone(), rays, space, probes);
+    report.seconds = started.elapsed().as_secs_f64();
+    report
+}
+
+/// Which reachable samples the probes see, probe by probe in order.
+fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
+    let mut ray_count = 0;
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let mut first_seen_by: Vec<Option<u32>> = vec![None; samples.points.len()];
     let reachable: Vec<usize> = (0..samples.points.len()).filter(|&i| reached_side[i] != 0).collect();
@@ -310,7 +328,7 @@ pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, 
         reachable_area,
         curve,
         rays: ray_count,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds: 0.0,
     }
 }
 
@@ -320,7 +338,6 @@ mod tests {
     use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
     use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
-
 
     fn setup(scene: &Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();

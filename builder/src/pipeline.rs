@@ -10,7 +10,7 @@
 use crate::cluster::{self, SynthesisParams};
 use crate::connect::{self, ConnectParams};
 use crate::smooth;
-use crate::coverage::{coverage, CoverageParams, CoverageReport};
+use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
 use crate::explore::{explore, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
 use crate::raycast::{RayScene, RaycastError};
@@ -220,7 +220,7 @@ fn measure(
         let _span = tracing::info_span!("coverage").entered();
         coverage(scene, rays, space, &probes, &params.coverage)
     };
-    let baselines = baselines(scene, rays, space, probes.len(), params);
+    let baselines = baselines(rays, space, probes.len(), params.explore.seed, &report);
     let floor = ([&report].into_iter().chain(baselines.iter().map(|b| &b.report)))
         .filter_map(|r| r.curve.first().map(|c| c.1))
         .fold(1.0f64, f64::min);
@@ -265,14 +265,14 @@ fn measure(
     }
 }
 
-/// Random navigable points and a regular lattice of navigable points, as many
-/// as the explored probes, measured with the same metric.
-pub fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, params: &PlanParams) -> Vec<Baseline> {
+/// Random navigable points and a regular lattice of navigable points, `count`
+/// of each, measured with the same metric on the same samples as `base`.
+pub fn baselines(rays: &RayScene, space: &FreeSpace, count: usize, seed: u64, base: &CoverageReport) -> Vec<Baseline> {
     let navigable = space.navigable_points();
     if navigable.is_empty() || count == 0 {
         return Vec::new();
     }
-    let mut rng = Pcg64Mcg::seed_from_u64(params.explore.seed ^ 0x7261_6e64);
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x7261_6e64);
     let random: Vec<Vec3> = (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect();
     // The coarsest lattice (in voxels) with at least `count` navigable nodes, thinned evenly.
     let mut lattice = Vec::new();
@@ -290,7 +290,7 @@ pub fn baselines(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize
     [("random", random), ("grid", grid)]
         .into_iter()
         .map(|(name, probes)| {
-            let report = coverage(scene, rays, space, &probes, &params.coverage);
+            let report = coverage_like(base, rays, space, &probes);
             Baseline { name, probes, report }
         })
         .collect()
