@@ -28,12 +28,7 @@ pub enum Command {
     /// no transition videos yet).
     Build {
         #[command(flatten)]
-        scene: SceneArgs,
-        /// Bundle folder to write.
-        #[arg(short, long, default_value = "bundle")]
-        output: PathBuf,
-        #[command(flatten)]
-        planning: PlanArgs,
+        job: PlanJob,
         /// Width of the equirectangular panoramas (height is half).
         #[arg(long, default_value_t = 2048)]
         width: u32,
@@ -42,12 +37,7 @@ pub enum Command {
     /// pictures of what is not covered, without rendering.
     Plan {
         #[command(flatten)]
-        scene: SceneArgs,
-        /// Bundle folder to write.
-        #[arg(short, long, default_value = "bundle")]
-        output: PathBuf,
-        #[command(flatten)]
-        planning: PlanArgs,
+        job: PlanJob,
     },
     /// Render what a planned bundle is missing (resumable): today, preview panoramas
     /// (photo-sphere JPEG) and thumbnails; transition videos are not built yet.
@@ -94,6 +84,18 @@ pub enum Command {
         #[command(flatten)]
         scene: SceneArgs,
     },
+}
+
+/// What `plan` and `build` share: the scene, the bundle folder, the planning options.
+#[derive(Args, Debug, Clone)]
+pub struct PlanJob {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Bundle folder to write.
+    #[arg(short, long, default_value = "bundle")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub planning: PlanArgs,
 }
 
 /// Which scene, and what the file does not say about it.

@@ -6,7 +6,7 @@ mod cli;
 
 use anyhow::{bail, Result};
 use clap::Parser;
-use cli::{Cli, Command, PlanArgs, SceneArgs};
+use cli::{Cli, Command, PlanArgs, PlanJob, SceneArgs};
 use exploremaps_builder::explore::{ExploreParams, Strategy};
 use exploremaps_builder::freespace::{FreeSpaceParams, SpaceMode};
 use exploremaps_builder::pipeline::{self, PlanParams};
@@ -66,7 +66,7 @@ fn init_logging(verbose: u8, quiet: u8) {
 fn run(cli: &Cli) -> Result<()> {
     match &cli.command {
         Command::Info { scene } => info(&load_scene(scene, cli.seed)?.0),
-        Command::Plan { scene, output, planning } => plan(scene, output, planning, cli.seed),
+        Command::Plan { job } => plan(job, cli.seed),
         Command::Coverage { bundle, samples } => remeasure(bundle, *samples),
         Command::Scenes { name: None, .. } => {
             println!("Built-in scenes (use as SCENE, e.g. `exploremaps info maze:12`):");
@@ -88,10 +88,10 @@ fn run(cli: &Cli) -> Result<()> {
                 None => info(&scene),
             }
         }
-        Command::Build { scene, output, planning, width } => {
+        Command::Build { job, width } => {
             check_width(*width)?;
-            plan(scene, output, planning, cli.seed)?;
-            render(output, *width, None)
+            plan(job, cli.seed)?;
+            render(&job.output, *width, None)
         }
         Command::Render { bundle, width, shard } => render(bundle, *width, *shard),
         Command::View { .. } => Err(NotBuiltYet("view").into()),
@@ -130,7 +130,8 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
     Ok((scene, format!("builtin:{name}")))
 }
 
-fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> Result<PlanParams> {
+/// Rejects planning options no scene could make sense of.
+fn check_planning(planning: &PlanArgs) -> Result<()> {
     if !(planning.coverage > 0.0 && planning.coverage <= 1.0) {
         bail!(BadInput(format!("--coverage {}: must be a fraction in (0, 1]", planning.coverage)));
     }
@@ -140,7 +141,12 @@ fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> Result<P
     if !(planning.eye_height_m.is_finite() && planning.eye_height_m > 0.0) {
         bail!(BadInput("--eye-height-m: must be a positive number of metres".into()));
     }
-    Ok(PlanParams {
+    Ok(())
+}
+
+/// The pipeline's parameters from checked options and the loaded scene's scale.
+fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> PlanParams {
+    PlanParams {
         free_space: FreeSpaceParams {
             space: match planning.space {
                 cli::Space::Auto => SpaceMode::Auto,
@@ -169,14 +175,15 @@ fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> Result<P
             ..Default::default()
         }),
         coverage: CoverageParams { samples: planning.samples.clamp(1, 10_000_000), seed, ..Default::default() },
-    })
+    }
 }
 
 /// `exploremaps plan`: explore, measure, write the bundle.
-fn plan(scene_args: &SceneArgs, output: &Path, planning: &PlanArgs, seed: u64) -> Result<()> {
-    plan_params(planning, seed, 1.0)?; // arguments are checked before the scene is loaded
+fn plan(job: &PlanJob, seed: u64) -> Result<()> {
+    let (scene_args, output, planning) = (&job.scene, job.output.as_path(), &job.planning);
+    check_planning(planning)?;
     let (scene, source) = load_scene(scene_args, seed)?;
-    let params = plan_params(planning, seed, scene.metres_per_unit)?;
+    let params = plan_params(planning, seed, scene.metres_per_unit);
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
     let result = pipeline::plan(&scene, &source, &params);
     spinner.finish_and_clear();

@@ -14,6 +14,8 @@ pub enum BundleError {
     Io { path: String, source: std::io::Error },
     #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
     Invalid(#[from] exploremaps_format::FormatError),
+    #[error(transparent)]
+    Raycast(#[from] crate::raycast::RaycastError),
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
@@ -96,8 +98,7 @@ pub fn render_missing(
 ) -> Result<RenderReport, BundleError> {
     use crate::render::{equirect, perspective, photo_sphere_jpeg, Shader};
     let started = std::time::Instant::now();
-    let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)
-        .map_err(|e| BundleError::Io { path: dir.display().to_string(), source: std::io::Error::other(e.to_string()) })?;
+    let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
     let shader = Shader::new(scene, &rays);
     let mut report = RenderReport::default();
     let mine: Vec<usize> = (0..graph.probes.len()).filter(|id| id % shard.count == shard.index).collect();

@@ -36,14 +36,14 @@ pub struct Preferred {
     pub goodness: f32,
 }
 
-/// Unit direction of yaw (0 toward −Z, π/2 toward +X) and pitch (up positive),
-/// the bundle format's convention.
+/// Unit direction of yaw and pitch, the bundle format's convention.
 pub fn direction(yaw: f32, pitch: f32) -> Vec3 {
-    Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos())
+    Vec3::from(exploremaps_format::direction(yaw, pitch))
 }
 
-fn yaw_pitch(d: Vec3) -> (f32, f32) {
-    (d.x.atan2(-d.z), d.y.clamp(-1.0, 1.0).asin())
+/// Yaw and pitch of a direction, the bundle format's convention.
+pub fn yaw_pitch(d: Vec3) -> (f32, f32) {
+    exploremaps_format::yaw_pitch(d.to_array())
 }
 
 /// Upright candidate directions: rings of yaw at a few pitches within ±30°.

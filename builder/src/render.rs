@@ -11,6 +11,7 @@
 //! A scene without lights gets a default sun (and the log says so). Alpha
 //! cut-outs are not honoured yet. Deterministic: no sampling noise at all.
 
+use crate::orient::direction;
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use exploremaps_scenes::{Light, Scene};
 use glam::{Vec2, Vec3};
@@ -138,7 +139,7 @@ pub fn equirect(shader: &Shader, eye: Vec3, width: u32) -> RgbImage {
         .map(|(x, y)| {
             let yaw = (x as f32 + 0.5) / width as f32 * std::f32::consts::TAU;
             let pitch = std::f32::consts::FRAC_PI_2 - (y as f32 + 0.5) / height as f32 * std::f32::consts::PI;
-            Ray::new(eye, Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos()))
+            Ray::new(eye, direction(yaw, pitch))
         })
         .collect();
     to_image(width, height, &shader.shade_all(&rays, Packing::Packets8))
@@ -146,7 +147,7 @@ pub fn equirect(shader: &Shader, eye: Vec3, width: u32) -> RgbImage {
 
 /// A perspective view toward (yaw, pitch) with vertical field of view `fov_y`.
 pub fn perspective(shader: &Shader, eye: Vec3, yaw: f32, pitch: f32, fov_y: f32, width: u32, height: u32) -> RgbImage {
-    let forward = Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos());
+    let forward = direction(yaw, pitch);
     let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
     let up = right.cross(forward);
     let tan = (0.5 * fov_y).tan();

@@ -22,6 +22,7 @@
 //! travel at departure to the arrival direction.
 
 use crate::connect::polyline_length;
+use crate::orient::yaw_pitch;
 use crate::freespace::FreeSpace;
 use crate::raycast::{Ray, RayScene};
 use glam::Vec3;
@@ -122,12 +123,6 @@ pub fn duration(length: f32, metres_per_unit: f32) -> f32 {
 fn smoothstep(t: f32) -> f32 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
-}
-
-/// (yaw, pitch) of a direction: yaw 0 toward −Z, π/2 toward +X.
-fn yaw_pitch(d: Vec3) -> (f32, f32) {
-    let d = d.normalize_or(Vec3::NEG_Z);
-    (d.x.atan2(-d.z), d.y.clamp(-1.0, 1.0).asin())
 }
 
 /// Camera keys at 25 fps: (time s, position, yaw, pitch).

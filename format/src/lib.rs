@@ -288,6 +288,20 @@ impl Graph {
     }
 }
 
+/// Unit direction of a yaw and pitch in the bundle's convention (module header).
+pub fn direction(yaw: f32, pitch: f32) -> [f32; 3] {
+    [yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos()]
+}
+
+/// Yaw and pitch of a direction (need not be unit length; zero gives (0, 0)).
+pub fn yaw_pitch(d: [f32; 3]) -> (f32, f32) {
+    let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
+    if horizontal == 0.0 && d[1] == 0.0 {
+        return (0.0, 0.0);
+    }
+    (d[0].atan2(-d[2]), d[1].atan2(horizontal))
+}
+
 fn all_finite(v: &[f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
