@@ -24,14 +24,12 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Plan and render: scene in, bundle out (today: preview panoramas and thumbnails,
-    /// no transition videos yet).
+    /// Plan and render: scene in, bundle out (panoramas, thumbnails, transition videos).
     Build {
         #[command(flatten)]
         job: PlanJob,
-        /// Width of the equirectangular panoramas (height is half).
-        #[arg(long, default_value_t = 2048)]
-        width: u32,
+        #[command(flatten)]
+        render: RenderArgs,
     },
     /// Place probes and measure their coverage: writes graph.json, coverage.json and
     /// pictures of what is not covered, without rendering.
@@ -39,15 +37,15 @@ pub enum Command {
         #[command(flatten)]
         job: PlanJob,
     },
-    /// Render what a planned bundle is missing (resumable): today, preview panoramas
-    /// (photo-sphere JPEG) and thumbnails; transition videos are not built yet.
+    /// Render what a planned bundle is missing (resumable): cube maps, photo-sphere
+    /// panoramas and thumbnails of probes, 360° MP4 videos of paths.
     Render {
         /// Bundle folder written by `plan`.
         bundle: PathBuf,
-        /// Width of the equirectangular panoramas (height is half).
-        #[arg(long, default_value_t = 2048)]
-        width: u32,
-        /// Render only the probes of shard i of n (i/n, 0-based); shards share the folder.
+        #[command(flatten)]
+        render: RenderArgs,
+        /// Render only shard i of n (i/n, 0-based) of the probes and paths; shards
+        /// share the folder and need no other coordination.
         #[arg(long, value_parser = parse_shard)]
         shard: Option<(usize, usize)>,
     },
@@ -185,6 +183,31 @@ fn parse_point(text: &str) -> Result<[f32; 3], String> {
 }
 
 /// `i/n` with i < n.
+/// How a bundle is rendered.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// preview: one sample a pixel with baked light, 512 cube faces, 512-wide videos
+    /// (seconds a probe); final: path traced with 16 samples, cube faces 512, 1024
+    /// and 2048, 1024-wide videos.
+    #[arg(long, value_enum, default_value_t = QualityArg::Final)]
+    pub quality: QualityArg,
+    /// Largest cube face in pixels (levels halve down to 512); default by quality.
+    #[arg(long)]
+    pub face: Option<u32>,
+    /// Video frame width (height is half), a multiple of 16; default by quality.
+    #[arg(long)]
+    pub video_width: Option<u32>,
+    /// Samples a pixel for panoramas; default by quality.
+    #[arg(long)]
+    pub spp: Option<u32>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QualityArg {
+    Preview,
+    Final,
+}
+
 fn parse_shard(text: &str) -> Result<(usize, usize), String> {
     let (i, n) = text.split_once('/').ok_or_else(|| format!("{text}: expected i/n, e.g. 0/4"))?;
     let (i, n): (usize, usize) = (i.trim().parse().map_err(|e| format!("{text}: {e}"))?, n.trim().parse().map_err(|e| format!("{text}: {e}"))?);

@@ -6,7 +6,8 @@ mod cli;
 
 use anyhow::{bail, Result};
 use clap::Parser;
-use cli::{Cli, Command, PlanArgs, PlanJob, SceneArgs};
+use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs};
+use exploremaps_builder::render::{Quality, Settings};
 use exploremaps_builder::explore::{ExploreParams, Strategy};
 use exploremaps_builder::freespace::{FreeSpaceParams, SpaceMode};
 use exploremaps_builder::pipeline::{self, PlanParams};
@@ -88,12 +89,12 @@ fn run(cli: &Cli) -> Result<()> {
                 None => info(&scene),
             }
         }
-        Command::Build { job, width } => {
-            check_width(*width)?;
+        Command::Build { job, render: args } => {
+            let settings = render_settings(args, cli.seed)?;
             plan(job, cli.seed)?;
-            render(&job.output, *width, None)
+            render(&job.output, &settings, None)
         }
-        Command::Render { bundle, width, shard } => render(bundle, *width, *shard),
+        Command::Render { bundle, render: args, shard } => render(bundle, &render_settings(args, cli.seed)?, *shard),
         Command::View { .. } => Err(NotBuiltYet("view").into()),
         Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
     }
@@ -228,31 +229,53 @@ fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
     Ok((graph, scene, recorded))
 }
 
-/// `exploremaps render`: preview panoramas and thumbnails the bundle lacks.
-fn check_width(width: u32) -> Result<()> {
-    if !(64..=8192).contains(&width) || !width.is_multiple_of(2) {
-        bail!(BadInput(format!("--width {width}: use an even number from 64 to 8192 (4096 is the safe limit on phones)")));
+/// Render settings from the command line, checked before any work starts.
+fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
+    let quality = match args.quality {
+        QualityArg::Preview => Quality::Preview,
+        QualityArg::Final => Quality::Final,
+    };
+    let mut settings = Settings::new(quality, seed);
+    if let Some(face) = args.face {
+        if !(16..=4096).contains(&face) || !face.is_multiple_of(16) {
+            bail!(BadInput(format!("--face {face}: use a multiple of 16 from 16 to 4096 (4096 is the safe texture limit on phones)")));
+        }
+        settings.face = face;
     }
-    Ok(())
+    if let Some(width) = args.video_width {
+        if !(64..=4096).contains(&width) || !width.is_multiple_of(32) {
+            bail!(BadInput(format!("--video-width {width}: use a multiple of 32 from 64 to 4096 (video frames are width x width/2, both multiples of 16)")));
+        }
+        settings.video_width = width;
+    }
+    if let Some(spp) = args.spp {
+        if !(1..=65536).contains(&spp) {
+            bail!(BadInput(format!("--spp {spp}: use 1 to 65536 samples a pixel")));
+        }
+        settings.panorama.samples = spp;
+    }
+    Ok(settings)
 }
 
-fn render(bundle: &Path, width: u32, shard: Option<(usize, usize)>) -> Result<()> {
-    check_width(width)?;
+/// `exploremaps render`: the assets the bundle lacks.
+fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> Result<()> {
     let (mut graph, scene, _) = open_bundle(bundle)?;
     let (index, count) = shard.unwrap_or((0, 1));
-    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_message("rendering panoramas");
-    bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
-    let report = exploremaps_builder::bundle::render_missing(bundle, &scene, &mut graph, width, exploremaps_builder::bundle::Shard { index, count }, |done, total| {
+    let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.quality.name()));
+    bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+    let report = exploremaps_builder::bundle::render_missing(bundle, &scene, &mut graph, settings, exploremaps_builder::bundle::Shard { index, count }, |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
     println!(
-        "{}: rendered {} probe panoramas and thumbnails, {} already there ({:.1} s); transition videos are not built yet",
+        "{}: rendered {} probes and {} paths, {} already there ({:.1} s{})",
         bundle.display(),
-        report.rendered,
+        report.probes_rendered,
+        report.paths_rendered,
         report.skipped,
-        report.seconds
+        report.seconds,
+        report.video_encoder.map(|e| format!(", videos by {e}")).unwrap_or_default()
     );
     Ok(())
 }

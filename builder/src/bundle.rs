@@ -14,6 +14,8 @@ pub enum BundleError {
     Io { path: String, source: std::io::Error },
     #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
     Invalid(#[from] exploremaps_format::FormatError),
+    #[error("cannot encode the transition video {path}: {message}")]
+    Video { path: String, message: String },
     #[error(transparent)]
     Raycast(#[from] crate::raycast::RaycastError),
 }
@@ -69,7 +71,8 @@ pub fn write_plan(dir: &Path, plan: &Plan) -> Result<(), BundleError> {
     write(dir, GRAPH_FILE, plan.graph.to_json().as_bytes())
 }
 
-/// Which probes a shard renders: probe `id` belongs to shard `id % count`.
+/// Which assets a shard renders: job `k` (probes first, then paths) belongs
+/// to shard `k % count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
     pub index: usize,
@@ -78,53 +81,140 @@ pub struct Shard {
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderReport {
-    pub rendered: usize,
+    pub probes_rendered: usize,
+    pub paths_rendered: usize,
+    /// Jobs of this shard whose files were all there already.
     pub skipped: usize,
+    pub video_encoder: Option<String>,
     pub seconds: f64,
 }
 
-/// Renders what the bundle is missing: a photo-sphere JPEG panorama
-/// (`probes/<id>.jpg`, `width` × `width`/2) and a thumbnail (`thumbs/<id>.jpg`)
-/// per probe of this shard. A finished file is never redone and every file is
-/// written atomically, so a killed run loses at most the probe in progress.
-/// graph.json then lists the assets of every probe whose files exist.
+/// File names of a probe's assets: cube faces per level, equirect, thumbnail.
+fn probe_files(id: usize, levels: &[u32]) -> (Vec<exploremaps_format::CubeLevel>, String, String) {
+    let cube = levels
+        .iter()
+        .map(|&size| exploremaps_format::CubeLevel { size, faces: exploremaps_format::CUBE_FACES.map(|f| format!("probes/{id}/{size}_{f}.jpg")) })
+        .collect();
+    (cube, format!("probes/{id}/pano.jpg"), format!("thumbs/{id}.jpg"))
+}
+
+fn path_files(id: usize) -> (String, String) {
+    (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
+}
+
+fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality).encode_image(image).expect("JPEG encoding to memory");
+    bytes
+}
+
+/// Renders what the bundle is missing, for this shard: per probe the cube
+/// faces at every level, a photo-sphere equirectangular JPEG and a thumbnail;
+/// per path a 360° MP4 and its poster. A finished file is never redone and
+/// every file is written atomically, so a killed run loses at most the asset
+/// in progress. graph.json then lists every asset whose files exist.
 pub fn render_missing(
     dir: &Path,
     scene: &exploremaps_scenes::Scene,
     graph: &mut exploremaps_format::Graph,
-    width: u32,
+    settings: &crate::render::Settings,
     shard: Shard,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<RenderReport, BundleError> {
-    use crate::render::{equirect, perspective, photo_sphere_jpeg, Shader};
+    use crate::render::{downsample, equirect_from_cube, photo_sphere_jpeg, Renderer};
+    use glam::Vec3;
     let started = std::time::Instant::now();
-    let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
-    let shader = Shader::new(scene, &rays);
-    let mut report = RenderReport::default();
-    let mine: Vec<usize> = (0..graph.probes.len()).filter(|id| id % shard.count == shard.index).collect();
-    for (done, &id) in mine.iter().enumerate() {
-        progress(done, mine.len());
-        let (pano, thumb) = (format!("probes/{id}.jpg"), format!("thumbs/{id}.jpg"));
-        if dir.join(&pano).exists() && dir.join(&thumb).exists() {
-            report.skipped += 1;
-            continue;
+    let levels = settings.face_levels();
+    let pano_width = settings.face.max(1024);
+    let exists = |name: &String| dir.join(name).exists();
+    let probe_done = |id: usize| {
+        let (cube, pano, thumb) = probe_files(id, &levels);
+        cube.iter().flat_map(|l| l.faces.iter()).all(exists) && exists(&pano) && exists(&thumb)
+    };
+    let path_done = |id: usize| {
+        let (video, poster) = path_files(id);
+        exists(&video) && exists(&poster)
+    };
+    let probes = graph.probes.len();
+    let jobs: Vec<usize> = (0..probes + graph.paths.len()).filter(|k| k % shard.count == shard.index).collect();
+    let todo: Vec<usize> = jobs.iter().copied().filter(|&k| if k < probes { !probe_done(k) } else { !path_done(k - probes) }).collect();
+    let mut report = RenderReport { skipped: jobs.len() - todo.len(), ..Default::default() };
+    if !todo.is_empty() {
+        let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
+        let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+        viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
+        let renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
+        let encoder = crate::video::Encoder::detect();
+        report.video_encoder = Some(encoder.name());
+        for (done, &k) in todo.iter().enumerate() {
+            progress(done, todo.len());
+            if k < probes {
+                let probe = &graph.probes[k];
+                let eye = Vec3::from(probe.position);
+                let (cube, pano, thumb) = probe_files(k, &levels);
+                let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, k as u64).into_iter().map(|f| f.color).collect();
+                let full = faces.clone();
+                for level in cube.iter().rev() {
+                    if faces.len() == 6 && level.size < settings.face {
+                        faces = faces.iter().map(|f| downsample(level.size * 2, f)).collect();
+                    }
+                    for (face, name) in faces.iter().zip(&level.faces) {
+                        if !exists(name) {
+                            write(dir, name, &jpeg(&renderer.to_image(level.size, level.size, face), 90))?;
+                        }
+                    }
+                }
+                let equirect = equirect_from_cube(&full, settings.face, pano_width);
+                write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), 90))?;
+                let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
+                let view = renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, (probes + graph.paths.len() + k) as u64);
+                write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view.color), 85))?;
+                report.probes_rendered += 1;
+            } else {
+                let id = k - probes;
+                let path = &graph.paths[id];
+                let (video, poster) = path_files(id);
+                let w = settings.video_width;
+                let frames: Vec<image::RgbImage> = path
+                    .camera
+                    .iter()
+                    .enumerate()
+                    .map(|(f, key)| {
+                        let frame = renderer.equirect(&settings.video, Vec3::from(key.position), w, ((k as u64) << 24) + f as u64);
+                        renderer.to_image(w, w / 2, &frame.color)
+                    })
+                    .collect();
+                let Some(first) = frames.first() else { continue };
+                let mp4 = encoder.encode(&frames, crate::smooth::FPS).map_err(|e| BundleError::Video { path: dir.join(&video).display().to_string(), message: e.to_string() })?;
+                write(dir, &poster, &jpeg(first, 85))?;
+                write(dir, &video, &mp4)?;
+                report.paths_rendered += 1;
+            }
         }
-        let probe = &graph.probes[id];
-        let eye = glam::Vec3::from(probe.position);
-        let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-        write(dir, &pano, &photo_sphere_jpeg(&equirect(&shader, eye, width), 90))?;
-        let mut jpeg = Vec::new();
-        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 85)
-            .encode_image(&perspective(&shader, eye, yaw, pitch, 1.0, 320, 180))
-            .expect("JPEG encoding to memory");
-        write(dir, &thumb, &jpeg)?;
-        report.rendered += 1;
+        progress(todo.len(), todo.len());
+        graph.stats.insert(
+            "render".into(),
+            serde_json::json!({
+                "quality": settings.quality.name(),
+                "lighting": renderer.tracer.lighting.description,
+                "exposure": renderer.exposure,
+                "cache_cells": renderer.tracer.cache.as_ref().map(|c| c.stats.cells),
+                "video_encoder": report.video_encoder,
+                "samples_per_pixel": settings.panorama.samples,
+                "seed": settings.seed,
+            }),
+        );
     }
-    progress(mine.len(), mine.len());
     for (id, probe) in graph.probes.iter_mut().enumerate() {
-        let (pano, thumb) = (format!("probes/{id}.jpg"), format!("thumbs/{id}.jpg"));
-        probe.assets.equirect = dir.join(&pano).exists().then_some(pano);
-        probe.assets.thumbnail = dir.join(&thumb).exists().then_some(thumb);
+        let (cube, pano, thumb) = probe_files(id, &levels);
+        probe.assets.cube_levels = cube.into_iter().filter(|l| l.faces.iter().all(exists)).collect();
+        probe.assets.equirect = exists(&pano).then_some(pano);
+        probe.assets.thumbnail = exists(&thumb).then_some(thumb);
+    }
+    for (id, path) in graph.paths.iter_mut().enumerate() {
+        let (video, poster) = path_files(id);
+        path.assets.video = exists(&video).then_some(video);
+        path.assets.poster = exists(&poster).then_some(poster);
     }
     graph.validate()?;
     write(dir, GRAPH_FILE, graph.to_json().as_bytes())?;

@@ -22,6 +22,7 @@ pub mod raycast;
 pub mod render;
 pub mod report;
 pub mod smooth;
+pub mod video;
 #[cfg(test)]
 mod testing;
 

@@ -400,13 +400,13 @@ pub enum Packing {
 /// Sets the CPU's flush-to-zero and denormals-are-zero modes while alive, as
 /// Embree asks of every thread that traces (denormals slow traversal badly), and
 /// restores the previous mode on drop so code outside ray casting is unaffected.
-struct FlushDenormals {
+pub(crate) struct FlushDenormals {
     #[cfg(target_arch = "x86_64")]
     saved: u32,
 }
 
 impl FlushDenormals {
-    fn new() -> FlushDenormals {
+    pub(crate) fn new() -> FlushDenormals {
         #[cfg(target_arch = "x86_64")]
         {
             let mut saved: u32 = 0;

@@ -293,6 +293,43 @@ pub fn direction(yaw: f32, pitch: f32) -> [f32; 3] {
     [yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos()]
 }
 
+/// Cube-face file suffixes in the bundle's face order: +X, −X, +Y, −Y, +Z, −Z.
+pub const CUBE_FACES: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
+
+/// The world direction through face coordinates (s, t) of cube face `face`
+/// (0..6 in [`CUBE_FACES`] order), s to the right and t down the image, both
+/// in [0, 1]. This is the GPU cube-map convention (OpenGL, Vulkan, WebGPU), so
+/// a viewer uploads the face images as they are and samples with world
+/// directions.
+pub fn cube_direction(face: usize, s: f32, t: f32) -> [f32; 3] {
+    let (a, b) = (2.0 * s - 1.0, 2.0 * t - 1.0);
+    match face {
+        0 => [1.0, -b, -a],
+        1 => [-1.0, -b, a],
+        2 => [a, 1.0, b],
+        3 => [a, -1.0, -b],
+        4 => [a, -b, 1.0],
+        _ => [-a, -b, -1.0],
+    }
+}
+
+/// The cube face and (s, t) a direction passes through: the inverse of
+/// [`cube_direction`]. A zero direction gives face −Z's centre.
+pub fn cube_face_of(d: [f32; 3]) -> (usize, f32, f32) {
+    let [x, y, z] = d;
+    let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+    let (face, a, b, m) = if ax >= ay && ax >= az && ax > 0.0 {
+        if x > 0.0 { (0, -z, -y, ax) } else { (1, z, -y, ax) }
+    } else if ay >= az && ay > 0.0 {
+        if y > 0.0 { (2, x, z, ay) } else { (3, x, -z, ay) }
+    } else if az > 0.0 {
+        if z > 0.0 { (4, x, -y, az) } else { (5, -x, -y, az) }
+    } else {
+        (5, 0.0, 0.0, 1.0)
+    };
+    (face, 0.5 * (a / m + 1.0), 0.5 * (b / m + 1.0))
+}
+
 /// Yaw and pitch of a direction (need not be unit length; zero gives (0, 0)).
 pub fn yaw_pitch(d: [f32; 3]) -> (f32, f32) {
     let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
@@ -324,6 +361,22 @@ pub fn check_asset_name(name: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cube_faces_round_trip_and_match_the_gpu_table() {
+        // Face centres look along their axes; the top row of +Z looks up (t down).
+        assert_eq!(cube_direction(0, 0.5, 0.5), [1.0, 0.0, 0.0]);
+        assert_eq!(cube_direction(5, 0.5, 0.5), [0.0, 0.0, -1.0]);
+        assert_eq!(cube_direction(4, 0.5, 0.0), [0.0, 1.0, 1.0]);
+        assert_eq!(cube_direction(2, 0.5, 1.0), [0.0, 1.0, 1.0], "+Y's bottom edge meets +Z");
+        for face in 0..6 {
+            for (s, t) in [(0.1, 0.2), (0.5, 0.5), (0.9, 0.7), (0.3, 0.95)] {
+                let (f, s2, t2) = cube_face_of(cube_direction(face, s, t));
+                assert_eq!(f, face);
+                assert!((s - s2).abs() < 1e-6 && (t - t2).abs() < 1e-6, "face {face}: ({s}, {t}) -> ({s2}, {t2})");
+            }
+        }
+    }
 
     fn sample() -> Graph {
         let mut g = Graph::new(SceneInfo {

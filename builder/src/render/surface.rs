@@ -1,0 +1,299 @@
+//! What a ray sees where it hits: materials (base colour with textures,
+//! cut-outs, emission) and the lights (sun, sky, point lights, and the
+//! defaults for scenes that have none).
+
+use crate::raycast::{Hit, Ray, RayScene};
+use exploremaps_scenes::{AlphaMode, Light, Material, Scene};
+use glam::{Vec2, Vec3};
+
+/// The sun used when an open scene has no lights: south-east and high.
+pub const DEFAULT_SUN: Light = Light::Sun { direction: Vec3::new(0.4082, 0.8165, 0.4082), irradiance: Vec3::new(3.4, 3.2, 2.9) };
+
+/// Angular radius of the sun (the real one's), for soft shadow edges.
+const SUN_RADIUS: f32 = 0.0047;
+
+/// A shading point: where a ray hit, oriented toward the ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub position: Vec3,
+    /// Shading normal, on the side the ray came from.
+    pub normal: Vec3,
+    /// Geometric normal, on the side the ray came from (offsets new rays).
+    pub geometric: Vec3,
+    /// Linear diffuse albedo.
+    pub albedo: Vec3,
+    /// Linear emitted radiance.
+    pub emission: Vec3,
+}
+
+impl Surface {
+    /// A point just off the surface on the visible side, to start new rays from.
+    pub fn lifted(&self) -> Vec3 {
+        self.position + self.geometric * offset(self.position)
+    }
+}
+
+/// Self-intersection offset, growing with the coordinates' magnitude.
+pub fn offset(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+pub fn srgb_to_linear(c: u8) -> f32 {
+    let c = c as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Bilinear filtering of a tiled sRGB texture: linear RGB and alpha.
+fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
+    let (w, h) = (img.width() as f32, img.height() as f32);
+    let (x, y) = (uv.x.rem_euclid(1.0) * w - 0.5, uv.y.rem_euclid(1.0) * h - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let texel = |xi: f32, yi: f32| {
+        let p = img.get_pixel(xi.rem_euclid(w) as u32, yi.rem_euclid(h) as u32);
+        (Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])), p[3] as f32 / 255.0)
+    };
+    let mix = |a: (Vec3, f32), b: (Vec3, f32), f: f32| (a.0 * (1.0 - f) + b.0 * f, a.1 * (1.0 - f) + b.1 * f);
+    let top = mix(texel(x0, y0), texel(x0 + 1.0, y0), fx);
+    let bottom = mix(texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0), fx);
+    mix(top, bottom, fy)
+}
+
+/// The scene's materials as the renderer sees them.
+pub struct Materials<'a> {
+    scene: &'a Scene,
+    /// Whether any material can be see-through (then visibility tests look at alpha).
+    pub has_cutouts: bool,
+}
+
+/// What triangles without a material look like.
+static DEFAULT_MATERIAL: Material = Material {
+    name: String::new(),
+    base_color: [0.7, 0.7, 0.7, 1.0],
+    base_color_texture: None,
+    alpha_mode: AlphaMode::Opaque,
+    emissive: Vec3::ZERO,
+};
+
+impl<'a> Materials<'a> {
+    fn of(&self, triangle: u32) -> &Material {
+        let s = self.scene;
+        s.triangle_material.get(triangle as usize).and_then(|&m| s.materials.get(m as usize)).unwrap_or(&DEFAULT_MATERIAL)
+    }
+
+    pub fn new(scene: &'a Scene) -> Materials<'a> {
+        let has_cutouts = scene.materials.iter().any(|m| m.alpha_mode != AlphaMode::Opaque);
+        Materials { scene, has_cutouts }
+    }
+
+    fn uv(&self, hit: &Hit) -> Option<Vec2> {
+        let s = self.scene;
+        if s.uvs.is_empty() {
+            return None;
+        }
+        let [a, b, c] = s.triangles[hit.triangle as usize].map(|i| s.uvs[i as usize]);
+        Some(a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v)
+    }
+
+    /// Base colour and alpha at a hit (texture times factor).
+    fn base(&self, hit: &Hit) -> (Vec3, f32) {
+        let s = self.scene;
+        let m = self.of(hit.triangle);
+        let [r, g, b, a] = m.base_color;
+        let factor = Vec3::new(r, g, b);
+        match (m.base_color_texture, self.uv(hit)) {
+            (Some(t), Some(uv)) => {
+                let (rgb, alpha) = bilinear(&s.textures[t].image, uv);
+                (factor * rgb, a * alpha)
+            }
+            _ => (factor, a),
+        }
+    }
+
+    /// Whether a hit is a hole in a cut-out (blended materials count as
+    /// cut-outs at alpha 0.5, which keeps rendering deterministic).
+    pub fn is_hole(&self, hit: &Hit) -> bool {
+        if !self.has_cutouts {
+            return false;
+        }
+        let cutoff = match self.of(hit.triangle).alpha_mode {
+            AlphaMode::Opaque => return false,
+            AlphaMode::Mask { cutoff } => cutoff,
+            AlphaMode::Blend => 0.5,
+        };
+        self.base(hit).1 < cutoff
+    }
+
+    /// The shading point of a hit seen along `ray`.
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let s = self.scene;
+        let t = hit.triangle as usize;
+        let m = self.of(hit.triangle);
+        let geometric = if hit.normal.dot(ray.dir) > 0.0 { -hit.normal } else { hit.normal };
+        let mut normal = geometric;
+        if !s.normals.is_empty() {
+            let [a, b, c] = s.triangles[t].map(|i| s.normals[i as usize]);
+            let n = (a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v).normalize_or_zero();
+            // Interpolated normals may point away on the wrong side; then the flat one is better.
+            let n = if n.dot(geometric) < 0.0 { -n } else { n };
+            if n.dot(geometric) > 0.2 {
+                normal = n;
+            }
+        }
+        Surface { position: ray.at(hit.t), normal, geometric, albedo: self.base(hit).0.min(Vec3::splat(0.98)), emission: m.emissive }
+    }
+}
+
+/// A gradient sky: radiance by elevation, also lighting the scene through
+/// openings (it is reached by bounce rays and the radiance cache, not sampled
+/// directly, so closed rooms never see it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sky {
+    pub zenith: Vec3,
+    pub horizon: Vec3,
+    pub ground: Vec3,
+}
+
+impl Sky {
+    pub const DAY: Sky = Sky { zenith: Vec3::new(0.25, 0.4, 0.75), horizon: Vec3::new(0.7, 0.75, 0.8), ground: Vec3::new(0.2, 0.18, 0.16) };
+    pub const NONE: Sky = Sky { zenith: Vec3::ZERO, horizon: Vec3::ZERO, ground: Vec3::ZERO };
+
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        let y = dir.normalize_or_zero().y;
+        if y >= 0.0 {
+            self.horizon.lerp(self.zenith, y.sqrt())
+        } else {
+            self.horizon.lerp(self.ground, (-y * 4.0).min(1.0))
+        }
+    }
+}
+
+/// The lights the renderer samples directly (next-event estimation) plus the sky.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lighting {
+    /// (unit direction toward the sun, irradiance).
+    pub suns: Vec<(Vec3, Vec3)>,
+    /// (position, radiant intensity).
+    pub points: Vec<(Vec3, Vec3)>,
+    pub sky: Sky,
+    /// What was chosen and why, for the log and graph.json.
+    pub description: String,
+}
+
+impl Lighting {
+    /// The scene's own lights, or a default when it has none: sun and sky when
+    /// the sky can be seen from the viewpoints, otherwise a ceiling light above
+    /// each viewpoint (a closed interior).
+    pub fn for_scene(scene: &Scene, rays: &RayScene, viewpoints: &[Vec3]) -> Lighting {
+        let mut lighting = Lighting { suns: Vec::new(), points: Vec::new(), sky: Sky::DAY, description: String::new() };
+        for l in &scene.lights {
+            match *l {
+                Light::Sun { direction, irradiance } => lighting.suns.push((direction.normalize(), irradiance)),
+                Light::Point { position, intensity } => lighting.points.push((position, intensity)),
+            }
+        }
+        let emissive = scene.materials.iter().any(|m| m.emissive != Vec3::ZERO);
+        if !scene.lights.is_empty() || emissive {
+            lighting.description = format!(
+                "the scene's own lights: {} sun, {} point, {} emissive materials, and a sky",
+                lighting.suns.len(),
+                lighting.points.len(),
+                scene.materials.iter().filter(|m| m.emissive != Vec3::ZERO).count()
+            );
+            return lighting;
+        }
+        let open = sky_fraction(rays, viewpoints);
+        if open >= 0.01 || viewpoints.is_empty() {
+            let Light::Sun { direction, irradiance } = DEFAULT_SUN else { unreachable!() };
+            lighting.suns.push((direction.normalize(), irradiance));
+            lighting.description = format!("no lights in the scene and {:.0} % of the sky visible: a default sun and sky", open * 100.0);
+        } else {
+            lighting.sky = Sky::NONE;
+            lighting.points = ceiling_lights(scene, rays, viewpoints);
+            lighting.description =
+                format!("no lights in a closed scene: {} default ceiling lights, one above each viewpoint", lighting.points.len());
+        }
+        lighting
+    }
+
+    /// Irradiance at a surface from the sun(s) and point lights, with one
+    /// shadow test each (`visible` says whether a segment is clear). `u` are
+    /// two uniform numbers for the sun's disk.
+    pub fn direct(&self, s: &Surface, u: Vec2, visible: impl Fn(&Ray) -> bool) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        let from = s.lifted();
+        for &(dir, irradiance) in &self.suns {
+            let (t1, t2) = dir.any_orthonormal_pair();
+            let r = SUN_RADIUS * u.x.sqrt();
+            let phi = std::f32::consts::TAU * u.y;
+            let d = (dir + (t1 * phi.cos() + t2 * phi.sin()) * r).normalize();
+            let cos = s.normal.dot(d);
+            if cos > 0.0 && s.geometric.dot(d) > 0.0 && visible(&Ray::new(from, d)) {
+                e += irradiance * cos;
+            }
+        }
+        for &(position, intensity) in &self.points {
+            let to = position - from;
+            let r2 = to.length_squared().max(1e-12);
+            let d = to / r2.sqrt();
+            let cos = s.normal.dot(d);
+            if cos > 0.0 && s.geometric.dot(d) > 0.0 && visible(&Ray { t_max: 1.0, ..Ray::new(from, to) }) {
+                e += intensity * cos / r2;
+            }
+        }
+        e
+    }
+}
+
+/// Fraction of rays from the viewpoints that escape to the sky.
+fn sky_fraction(rays: &RayScene, viewpoints: &[Vec3]) -> f32 {
+    let dirs = fibonacci_sphere(256);
+    let probe_rays: Vec<Ray> = viewpoints.iter().take(64).flat_map(|&p| dirs.iter().map(move |&d| Ray::new(p, d))).collect();
+    if probe_rays.is_empty() {
+        return 1.0;
+    }
+    let hits = rays.occluded_batch(&probe_rays, crate::raycast::Packing::Packets8);
+    hits.iter().filter(|&&h| !h).count() as f32 / hits.len() as f32
+}
+
+/// A light under the ceiling above each viewpoint (at most 64, spread out),
+/// bright enough to light a room of the scene's scale.
+fn ceiling_lights(scene: &Scene, rays: &RayScene, viewpoints: &[Vec3]) -> Vec<(Vec3, Vec3)> {
+    let step = viewpoints.len().div_ceil(64).max(1);
+    let metre = 1.0 / scene.metres_per_unit.max(1e-9);
+    viewpoints
+        .iter()
+        .step_by(step)
+        .map(|&p| {
+            let up = rays.intersect(&Ray::new(p, Vec3::Y)).map_or(2.0 * metre, |h| h.t);
+            let at = p + Vec3::Y * (0.85 * up);
+            // About 60 W of warm light, in scene units (intensity falls with distance²).
+            (at, Vec3::new(4.0, 3.7, 3.2) * metre * metre)
+        })
+        .collect()
+}
+
+/// `n` nearly uniform unit directions (a Fibonacci spiral).
+pub fn fibonacci_sphere(n: usize) -> Vec<Vec3> {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = (1.0 - y * y).max(0.0).sqrt();
+            let phi = golden * i as f32;
+            Vec3::new(r * phi.cos(), y, r * phi.sin())
+        })
+        .collect()
+}
+
+/// A cosine-weighted direction about `n` from two uniform numbers.
+pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
+    let (t1, t2) = n.any_orthonormal_pair();
+    let r = u.x.sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
+}

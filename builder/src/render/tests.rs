@@ -1,0 +1,153 @@
+use super::*;
+use exploremaps_scenes::mesh::MeshBuilder;
+use exploremaps_scenes::{AlphaMode, Material, Texture};
+
+fn ray_scene(scene: &Scene) -> RayScene {
+    RayScene::new(&scene.positions, &scene.triangles, 0).unwrap()
+}
+
+fn mean(c: &[Vec3]) -> Vec3 {
+    c.iter().copied().sum::<Vec3>() / c.len() as f32
+}
+
+/// A closed 2-unit box whose every surface has albedo `albedo` and emits 1.
+fn furnace(albedo: f32) -> Scene {
+    let mut m = MeshBuilder::new("furnace");
+    m.add_material(Material { emissive: Vec3::ONE, ..Material::diffuse("grey", [albedo; 3]) });
+    m.cuboid(Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0));
+    m.finish()
+}
+
+#[test]
+fn furnace_matches_the_analytic_radiance() {
+    // Uniform emission Le and albedo ρ in a closed box: L = Le / (1 - ρ) everywhere.
+    let scene = furnace(0.5);
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(0.1, 0.2, -0.3);
+    let expected = 1.0 / (1.0 - 0.5);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
+    let path_traced = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: renderer.tracer.lighting.clone(), cache: None };
+    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, seed: 1 }, eye, 32, 0);
+    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, seed: 1 }, eye, 32, 0);
+    for (name, frame) in [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce)] {
+        let m = mean(&frame.color);
+        for c in [m.x, m.y, m.z] {
+            assert!((c - expected).abs() < 0.01 * expected, "{name}: mean radiance {m}, expected {expected}");
+        }
+    }
+}
+
+#[test]
+fn renders_do_not_depend_on_the_thread_count() {
+    let scene = crate::testing::pillar_room(0.6);
+    let eyes = [Vec3::new(2.0, 1.5, 2.0), Vec3::new(8.0, 1.5, 4.0)];
+    let render = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+            let rays = ray_scene(&scene);
+            let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 3));
+            let params = TraceParams { samples: 4, bounces: 1, seed: 3 };
+            (renderer.exposure, renderer.equirect(&params, eyes[0], 64, 5).color)
+        })
+    };
+    assert_eq!(render(1), render(2));
+}
+
+#[test]
+fn equirect_columns_follow_the_yaw_convention() {
+    // A red wall toward −Z and a green one toward +X, around an otherwise open sky.
+    let mut m = MeshBuilder::new("walls");
+    let red = m.add_material(Material { emissive: Vec3::new(1.0, 0.0, 0.0), ..Material::diffuse("red", [0.0; 3]) });
+    let green = m.add_material(Material { emissive: Vec3::new(0.0, 1.0, 0.0), ..Material::diffuse("green", [0.0; 3]) });
+    m.set_material(red);
+    m.cuboid(Vec3::new(-5.0, -5.0, -6.0), Vec3::new(5.0, 5.0, -5.0));
+    m.set_material(green);
+    m.cuboid(Vec3::new(5.0, -5.0, -4.0), Vec3::new(6.0, 5.0, 4.0));
+    let scene = m.finish();
+    let rays = ray_scene(&scene);
+    let renderer = Renderer::new(&scene, &rays, &[Vec3::ZERO], Settings::new(Quality::Preview, 1));
+    let f = renderer.equirect(&renderer.settings.panorama, Vec3::ZERO, 64, 0);
+    let at = |x: u32, y: u32| f.color[(y * 64 + x) as usize];
+    assert!(at(0, 16).x > 0.9 && at(0, 16).y < 0.1, "yaw 0 (column 0) sees the red wall: {}", at(0, 16));
+    assert!(at(16, 16).y > 0.9 && at(16, 16).x < 0.1, "yaw π/2 (a quarter across) sees the green wall: {}", at(16, 16));
+    assert!(at(32, 0).z > at(32, 0).x, "row 0 looks up at the sky: {}", at(32, 0));
+}
+
+#[test]
+fn equirect_resampled_from_the_cube_matches_a_direct_render() {
+    let scene = crate::testing::pillar_room(0.6);
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(2.5, 1.5, 2.0);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
+    let p = renderer.settings.panorama;
+    let faces: Vec<Vec<Vec3>> = renderer.cube(&p, eye, 128, 0).into_iter().map(|f| f.color).collect();
+    let resampled = renderer.to_image(128, 64, &equirect_from_cube(&faces, 128, 128));
+    let direct = renderer.to_image(128, 64, &renderer.equirect(&p, eye, 128, 0).color);
+    let psnr = crate::render::psnr(&resampled, &direct);
+    assert!(psnr > 25.0, "cube → equirect against a direct equirect render: {psnr:.1} dB");
+}
+
+#[test]
+fn cutout_holes_let_light_and_sight_through() {
+    // An emissive wall behind a cut-out quad whose left half is transparent.
+    let mut m = MeshBuilder::new("cutout");
+    let glow = m.add_material(Material { emissive: Vec3::ONE, ..Material::diffuse("glow", [0.0; 3]) });
+    let mut alpha = image::RgbaImage::from_pixel(4, 4, image::Rgba([0, 0, 0, 255]));
+    for y in 0..4 {
+        for x in 0..2 {
+            alpha.put_pixel(x, y, image::Rgba([0, 0, 0, 0]));
+        }
+    }
+    let texture = m.add_texture(Texture { name: "half".into(), image: alpha });
+    let leaf = m.add_material(Material { base_color_texture: Some(texture), alpha_mode: AlphaMode::Mask { cutoff: 0.5 }, ..Material::diffuse("leaf", [0.0; 3]) });
+    m.set_material(glow);
+    m.cuboid(Vec3::new(-10.0, -10.0, -6.0), Vec3::new(10.0, 10.0, -5.0));
+    m.set_material(leaf);
+    m.quad([Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, -2.0), Vec3::new(-2.0, 2.0, -2.0)]);
+    let mut scene = m.finish();
+    scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new((p.x + 2.0) / 4.0 * 0.999, 0.5)).collect();
+    let rays = ray_scene(&scene);
+    let tracer = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), cache: None };
+    let params = TraceParams { samples: 1, bounces: 0, seed: 0 };
+    let looking = |x: f32| tracer.render(&params, Vec3::new(x, 0.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Z).color[0];
+    assert!(looking(-1.0).x > 0.99, "through the hole the glowing wall shows: {}", looking(-1.0));
+    assert!(looking(1.0).x < 0.01, "the opaque half hides it: {}", looking(1.0));
+}
+
+#[test]
+fn sunlit_floor_is_brighter_than_the_shadowed_part() {
+    let mut m = MeshBuilder::new("floor");
+    m.add_material(Material::diffuse("grey", [0.5; 3]));
+    m.cuboid(Vec3::new(-10.0, -0.1, -10.0), Vec3::new(10.0, 0.0, 10.0));
+    m.cuboid(Vec3::new(-10.0, 3.0, -10.0), Vec3::new(0.0, 3.1, 10.0));
+    let scene = m.finish();
+    let rays = ray_scene(&scene);
+    let renderer = Renderer::new(&scene, &rays, &[Vec3::new(0.0, 1.0, 0.0)], Settings::new(Quality::Preview, 1));
+    assert!(renderer.tracer.lighting.suns.len() == 1, "{}", renderer.tracer.lighting.description);
+    let p = renderer.settings.panorama;
+    let down = |x: f32| renderer.tracer.render(&p, Vec3::new(x, 1.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Y).color[0];
+    let (lit, shaded) = (down(6.0), down(-6.0));
+    assert!(lit.x > 2.0 * shaded.x && shaded.x > 0.0, "lit {lit} vs shadow {shaded} (the shadow gets sky and bounce light)");
+}
+
+#[test]
+fn closed_scenes_without_lights_get_ceiling_lights() {
+    let scene = crate::testing::pillar_room(0.5);
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(2.0, 1.5, 2.0);
+    let l = Lighting::for_scene(&scene, &rays, &[eye]);
+    assert!(l.suns.is_empty() && l.points.len() == 1, "{}", l.description);
+    assert!((l.points[0].0.y - (1.5 + 0.85 * 1.5)).abs() < 1e-3, "under the 3 m ceiling: {:?}", l.points[0]);
+}
+
+#[test]
+fn photo_sphere_jpeg_decodes_and_carries_gpano() {
+    let img = RgbImage::from_pixel(64, 32, Rgb([10, 200, 30]));
+    let bytes = photo_sphere_jpeg(&img, 90);
+    assert_eq!(&bytes[..4], &[0xFF, 0xD8, 0xFF, 0xE1]);
+    let needle = b"GPano:ProjectionType=\"equirectangular\"";
+    assert!(bytes.windows(needle.len()).any(|w| w == needle));
+    let back = image::load_from_memory(&bytes).unwrap().to_rgb8();
+    assert_eq!(back.dimensions(), (64, 32));
+    assert!((back.get_pixel(5, 5)[1] as i32 - 200).abs() < 8);
+}

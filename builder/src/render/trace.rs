@@ -1,0 +1,209 @@
+//! The path tracer: camera rays in coherent 8-wide packets over 8×8 pixel
+//! tiles, shaded with next-event estimation toward the sun and point lights,
+//! diffuse bounces with Russian roulette, and the radiance cache standing in
+//! for the rest of the path after `bounces` real bounces.
+//!
+//! Every random number comes from a generator seeded by (render seed, image,
+//! pixel), and pixels are independent, so images do not depend on the thread
+//! count.
+
+use super::cache::RadianceCache;
+use super::surface::{cosine_direction, Lighting, Materials, Surface};
+use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
+use glam::{Vec2, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// A generator for one stream of a render: (seed, kind of work, index).
+pub fn sampler(seed: u64, stream: u64, index: u64) -> Pcg32 {
+    let mut z = seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    Pcg32::seed_from_u64(z ^ (z >> 31))
+}
+
+/// How rays are turned into radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceParams {
+    /// Samples per pixel; 1 traces through pixel centres without jitter.
+    pub samples: u32,
+    /// Real diffuse bounces before the radiance cache takes over (with no
+    /// cache: the most bounces, Russian roulette ending most paths sooner).
+    pub bounces: u32,
+    pub seed: u64,
+}
+
+/// Linear images from one render: radiance, plus the first hit's albedo and
+/// normal that guide a denoiser.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    pub color: Vec<Vec3>,
+    pub albedo: Vec<Vec3>,
+    pub normal: Vec<Vec3>,
+}
+
+/// The scene ready to be rendered.
+pub struct Tracer<'a> {
+    pub rays: &'a RayScene,
+    pub materials: Materials<'a>,
+    pub lighting: Lighting,
+    pub cache: Option<RadianceCache>,
+}
+
+const TILE: u32 = 8;
+/// Paths end here at the latest (Russian roulette ends nearly all long before).
+const MAX_DEPTH: u32 = 64;
+
+impl Tracer<'_> {
+    /// The closest hit that is not a hole in a cut-out; `ray.t_min` ends up past the holes.
+    pub fn intersect(&self, ray: &mut Ray) -> Option<Hit> {
+        let hit = self.rays.intersect(ray)?;
+        self.through_holes(ray, hit)
+    }
+
+    /// Continues a ray through cut-out holes, starting from its first hit.
+    fn through_holes(&self, ray: &mut Ray, mut hit: Hit) -> Option<Hit> {
+        for _ in 0..64 {
+            if !self.materials.is_hole(&hit) {
+                return Some(hit);
+            }
+            ray.t_min = hit.t + offset_t(ray, hit.t);
+            hit = self.rays.intersect(ray)?;
+        }
+        Some(hit)
+    }
+
+    /// Whether nothing opaque blocks the ray.
+    pub fn visible(&self, ray: &Ray) -> bool {
+        if !self.materials.has_cutouts {
+            return !self.rays.occluded(ray);
+        }
+        let mut r = *ray;
+        self.intersect(&mut r).is_none()
+    }
+
+    /// Irradiance from the directly sampled lights.
+    pub fn direct(&self, s: &Surface, rng: &mut Pcg32) -> Vec3 {
+        let u = Vec2::new(rng.random(), rng.random());
+        self.lighting.direct(s, u, |r| self.visible(r))
+    }
+
+    /// Radiance arriving along `ray`, whose first hit is `hit`. `first` receives
+    /// the albedo and normal of that hit.
+    fn radiance(&self, params: &TraceParams, mut ray: Ray, mut hit: Option<Hit>, rng: &mut Pcg32, first: &mut (Vec3, Vec3)) -> Vec3 {
+        let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
+        let mut depth = 0;
+        loop {
+            let Some(h) = hit else {
+                sum += weight * self.lighting.sky.radiance(ray.dir);
+                break;
+            };
+            let s = self.materials.surface(&ray, &h);
+            if depth == 0 {
+                *first = (s.albedo, s.normal);
+            }
+            let brdf = s.albedo / PI;
+            sum += weight * (s.emission + brdf * self.direct(&s, rng));
+            if let (Some(cache), true) = (&self.cache, depth >= params.bounces) {
+                let indirect = if depth == 0 { cache.irradiance(s.position, s.geometric) } else { cache.irradiance_jittered(s.position, s.geometric, rng) };
+                sum += weight * brdf * indirect;
+                break;
+            }
+            if depth >= MAX_DEPTH {
+                break;
+            }
+            // Russian roulette from the third vertex on: survive with the albedo.
+            if depth >= 2 {
+                let survive = s.albedo.max_element().min(0.95);
+                if rng.random::<f32>() >= survive {
+                    break;
+                }
+                weight /= survive;
+            }
+            // Cosine sampling: the pdf cancels the cosine and π of the BRDF.
+            weight *= s.albedo;
+            let d = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
+            if d.dot(s.geometric) <= 0.0 || weight == Vec3::ZERO {
+                break;
+            }
+            ray = Ray::new(s.lifted(), d);
+            hit = self.intersect(&mut ray);
+            depth += 1;
+        }
+        sum
+    }
+
+    /// Renders `width` × `height` pixels from `eye`; `project(s, t)` gives the
+    /// direction through image coordinates in [0, 1]² (t down). `image`
+    /// separates the random streams of different images.
+    pub fn render(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync) -> Frame {
+        let tiles_x = width.div_ceil(TILE);
+        let tiles = tiles_x * height.div_ceil(TILE);
+        let n = (width * height) as usize;
+        let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
+        let done: Vec<Vec<(usize, Vec3, Vec3, Vec3)>> = (0..tiles)
+            .into_par_iter()
+            .map(|tile| {
+                let _mode = FlushDenormals::new();
+                let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+                // Pixels in 4×2 blocks, so each packet of 8 is a compact frustum.
+                let pixels: Vec<(u32, u32)> = (0..TILE * TILE)
+                    .map(|i| {
+                        let block = i / 8;
+                        (x0 + (block % 2) * 4 + i % 4, y0 + (block / 2) * 2 + (i % 8) / 4)
+                    })
+                    .filter(|&(x, y)| x < width && y < height)
+                    .collect();
+                self.render_tile(params, eye, width, height, image, &pixels, &project)
+            })
+            .collect();
+        for (i, c, a, nrm) in done.into_iter().flatten() {
+            frame.color[i] = c;
+            frame.albedo[i] = a;
+            frame.normal[i] = nrm;
+        }
+        frame
+    }
+
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync)) -> Vec<(usize, Vec3, Vec3, Vec3)> {
+        let spp = params.samples.max(1);
+        let mut rngs: Vec<Pcg32> = pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect();
+        let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
+        let mut rays = Vec::with_capacity(pixels.len());
+        let mut hits = vec![None; pixels.len()];
+        for sample in 0..spp {
+            rays.clear();
+            for (&(x, y), rng) in pixels.iter().zip(&mut rngs) {
+                // Stratified in rows of the pixel when there are several samples.
+                let (jx, jy) = if spp == 1 { (0.5, 0.5) } else { (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32) };
+                let d = project((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
+                rays.push(Ray::new(eye, d));
+            }
+            for (r8, h8) in rays.chunks(8).zip(hits.chunks_mut(8)) {
+                self.rays.intersect8(r8, h8, true);
+            }
+            for (i, rng) in rngs.iter_mut().enumerate() {
+                let mut ray = rays[i];
+                let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
+                let mut first = (Vec3::ZERO, Vec3::ZERO);
+                let c = self.radiance(params, ray, hit, rng, &mut first);
+                // A stray NaN or infinity must not poison a pixel (or a denoiser).
+                let c = if c.is_finite() { c } else { Vec3::ZERO };
+                sums[i].0 += c;
+                sums[i].1 += first.0;
+                sums[i].2 += first.1;
+            }
+        }
+        let inv = 1.0 / spp as f32;
+        pixels.iter().zip(sums).map(|(&(x, y), (c, a, n))| ((y * width + x) as usize, c * inv, a * inv, n.normalize_or_zero())).collect()
+    }
+}
+
+/// How far past a hit to restart a ray, in its own `t` units.
+fn offset_t(ray: &Ray, t: f32) -> f32 {
+    super::surface::offset(ray.at(t)) / ray.dir.length().max(1e-20)
+}
