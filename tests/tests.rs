@@ -246,7 +246,7 @@ fn plan_user_probes_and_bad_planning_arguments() {
 }
 
 #[test]
-fn render_fills_in_panoramas_resumably_and_in_shards() {
+fn render_fills_in_assets_resumably_and_in_shards() {
     let dir = tempfile::tempdir().unwrap();
     let one = dir.path().join("one");
     let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
@@ -254,37 +254,113 @@ fn render_fills_in_panoramas_resumably_and_in_shards() {
     let sharded = dir.path().join("sharded");
     std::fs::create_dir_all(&sharded).unwrap();
     std::fs::copy(one.join("graph.json"), sharded.join("graph.json")).unwrap();
-    let run = exploremaps(&["render", one.to_str().unwrap(), "--width", "128"]);
+    let small = ["--quality", "preview", "--face", "64", "--video-width", "128"];
+    let render = |bundle: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["render", bundle.to_str().unwrap()];
+        args.extend(small);
+        args.extend(extra);
+        exploremaps(&args)
+    };
+    let run = render(&one, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
     let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(one.join("graph.json")).unwrap()).unwrap();
+    assert!(!graph.paths.is_empty());
     for p in &graph.probes {
         let pano = p.assets.equirect.as_ref().expect("graph.json lists the panorama");
         let img = image::open(one.join(pano)).unwrap();
-        assert_eq!((img.width(), img.height()), (128, 64));
+        assert_eq!((img.width(), img.height()), (1024, 512));
         assert!(one.join(p.assets.thumbnail.as_ref().unwrap()).exists());
+        let [level] = &p.assets.cube_levels[..] else { panic!("one cube level at --face 64: {:?}", p.assets.cube_levels) };
+        for face in &level.faces {
+            assert_eq!(image::open(one.join(face)).unwrap().width(), 64, "{face}");
+        }
+    }
+    for p in &graph.paths {
+        let video = std::fs::read(one.join(p.assets.video.as_ref().expect("graph.json lists the video"))).unwrap();
+        let frames = exploremaps_builder::video::decode_mp4(&video).unwrap();
+        assert_eq!(frames.len(), p.camera.len(), "a frame per camera key");
+        assert_eq!(frames[0].dimensions(), (128, 64));
+        assert!(one.join(p.assets.poster.as_ref().unwrap()).exists());
     }
     // Resuming renders nothing new and leaves the files untouched.
-    let before = std::fs::metadata(one.join("probes/0.jpg")).unwrap().modified().unwrap();
-    let run = exploremaps(&["render", one.to_str().unwrap(), "--width", "128"]);
-    assert!(stdout(&run).contains("rendered 0 "), "{}", stdout(&run));
-    assert_eq!(std::fs::metadata(one.join("probes/0.jpg")).unwrap().modified().unwrap(), before);
+    let before = std::fs::metadata(one.join("probes/0/pano.jpg")).unwrap().modified().unwrap();
+    let run = render(&one, &[]);
+    assert!(stdout(&run).contains("rendered 0 probes and 0 paths"), "{}", stdout(&run));
+    assert_eq!(std::fs::metadata(one.join("probes/0/pano.jpg")).unwrap().modified().unwrap(), before);
+    // After a kill mid-way (simulated: assets deleted, a stray temporary file left), only the missing ones are redone.
+    std::fs::remove_file(one.join("probes/1/64_pz.jpg")).unwrap();
+    std::fs::remove_file(one.join("paths/0.mp4")).unwrap();
+    std::fs::write(one.join("paths/.0.mp4.tmp"), b"half a video").unwrap();
+    let run = render(&one, &[]);
+    assert!(stdout(&run).contains("rendered 1 probes and 1 paths"), "{}", stdout(&run));
+    assert!(one.join("probes/1/64_pz.jpg").exists() && one.join("paths/0.mp4").exists());
     // Two shards produce the same files as one run.
     for shard in ["0/2", "1/2"] {
-        let run = exploremaps(&["render", sharded.to_str().unwrap(), "--width", "128", "--shard", shard]);
+        let run = render(&sharded, &["--shard", shard]);
         assert!(run.status.success(), "{}", stderr(&run));
     }
-    for p in &graph.probes {
-        let name = format!("probes/{}.jpg", p.id);
-        assert_eq!(std::fs::read(one.join(&name)).unwrap(), std::fs::read(sharded.join(&name)).unwrap(), "{name}");
+    let graph_sharded = exploremaps_format::Graph::from_json(&std::fs::read_to_string(sharded.join("graph.json")).unwrap()).unwrap();
+    for (a, b) in graph.probes.iter().zip(&graph_sharded.probes) {
+        assert_eq!(a.assets, b.assets, "the last shard lists every asset");
+        for name in a.assets.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.assets.equirect).chain(&a.assets.thumbnail) {
+            assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
+        }
+    }
+    for p in &graph.paths {
+        let name = p.assets.video.as_ref().unwrap();
+        assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
     }
     // `build` is plan plus render.
     let built = dir.path().join("built");
-    let run = exploremaps(&["build", "maze:3", "-o", built.to_str().unwrap(), "--samples", "5000", "--width", "128"]);
+    let mut args = vec!["build", "maze:3", "-o", built.to_str().unwrap(), "--samples", "5000"];
+    args.extend(small);
+    let run = exploremaps(&args);
     assert!(run.status.success(), "{}", stderr(&run));
-    assert!(built.join("probes/0.jpg").exists() && built.join("graph.json").exists());
-    for bad in [vec!["--width", "7"], vec!["--shard", "2/2"]] {
+    assert!(built.join("probes/0/pano.jpg").exists() && built.join("paths/0.mp4").exists() && built.join("graph.json").exists());
+    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--spp", "0"], vec!["--shard", "2/2"], vec!["--quality", "best"]] {
         let mut args = vec!["render", one.to_str().unwrap()];
         args.extend(bad.iter());
-        assert_eq!(exploremaps(&args).status.code(), Some(2), "{bad:?}");
+        let run = exploremaps(&args);
+        assert_eq!(run.status.code(), Some(2), "{bad:?}");
+        assert!(stderr(&run).contains(bad[0]), "{bad:?}: {}", stderr(&run));
     }
+}
+
+#[test]
+fn a_killed_render_leaves_only_whole_files_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = dir.path().join("b");
+    let run = exploremaps(&["plan", "maze:3", "-o", b.to_str().unwrap(), "--samples", "5000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let args = ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "256", "--video-width", "256"];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(args).env("RUST_LOG", "warn").stdout(std::process::Stdio::null()).spawn().unwrap();
+    let started = std::time::Instant::now();
+    while !b.join("probes/1/pano.jpg").exists() && started.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    // Whatever is there under its own name is whole.
+    let mut whole = 0;
+    for sub in ["probes/0", "probes/1", "probes/2", "thumbs", "paths"] {
+        for entry in std::fs::read_dir(b.join(sub)).into_iter().flatten().flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') {
+                continue;
+            }
+            if name.ends_with(".jpg") {
+                image::open(entry.path()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            } else {
+                exploremaps_builder::video::decode_mp4(&std::fs::read(entry.path()).unwrap()).unwrap();
+            }
+            whole += 1;
+        }
+    }
+    assert!(whole >= 7, "the first probe's files were done before the kill: {whole}");
+    let run = exploremaps(&args);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stdout(&run).contains(" 0 already there"), "finished probes are not redone: {}", stdout(&run));
+    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(b.join("graph.json")).unwrap()).unwrap();
+    assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some() && p.assets.cube_levels.len() == 1));
+    assert!(graph.paths.iter().all(|p| p.assets.video.is_some()));
 }

@@ -113,7 +113,7 @@ fn ffmpeg(program: &PathBuf, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, V
     let out = dir.path().join("video.mp4");
     let mut child = Command::new(program)
         .args(["-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", &format!("{w}x{h}"), "-r", &fps.to_string(), "-i", "-"])
-        .args(["-c:v", "libx264", "-preset", "medium", "-crf", "18", "-bf", "0", "-pix_fmt", "yuv420p"])
+        .args(["-c:v", "libx264", "-preset", "medium", "-crf", "20", "-bf", "0", "-pix_fmt", "yuv420p"])
         .args(["-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m", "-color_range", "tv"])
         .args(["-movflags", "+faststart", "-y"])
         .arg(&out)
@@ -171,4 +171,59 @@ pub fn decode_mp4(bytes: &[u8]) -> Result<Vec<RgbImage>, VideoError> {
         keep(&yuv);
     }
     Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{psnr, Quality, Renderer, Settings};
+    use glam::Vec3;
+
+    /// Frames of a walk through a lit room, as the bundle renders them.
+    fn frames(count: usize) -> Vec<RgbImage> {
+        let scene = crate::testing::pillar_room(0.6);
+        let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let eyes: Vec<Vec3> = (0..count).map(|i| Vec3::new(1.5 + 0.1 * i as f32, 1.5, 2.0)).collect();
+        let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 1));
+        eyes.iter().enumerate().map(|(i, &e)| renderer.to_image(256, 128, &renderer.equirect(&renderer.settings.video, e, 256, i as u64).color)).collect()
+    }
+
+    fn round_trip(encoder: Encoder) {
+        let frames = frames(12);
+        let mp4 = encoder.encode(&frames, 25.0).unwrap();
+        // Fast start: the movie header comes before the media data.
+        let moov = mp4.windows(4).position(|w| w == b"moov").unwrap();
+        let mdat = mp4.windows(4).position(|w| w == b"mdat").unwrap();
+        assert!(moov < mdat, "{}: moov at {moov}, mdat at {mdat}", encoder.name());
+        let decoded = decode_mp4(&mp4).unwrap();
+        assert_eq!(decoded.len(), frames.len(), "{}: every frame comes back", encoder.name());
+        let mut worst = f64::INFINITY;
+        for (i, (a, b)) in frames.iter().zip(&decoded).enumerate() {
+            let db = psnr(a, b);
+            assert!(db >= 38.0, "{}: frame {i} at {db:.1} dB", encoder.name());
+            worst = worst.min(db);
+        }
+        eprintln!("{}: {} frames, {} bytes, worst frame {worst:.1} dB", encoder.name(), frames.len(), mp4.len());
+    }
+
+    #[test]
+    fn openh264_round_trip_keeps_every_frame_above_38_db() {
+        round_trip(Encoder::OpenH264);
+    }
+
+    #[test]
+    fn ffmpeg_round_trip_keeps_every_frame_above_38_db() {
+        match Encoder::detect() {
+            Encoder::OpenH264 => eprintln!("SKIPPED: no ffmpeg with libx264 on the PATH"),
+            ffmpeg => round_trip(ffmpeg),
+        }
+    }
+
+    #[test]
+    fn bad_frame_sizes_are_refused() {
+        let odd = vec![RgbImage::new(100, 50)];
+        assert!(matches!(Encoder::OpenH264.encode(&odd, 25.0), Err(VideoError::Size(100, 50))));
+        assert!(matches!(Encoder::OpenH264.encode(&[], 25.0), Err(VideoError::Empty)));
+        assert!(decode_mp4(b"not an mp4 at all").is_err());
+    }
 }
