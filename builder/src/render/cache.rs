@@ -14,13 +14,13 @@
 //! solved by Jacobi iteration, which gives every bounce for the price of one
 //! gather: E(c) = π/K · Σ_j [A_j + ρ_j/π · E(target_j)].
 
-use super::surface::{cosine_direction, fibonacci_sphere, Surface};
+use super::surface::{cosine_direction, fibonacci_sphere, Surface, Which};
 use super::trace::{sampler, Tracer};
 use crate::raycast::Ray;
 use glam::{IVec3, Vec2, Vec3};
 use rand::Rng;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::f32::consts::PI;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +52,8 @@ pub struct RadianceCache {
     index: HashMap<u64, u32>,
     /// Indirect irradiance per cell (everything but the directly sampled lights).
     irradiance: Vec<Vec3>,
+    /// Direct irradiance from point lights per cell, for renders that bake them.
+    points: Vec<Vec3>,
     mean: Vec3,
     pub stats: CacheStats,
 }
@@ -101,7 +103,7 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache { cell: params.cell, index: HashMap::new(), irradiance: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
+        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), irradiance: Vec::new(), points: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
         let mut cells: Vec<Cell> = Vec::new();
         let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
             let k = key(cache.cell_of(p), normal_bin(n));
@@ -196,6 +198,21 @@ impl RadianceCache {
                 break;
             }
         }
+        if !tracer.lighting.points.is_empty() {
+            cache.points = cells
+                .par_iter()
+                .enumerate()
+                .map(|(c, cell)| {
+                    let mut rng = sampler(params.seed, 0xD1EC7, c as u64);
+                    let sum: Vec3 = cell
+                        .points
+                        .iter()
+                        .map(|&(p, n)| tracer.direct(&Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO }, Which::Points, &mut rng))
+                        .sum();
+                    sum / cell.points.len() as f32
+                })
+                .collect();
+        }
         cache.mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
         cache.irradiance = e;
         cache.index.shrink_to_fit();
@@ -203,11 +220,16 @@ impl RadianceCache {
         cache
     }
 
-    /// Indirect irradiance at a surface point, interpolated trilinearly
-    /// between the cell centres around it that exist (noise-free).
-    pub fn irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+    /// Indirect irradiance at a surface point (plus the point lights' direct
+    /// irradiance with `points`), interpolated bilinearly between the centres
+    /// of the cells around it that exist (noise-free).
+    pub fn irradiance(&self, p: Vec3, n: Vec3, points: bool) -> Vec3 {
+        let value = |i: u32| self.irradiance[i as usize] + if points { self.points.get(i as usize).copied().unwrap_or_default() } else { Vec3::ZERO };
         let bin = normal_bin(n);
-        let g = p / self.cell - 0.5;
+        // Bilinear across the surface; along the normal, the cell the point is in.
+        let axis = (bin / 2) as usize;
+        let mut g = p / self.cell - 0.5;
+        g[axis] = (p[axis] / self.cell).floor();
         let base = g.floor();
         let f = g - base;
         let base = base.as_ivec3();
@@ -219,14 +241,14 @@ impl RadianceCache {
                 continue;
             }
             if let Some(&i) = self.index.get(&key(base + o, bin)) {
-                sum += self.irradiance[i as usize] * w;
+                sum += value(i) * w;
                 weight += w;
             }
         }
         if weight > 1e-4 {
             sum / weight
         } else {
-            self.find(p, n).map_or(self.mean, |i| self.irradiance[i as usize])
+            self.find(p, n).map_or(self.mean, value)
         }
     }
 
@@ -254,7 +276,7 @@ fn gather(tracer: &Tracer, cell: &Cell, index: u64, params: &CacheParams) -> Gat
             None => out.fixed += tracer.lighting.sky.radiance(ray.dir),
             Some(hit) => {
                 let s = tracer.materials.surface(&ray, &hit);
-                let direct = tracer.direct(&s, &mut rng);
+                let direct = tracer.direct(&s, Which::All, &mut rng);
                 let brdf = s.albedo / PI;
                 out.fixed += s.emission + brdf * direct;
                 if brdf != Vec3::ZERO {

@@ -75,8 +75,8 @@ impl Settings {
         match quality {
             Quality::Preview => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, seed },
-                video: TraceParams { samples: 1, bounces: 0, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
                 cell_m: 0.3,
                 gather_rays: 32,
                 max_cells: 300_000,
@@ -86,9 +86,9 @@ impl Settings {
             },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 16, bounces: 1, seed },
-                video: TraceParams { samples: 2, bounces: 0, seed },
-                cell_m: 0.2,
+                panorama: TraceParams { samples: 4, bounces: 0, baked_points: false, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
+                cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
                 face: 2048,
@@ -145,21 +145,18 @@ impl<'a> Renderer<'a> {
         renderer
     }
 
-    /// Maps the log-average luminance seen from the viewpoints to mid grey.
+    /// Puts the 98th percentile of luminance seen from the viewpoints at the
+    /// shoulder of the tone curve (a log average, or a lower percentile, let
+    /// dark corners blow out sunlit floors).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
-        let quick = TraceParams { samples: 1, bounces: 0, seed: self.settings.seed };
-        let (mut sum, mut count) = (0.0f64, 0usize);
-        for (i, &eye) in eyes.iter().enumerate() {
-            let f = self.equirect(&quick, eye, 128, u64::MAX - i as u64);
-            for c in &f.color {
-                sum += f64::from((luminance(*c) + 1e-3).ln());
-                count += 1;
-            }
-        }
-        if count == 0 {
+        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, seed: self.settings.seed };
+        let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
+        if seen.is_empty() {
             return 1.0;
         }
-        (0.18 / (sum / count as f64).exp() as f32).clamp(0.05, 20.0)
+        let k = seen.len() * 98 / 100;
+        let (_, high, _) = seen.select_nth_unstable_by(k, f32::total_cmp);
+        (1.4 / high.max(1e-6)).clamp(0.05, 100.0)
     }
 
     /// The six cube faces seen from `eye`, `size` pixels square, in the
@@ -239,10 +236,20 @@ pub fn equirect_from_cube(faces: &[Vec<Vec3>], size: u32, width: u32) -> Vec<Vec
         .collect()
 }
 
+/// Linear [0, 1] to an sRGB byte, by a table fine enough for 8-bit output.
 fn linear_to_srgb(x: f32) -> u8 {
-    let x = x.clamp(0.0, 1.0);
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0).round() as u8
+    const STEPS: usize = 8192;
+    static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        (0..=STEPS)
+            .map(|i| {
+                let x = i as f32 / STEPS as f32;
+                let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+                (s * 255.0).round() as u8
+            })
+            .collect()
+    });
+    table[(x.clamp(0.0, 1.0) * STEPS as f32 + 0.5) as usize]
 }
 
 /// ACES filmic curve (Narkowicz's fit).

@@ -6,8 +6,9 @@ use crate::raycast::{Hit, Ray, RayScene};
 use exploremaps_scenes::{AlphaMode, Light, Material, Scene};
 use glam::{Vec2, Vec3};
 
-/// The sun used when an open scene has no lights: south-east and high.
-pub const DEFAULT_SUN: Light = Light::Sun { direction: Vec3::new(0.4082, 0.8165, 0.4082), irradiance: Vec3::new(3.4, 3.2, 2.9) };
+/// The sun used when an open scene has no lights: south-east and high
+/// (65° up, so it reaches into courtyards).
+pub const DEFAULT_SUN: Light = Light::Sun { direction: Vec3::new(0.2988, 0.9063, 0.2988), irradiance: Vec3::new(3.4, 3.2, 2.9) };
 
 /// Angular radius of the sun (the real one's), for soft shadow edges.
 const SUN_RADIUS: f32 = 0.0047;
@@ -38,28 +39,37 @@ pub fn offset(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// sRGB-encoded byte to linear, by table (powf per texel was a fifth of render time).
 pub fn srgb_to_linear(c: u8) -> f32 {
-    let c = c as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let c = i as f32 / 255.0;
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        })
+    })[c as usize]
 }
 
 /// Bilinear filtering of a tiled sRGB texture: linear RGB and alpha.
 fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
-    let (w, h) = (img.width() as f32, img.height() as f32);
-    let (x, y) = (uv.x.rem_euclid(1.0) * w - 0.5, uv.y.rem_euclid(1.0) * h - 0.5);
+    let (w, h) = (img.width(), img.height());
+    let wrap = |t: f32| t - t.floor();
+    let (x, y) = (wrap(uv.x) * w as f32 - 0.5, wrap(uv.y) * h as f32 - 0.5);
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let texel = |xi: f32, yi: f32| {
-        let p = img.get_pixel(xi.rem_euclid(w) as u32, yi.rem_euclid(h) as u32);
+    // x0 >= -1, so adding the size once keeps the index positive before wrapping.
+    let (xi, yi) = ((x0 as i64 + w as i64) as u32, (y0 as i64 + h as i64) as u32);
+    let texel = |dx: u32, dy: u32| {
+        let p = img.get_pixel((xi + dx) % w, (yi + dy) % h);
         (Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])), p[3] as f32 / 255.0)
     };
     let mix = |a: (Vec3, f32), b: (Vec3, f32), f: f32| (a.0 * (1.0 - f) + b.0 * f, a.1 * (1.0 - f) + b.1 * f);
-    let top = mix(texel(x0, y0), texel(x0 + 1.0, y0), fx);
-    let bottom = mix(texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0), fx);
+    let top = mix(texel(0, 0), texel(1, 0), fx);
+    let bottom = mix(texel(0, 1), texel(1, 1), fx);
     mix(top, bottom, fy)
 }
 
@@ -172,6 +182,15 @@ impl Sky {
     }
 }
 
+/// Which of the directly sampled lights to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    All,
+    Suns,
+    /// Point lights only (what the cache bakes for cheap renders).
+    Points,
+}
+
 /// The lights the renderer samples directly (next-event estimation) plus the sky.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lighting {
@@ -208,9 +227,21 @@ impl Lighting {
         }
         let open = sky_fraction(rays, viewpoints);
         if open >= 0.01 || viewpoints.is_empty() {
-            let Light::Sun { direction, irradiance } = DEFAULT_SUN else { unreachable!() };
-            lighting.suns.push((direction.normalize(), irradiance));
-            lighting.description = format!("no lights in the scene and {:.0} % of the sky visible: a default sun and sky", open * 100.0);
+            let (direction, lit) = best_sun(rays, viewpoints);
+            let Light::Sun { irradiance, .. } = DEFAULT_SUN else { unreachable!() };
+            lighting.suns.push((direction, irradiance));
+            let (yaw, pitch) = exploremaps_format::yaw_pitch(direction.into());
+            lighting.description = format!(
+                "no lights in the scene and {:.0} % of the sky visible: a default sky and a sun at {:.0}° elevation, {:.0}° yaw, which lights {:.0} % of what the viewpoints see",
+                open * 100.0,
+                pitch.to_degrees(),
+                yaw.to_degrees().rem_euclid(360.0),
+                lit * 100.0
+            );
+            if lit < 0.02 && !viewpoints.is_empty() {
+                lighting.points = ceiling_lights(scene, rays, viewpoints);
+                lighting.description += &format!(", so also {} ceiling lights", lighting.points.len());
+            }
         } else {
             lighting.sky = Sky::NONE;
             lighting.points = ceiling_lights(scene, rays, viewpoints);
@@ -220,33 +251,84 @@ impl Lighting {
         lighting
     }
 
-    /// Irradiance at a surface from the sun(s) and point lights, with one
-    /// shadow test each (`visible` says whether a segment is clear). `u` are
-    /// two uniform numbers for the sun's disk.
-    pub fn direct(&self, s: &Surface, u: Vec2, visible: impl Fn(&Ray) -> bool) -> Vec3 {
-        let mut e = Vec3::ZERO;
+    /// The shadow rays of direct lighting at `s`, each with the irradiance it
+    /// brings if unblocked: one per sun (a point on its disk from `u`) and one
+    /// per point light, as `which` says. Lights below the surface give none.
+    pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, mut emit: impl FnMut(Ray, Vec3)) {
         let from = s.lifted();
-        for &(dir, irradiance) in &self.suns {
+        let suns = if which == Which::Points { &[][..] } else { &self.suns[..] };
+        for &(dir, irradiance) in suns {
             let (t1, t2) = dir.any_orthonormal_pair();
             let r = SUN_RADIUS * u.x.sqrt();
             let phi = std::f32::consts::TAU * u.y;
             let d = (dir + (t1 * phi.cos() + t2 * phi.sin()) * r).normalize();
             let cos = s.normal.dot(d);
-            if cos > 0.0 && s.geometric.dot(d) > 0.0 && visible(&Ray::new(from, d)) {
-                e += irradiance * cos;
+            if cos > 0.0 && s.geometric.dot(d) > 0.0 {
+                emit(Ray::new(from, d), irradiance * cos);
             }
+        }
+        if which == Which::Suns {
+            return;
         }
         for &(position, intensity) in &self.points {
             let to = position - from;
             let r2 = to.length_squared().max(1e-12);
             let d = to / r2.sqrt();
             let cos = s.normal.dot(d);
-            if cos > 0.0 && s.geometric.dot(d) > 0.0 && visible(&Ray { t_max: 1.0, ..Ray::new(from, to) }) {
-                e += intensity * cos / r2;
+            if cos > 0.0 && s.geometric.dot(d) > 0.0 {
+                emit(Ray { t_max: 1.0, ..Ray::new(from, to) }, intensity * cos / r2);
             }
         }
+    }
+
+    /// Irradiance at a surface from the lights `which` names, one shadow test
+    /// each (`visible` says whether a ray is clear).
+    pub fn direct(&self, s: &Surface, u: Vec2, which: Which, visible: impl Fn(&Ray) -> bool) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        self.shadow_rays(s, u, which, |ray, irradiance| {
+            if visible(&ray) {
+                e += irradiance;
+            }
+        });
         e
     }
+}
+
+/// Of some high sun directions, the one that lights the most of what the
+/// viewpoints see (a courtyard needs the sun along it), with that fraction;
+/// the default sun wins ties.
+fn best_sun(rays: &RayScene, viewpoints: &[Vec3]) -> (Vec3, f32) {
+    let Light::Sun { direction, .. } = DEFAULT_SUN else { unreachable!() };
+    let mut candidates = vec![direction.normalize()];
+    for elevation in [50f32, 65.0, 78.0] {
+        for k in 0..8 {
+            let yaw = (22.5 + 45.0 * k as f32).to_radians();
+            candidates.push(Vec3::from(exploremaps_format::direction(yaw, elevation.to_radians())));
+        }
+    }
+    let dirs = fibonacci_sphere(512);
+    let seen: Vec<Vec3> = viewpoints
+        .iter()
+        .take(16)
+        .flat_map(|&p| dirs.iter().map(move |&d| Ray::new(p, d)))
+        .filter_map(|r| rays.intersect(&r).map(|h| r.at(h.t) + h.normal * offset(r.at(h.t)) * if h.normal.dot(r.dir) > 0.0 { -1.0 } else { 1.0 }))
+        .collect();
+    if seen.is_empty() {
+        return (candidates[0], 0.0);
+    }
+    let lit = |d: Vec3| {
+        let shadow: Vec<Ray> = seen.iter().map(|&p| Ray::new(p, d)).collect();
+        let blocked = rays.occluded_batch(&shadow, crate::raycast::Packing::Packets8);
+        blocked.iter().filter(|&&b| !b).count() as f32 / seen.len() as f32
+    };
+    let mut best = (candidates[0], lit(candidates[0]));
+    for &d in &candidates[1..] {
+        let f = lit(d);
+        if f > best.1 + 0.01 {
+            best = (d, f);
+        }
+    }
+    best
 }
 
 /// Fraction of rays from the viewpoints that escape to the sky.

@@ -27,9 +27,9 @@ fn furnace_matches_the_analytic_radiance() {
     let expected = 1.0 / (1.0 - 0.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
     let path_traced = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: renderer.tracer.lighting.clone(), cache: None };
-    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, seed: 1 }, eye, 32, 16, 0, equirect_direction);
-    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, seed: 1 }, eye, 32, 0);
-    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, seed: 1 }, eye, 32, 0);
+    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, seed: 1 }, eye, 32, 0);
+    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, seed: 1 }, eye, 32, 0);
     for (name, frame) in [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce)] {
         let m = mean(&frame.color);
         for c in [m.x, m.y, m.z] {
@@ -46,7 +46,7 @@ fn renders_do_not_depend_on_the_thread_count() {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
             let rays = ray_scene(&scene);
             let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 3));
-            let params = TraceParams { samples: 4, bounces: 1, seed: 3 };
+            let params = TraceParams { samples: 4, bounces: 1, baked_points: false, seed: 3 };
             (renderer.exposure, renderer.equirect(&params, eyes[0], 64, 5).color)
         })
     };
@@ -108,7 +108,7 @@ fn cutout_holes_let_light_and_sight_through() {
     scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new((p.x + 2.0) / 4.0 * 0.999, 0.5)).collect();
     let rays = ray_scene(&scene);
     let tracer = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), cache: None };
-    let params = TraceParams { samples: 1, bounces: 0, seed: 0 };
+    let params = TraceParams { samples: 1, bounces: 0, baked_points: false, seed: 0 };
     let looking = |x: f32| tracer.render(&params, Vec3::new(x, 0.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Z).color[0];
     assert!(looking(-1.0).x > 0.99, "through the hole the glowing wall shows: {}", looking(-1.0));
     assert!(looking(1.0).x < 0.01, "the opaque half hides it: {}", looking(1.0));

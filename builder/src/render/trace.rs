@@ -8,7 +8,7 @@
 //! count.
 
 use super::cache::RadianceCache;
-use super::surface::{cosine_direction, Lighting, Materials, Surface};
+use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
@@ -32,6 +32,10 @@ pub struct TraceParams {
     /// Real diffuse bounces before the radiance cache takes over (with no
     /// cache: the most bounces, Russian roulette ending most paths sooner).
     pub bounces: u32,
+    /// With no real bounce, take point lights from the cache (blurred to its
+    /// cells) instead of a shadow ray each: the sun stays sharp, and frames
+    /// of a scene with many lamps stay cheap.
+    pub baked_points: bool,
     pub seed: u64,
 }
 
@@ -87,36 +91,45 @@ impl Tracer<'_> {
     }
 
     /// Irradiance from the directly sampled lights.
-    pub fn direct(&self, s: &Surface, rng: &mut Pcg32) -> Vec3 {
+    pub fn direct(&self, s: &Surface, which: Which, rng: &mut Pcg32) -> Vec3 {
         let u = Vec2::new(rng.random(), rng.random());
-        self.lighting.direct(s, u, |r| self.visible(r))
+        self.lighting.direct(s, u, which, |r| self.visible(r))
     }
 
-    /// Radiance arriving along `ray`, whose first hit is `hit`. `first` receives
-    /// the albedo and normal of that hit.
-    fn radiance(&self, params: &TraceParams, mut ray: Ray, mut hit: Option<Hit>, rng: &mut Pcg32, first: &mut (Vec3, Vec3)) -> Vec3 {
+    /// Indirect irradiance at a first hit: from the cache, or by one bounce
+    /// and the path beyond it (cosine sampling: E ≈ π L).
+    fn indirect(&self, params: &TraceParams, s: &Surface, rng: &mut Pcg32) -> Vec3 {
+        match (&self.cache, params.bounces) {
+            (Some(cache), 0) => cache.irradiance(s.position, s.geometric, params.baked_points),
+            _ => {
+                let d = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
+                if d.dot(s.geometric) <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                let mut ray = Ray::new(s.lifted(), d);
+                let hit = self.intersect(&mut ray);
+                PI * self.path(params, ray, hit, rng)
+            }
+        }
+    }
+
+    /// Radiance arriving along a bounce ray whose hit is `hit`: next-event
+    /// estimation at every vertex, the cache once `bounces` are done, Russian
+    /// roulette from the third vertex on.
+    fn path(&self, params: &TraceParams, mut ray: Ray, mut hit: Option<Hit>, rng: &mut Pcg32) -> Vec3 {
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
-        let mut depth = 0;
-        loop {
+        for depth in 1..=MAX_DEPTH {
             let Some(h) = hit else {
                 sum += weight * self.lighting.sky.radiance(ray.dir);
                 break;
             };
             let s = self.materials.surface(&ray, &h);
-            if depth == 0 {
-                *first = (s.albedo, s.normal);
-            }
             let brdf = s.albedo / PI;
-            sum += weight * (s.emission + brdf * self.direct(&s, rng));
+            sum += weight * (s.emission + brdf * self.direct(&s, Which::All, rng));
             if let (Some(cache), true) = (&self.cache, depth >= params.bounces) {
-                let indirect = if depth == 0 { cache.irradiance(s.position, s.geometric) } else { cache.irradiance_jittered(s.position, s.geometric, rng) };
-                sum += weight * brdf * indirect;
+                sum += weight * brdf * cache.irradiance_jittered(s.position, s.geometric, rng);
                 break;
             }
-            if depth >= MAX_DEPTH {
-                break;
-            }
-            // Russian roulette from the third vertex on: survive with the albedo.
             if depth >= 2 {
                 let survive = s.albedo.max_element().min(0.95);
                 if rng.random::<f32>() >= survive {
@@ -132,7 +145,6 @@ impl Tracer<'_> {
             }
             ray = Ray::new(s.lifted(), d);
             hit = self.intersect(&mut ray);
-            depth += 1;
         }
         sum
     }
@@ -175,6 +187,9 @@ impl Tracer<'_> {
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
         let mut rays = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
+        let mut surfaces = Vec::with_capacity(pixels.len());
+        let mut shadows: Vec<(usize, usize, Ray, Vec3)> = Vec::new();
+        let mut direct = vec![Vec3::ZERO; pixels.len()];
         for sample in 0..spp {
             rays.clear();
             for (&(x, y), rng) in pixels.iter().zip(&mut rngs) {
@@ -186,16 +201,54 @@ impl Tracer<'_> {
             for (r8, h8) in rays.chunks(8).zip(hits.chunks_mut(8)) {
                 self.rays.intersect8(r8, h8, true);
             }
+            // First hits; direct light at them with shadow rays in packets.
+            let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
+            surfaces.clear();
+            shadows.clear();
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let mut ray = rays[i];
-                let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
-                let mut first = (Vec3::ZERO, Vec3::ZERO);
-                let c = self.radiance(params, ray, hit, rng, &mut first);
+                let s = hits[i].and_then(|h| self.through_holes(&mut ray, h)).map(|h| self.materials.surface(&ray, &h));
+                match &s {
+                    None => sums[i].0 += self.lighting.sky.radiance(ray.dir),
+                    Some(s) => {
+                        sums[i].1 += s.albedo;
+                        sums[i].2 += s.normal;
+                        let u = Vec2::new(rng.random(), rng.random());
+                        let mut light = 0;
+                        self.lighting.shadow_rays(s, u, which, |r, e| {
+                            shadows.push((light, i, r, e));
+                            light += 1;
+                        });
+                    }
+                }
+                surfaces.push(s);
+            }
+            direct.iter_mut().for_each(|d| *d = Vec3::ZERO);
+            // Light by light, so each packet of 8 shares a light (a coherent frustum).
+            shadows.sort_by_key(|s| s.0);
+            if self.materials.has_cutouts {
+                for (_, i, r, e) in &shadows {
+                    if self.visible(r) {
+                        direct[*i] += *e;
+                    }
+                }
+            } else {
+                let mut blocked = [false; 8];
+                for chunk in shadows.chunks(8) {
+                    let r8: Vec<Ray> = chunk.iter().map(|c| c.2).collect();
+                    self.rays.occluded8(&r8, &mut blocked, true);
+                    for (c, &b) in chunk.iter().zip(&blocked) {
+                        if !b {
+                            direct[c.1] += c.3;
+                        }
+                    }
+                }
+            }
+            for (i, rng) in rngs.iter_mut().enumerate() {
+                let Some(s) = &surfaces[i] else { continue };
+                let c = s.emission + s.albedo / PI * (direct[i] + self.indirect(params, s, rng));
                 // A stray NaN or infinity must not poison a pixel (or a denoiser).
-                let c = if c.is_finite() { c } else { Vec3::ZERO };
-                sums[i].0 += c;
-                sums[i].1 += first.0;
-                sums[i].2 += first.1;
+                sums[i].0 += if c.is_finite() { c } else { Vec3::ZERO };
             }
         }
         let inv = 1.0 / spp as f32;
