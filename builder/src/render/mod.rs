@@ -145,18 +145,20 @@ impl<'a> Renderer<'a> {
         renderer
     }
 
-    /// Puts the 98th percentile of luminance seen from the viewpoints at the
-    /// shoulder of the tone curve (a log average, or a lower percentile, let
-    /// dark corners blow out sunlit floors).
+    /// Balances two aims over the luminance seen from the viewpoints: the
+    /// median at mid grey, and the 98th percentile at the tone curve's
+    /// shoulder (alone, the first blows out sunlit floors and the second
+    /// darkens a room for the sake of the ceiling above a lamp).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
         let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, seed: self.settings.seed };
         let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
         if seen.is_empty() {
             return 1.0;
         }
-        let k = seen.len() * 98 / 100;
-        let (_, high, _) = seen.select_nth_unstable_by(k, f32::total_cmp);
-        (1.4 / high.max(1e-6)).clamp(0.05, 100.0)
+        let n = seen.len();
+        let high = *seen.select_nth_unstable_by(n * 98 / 100, f32::total_cmp).1;
+        let median = *seen.select_nth_unstable_by(n / 2, f32::total_cmp).1;
+        ((0.18 / median.max(1e-6)) * (1.4 / high.max(1e-6))).sqrt().clamp(0.05, 100.0)
     }
 
     /// The six cube faces seen from `eye`, `size` pixels square, in the

@@ -352,7 +352,7 @@ fn ceiling_lights(scene: &Scene, rays: &RayScene, viewpoints: &[Vec3]) -> Vec<(V
         .step_by(step)
         .map(|&p| {
             let up = rays.intersect(&Ray::new(p, Vec3::Y)).map_or(2.0 * metre, |h| h.t);
-            let at = p + Vec3::Y * (0.85 * up);
+            let at = p + Vec3::Y * (0.6 * up);
             // About 60 W of warm light, in scene units (intensity falls with distance²).
             (at, Vec3::new(4.0, 3.7, 3.2) * metre * metre)
         })
