@@ -145,10 +145,9 @@ impl<'a> Renderer<'a> {
         renderer
     }
 
-    /// Balances two aims over the luminance seen from the viewpoints: the
-    /// median at mid grey, and the 98th percentile at the tone curve's
-    /// shoulder (alone, the first blows out sunlit floors and the second
-    /// darkens a room for the sake of the ceiling above a lamp).
+    /// The median luminance seen from the viewpoints at mid grey, unless that
+    /// pushes the 98th percentile past the tone curve's shoulder (a median
+    /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
         let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, seed: self.settings.seed };
         let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
@@ -158,7 +157,7 @@ impl<'a> Renderer<'a> {
         let n = seen.len();
         let high = *seen.select_nth_unstable_by(n * 98 / 100, f32::total_cmp).1;
         let median = *seen.select_nth_unstable_by(n / 2, f32::total_cmp).1;
-        ((0.18 / median.max(1e-6)) * (1.4 / high.max(1e-6))).sqrt().clamp(0.05, 100.0)
+        (0.18 / median.max(1e-6)).min(2.0 / high.max(1e-6)).clamp(0.05, 100.0)
     }
 
     /// The six cube faces seen from `eye`, `size` pixels square, in the
