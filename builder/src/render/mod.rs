@@ -23,7 +23,7 @@ mod surface;
 mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
-pub use surface::{Lighting, Sky, DEFAULT_SUN};
+pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN};
 pub use trace::{Frame, TraceParams, Tracer};
 
 use crate::raycast::RayScene;
