@@ -188,7 +188,7 @@ fn cycles(scene: &Scene, obj: &Path, rays: &RayScene, viewpoints: &[Vec3], name:
     ours_ref.save(out.join("ours_reference.png")).unwrap();
     let ours_db = psnr(&half(&ours), &ours_ref);
     // Quality against time for other sample counts (antialiasing and sun-disk noise; the cache's bias stays).
-    for spp in [1, 2, 8] {
+    for spp in [1, 4, 8] {
         let t = Instant::now();
         let params = exploremaps_builder::render::TraceParams { samples: spp, ..settings.panorama };
         let faces: Vec<Vec<Vec3>> = renderer.cube(&params, eye, 2048, 0).into_iter().map(|f| f.color).collect();
