@@ -8,8 +8,10 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
 # Debian packages: libclang for embree4-sys's bindgen; pkg-config to find a
-# system Embree; python3-pip to fetch the Embree wheel when pip is missing.
-packages=(libclang1-14 libclang-common-14-dev pkg-config)
+# system Embree; python3-pip to fetch the Embree wheel when pip is missing;
+# ffmpeg (libx264) for transition videos half the size of the built-in
+# encoder's; Mesa's lavapipe (Vulkan on the CPU) for the viewer's GPU tests.
+packages=(libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 missing=()
 for p in "${packages[@]}"; do

@@ -89,6 +89,11 @@ pub struct RenderReport {
     pub seconds: f64,
 }
 
+/// Random-number streams of thumbnails and video frames, apart from the cube
+/// faces' (probe id × 8 + face), so no two images share samples.
+const THUMBNAIL_STREAMS: u64 = 1 << 48;
+const VIDEO_STREAMS: u64 = 2 << 48;
+
 /// File names of a probe's assets: cube faces per level, equirect, thumbnail.
 fn probe_files(id: usize, levels: &[u32]) -> (Vec<exploremaps_format::CubeLevel>, String, String) {
     let cube = levels
@@ -167,7 +172,7 @@ pub fn render_missing(
                 let equirect = equirect_from_cube(&full, settings.face, pano_width);
                 write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), 90))?;
                 let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-                let view = renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, (probes + graph.paths.len() + k) as u64);
+                let view = renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, THUMBNAIL_STREAMS + k as u64);
                 write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view.color), 85))?;
                 report.probes_rendered += 1;
             } else {
@@ -180,7 +185,7 @@ pub fn render_missing(
                     .iter()
                     .enumerate()
                     .map(|(f, key)| {
-                        let frame = renderer.equirect(&settings.video, Vec3::from(key.position), w, ((k as u64) << 24) + f as u64);
+                        let frame = renderer.equirect(&settings.video, Vec3::from(key.position), w, VIDEO_STREAMS + ((id as u64) << 24) + f as u64);
                         renderer.to_image(w, w / 2, &frame.color)
                     })
                     .collect();

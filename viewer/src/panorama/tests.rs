@@ -1,0 +1,120 @@
+//! Headless GPU tests (lavapipe or llvmpipe on CPU; `WGPU_BACKEND` picks the
+//! backend). With no adapter at all they fail, unless `EXPLOREMAPS_SKIP_GPU=1`
+//! says this machine has no GPU stack (then they print SKIPPED).
+
+use super::*;
+
+fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // SAFETY: set before any thread of this test reads the environment for it.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
+    pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = match instance.request_adapter(&wgpu::RequestAdapterOptions::default()).await {
+            Ok(a) => a,
+            Err(e) => {
+                assert!(std::env::var("EXPLOREMAPS_SKIP_GPU").is_ok_and(|v| v == "1"), "no GPU adapter ({e}); install mesa-vulkan-drivers, or set EXPLOREMAPS_SKIP_GPU=1");
+                eprintln!("SKIPPED: no GPU adapter ({e})");
+                return None;
+            }
+        };
+        let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
+        let desc = wgpu::DeviceDescriptor { label: None, required_limits: limits, ..Default::default() };
+        Some(adapter.request_device(&desc).await.expect("a device on the adapter"))
+    })
+}
+
+const SIZE: u32 = 64;
+
+/// Renders `view` of a cube whose faces are `faces` into SIZE² RGBA8 pixels.
+fn render(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_size: u32, view: View) -> Vec<u8> {
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut pass = PanoramaPass::new(device, format);
+    pass.set_cube(device, queue, face_size, faces);
+    let target = device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d { width: SIZE, height: SIZE, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let target_view = target.create_view(&Default::default());
+    let readback = device.create_buffer(&wgpu::BufferDescriptor { label: None, size: (SIZE * SIZE * 4) as u64, usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: None,
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.draw(queue, &mut rp, &view, 1.0);
+    }
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+        wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(SIZE * 4), rows_per_image: Some(SIZE) } },
+        wgpu::Extent3d { width: SIZE, height: SIZE, depth_or_array_layers: 1 },
+    );
+    queue.submit([encoder.finish()]);
+    readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map the readback buffer"));
+    device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finishes");
+    let pixels = readback.get_mapped_range(..).expect("mapped").to_vec();
+    pixels
+}
+
+fn pixel(p: &[u8], x: u32, y: u32) -> [u8; 3] {
+    let i = ((y * SIZE + x) * 4) as usize;
+    [p[i], p[i + 1], p[i + 2]]
+}
+
+fn close(a: [u8; 3], b: [u8; 3]) -> bool {
+    a.iter().zip(b).all(|(&x, y)| (x as i32 - y as i32).abs() <= 3)
+}
+
+#[test]
+fn known_views_show_the_right_faces_the_right_way_up() {
+    let Some((device, queue)) = gpu() else { return };
+    // A solid colour a face, except −Z: white in its top half, black in the bottom.
+    let colours: [[u8; 3]; 6] = [[255, 0, 0], [0, 255, 255], [0, 255, 0], [255, 0, 255], [0, 0, 255], [255, 255, 0]];
+    let n = 8u32;
+    let faces: Vec<Vec<u8>> = (0..6)
+        .map(|f| {
+            (0..n * n)
+                .flat_map(|i| {
+                    let c = if f == 5 { if i / n < n / 2 { [255, 255, 255] } else { [0, 0, 0] } } else { colours[f] };
+                    [c[0], c[1], c[2], 255]
+                })
+                .collect()
+        })
+        .collect();
+    let faces: [&[u8]; 6] = std::array::from_fn(|f| faces[f].as_slice());
+    let fov = 0.5;
+    let centre = |yaw: f32, pitch: f32| pixel(&render(&device, &queue, faces, n, View { yaw, pitch, fov_y: fov }), SIZE / 2, SIZE / 2);
+    use std::f32::consts::{FRAC_PI_2, PI};
+    assert!(close(centre(FRAC_PI_2, 0.0), colours[0]), "yaw π/2 looks at +X: {:?}", centre(FRAC_PI_2, 0.0));
+    assert!(close(centre(PI, 0.0), colours[4]), "yaw π looks at +Z: {:?}", centre(PI, 0.0));
+    assert!(close(centre(-FRAC_PI_2, 0.0), colours[1]), "yaw −π/2 looks at −X");
+    assert!(close(centre(0.3, FRAC_PI_2), colours[2]), "straight up is +Y");
+    assert!(close(centre(0.3, -FRAC_PI_2), colours[3]), "straight down is −Y");
+    // Toward −Z, a little up is the face's top half (white), a little down its bottom (black).
+    assert!(close(centre(0.0, 0.2), [255, 255, 255]), "up on −Z: {:?}", centre(0.0, 0.2));
+    assert!(close(centre(0.0, -0.2), [0, 0, 0]), "down on −Z: {:?}", centre(0.0, -0.2));
+    // And the image is upright: its top row shows the white half, its bottom row the black.
+    let looking = render(&device, &queue, faces, n, View { yaw: 0.0, pitch: 0.0, fov_y: fov });
+    assert!(close(pixel(&looking, SIZE / 2, 2), [255, 255, 255]) && close(pixel(&looking, SIZE / 2, SIZE - 3), [0, 0, 0]));
+    // Wide enough to see the side faces: +X on the right, −X on the left.
+    let wide = render(&device, &queue, faces, n, View { yaw: 0.0, pitch: 0.0, fov_y: 2.0 });
+    assert!(close(pixel(&wide, SIZE - 1, SIZE / 2), colours[0]), "right edge: {:?}", pixel(&wide, SIZE - 1, SIZE / 2));
+    assert!(close(pixel(&wide, 0, SIZE / 2), colours[1]), "left edge: {:?}", pixel(&wide, 0, SIZE / 2));
+}
