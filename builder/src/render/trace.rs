@@ -170,7 +170,7 @@ impl Tracer<'_> {
                     })
                     .filter(|&(x, y)| x < width && y < height)
                     .collect();
-                self.render_tile(params, eye, width, height, image, &pixels, &project)
+                self.render_tile(params, eye, (width, height), image, &pixels, &project)
             })
             .collect();
         for (i, c, a, nrm) in done.into_iter().flatten() {
@@ -181,7 +181,7 @@ impl Tracer<'_> {
         frame
     }
 
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync)) -> Vec<(usize, Vec3, Vec3, Vec3)> {
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync)) -> Vec<(usize, Vec3, Vec3, Vec3)> {
         let spp = params.samples.max(1);
         let mut rngs: Vec<Pcg32> = pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect();
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];

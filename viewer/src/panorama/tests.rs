@@ -69,8 +69,8 @@ fn render(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_si
     queue.submit([encoder.finish()]);
     readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map the readback buffer"));
     device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finishes");
-    let pixels = readback.get_mapped_range(..).expect("mapped").to_vec();
-    pixels
+    let pixels = readback.get_mapped_range(..).expect("mapped");
+    pixels.to_vec()
 }
 
 fn pixel(p: &[u8], x: u32, y: u32) -> [u8; 3] {
