@@ -1,7 +1,9 @@
-//! The CLI's binaries and tests load Embree at run time: give them an rpath to the
-//! folder that exploremaps-builder's build script found or fetched.
+//! The CLI's binaries and tests load Embree and Open Image Denoise at run time: give
+//! them rpaths to the folders exploremaps-builder's build script found or fetched.
 fn main() {
-    if let Ok(dir) = std::env::var("DEP_EMBREE4_LIBDIR") {
-        println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
+    for key in ["DEP_EMBREE4_LIBDIR", "DEP_EMBREE4_OIDN_LIBDIR"] {
+        if let Ok(dir) = std::env::var(key) {
+            println!("cargo:rustc-link-arg=-Wl,-rpath,{dir}");
+        }
     }
 }

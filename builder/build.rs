@@ -26,6 +26,13 @@ fn main() {
     // rpath covers this crate's tests and benches; dependents add their own from DEP_EMBREE4_LIBDIR.
     println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
     println!("cargo:libdir={}", lib_dir.display());
+    // Open Image Denoise (scripts/setup.sh fetches it; .cargo/config.toml sets OIDN_DIR).
+    println!("cargo:rerun-if-env-changed=OIDN_DIR");
+    if let Some(dir) = env::var_os("OIDN_DIR") {
+        let lib = Path::new(&dir).join("lib");
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib.display());
+        println!("cargo:oidn_libdir={}", lib.display());
+    }
 }
 
 fn find_library() -> Result<PathBuf, String> {

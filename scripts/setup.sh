@@ -23,5 +23,31 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+# Intel Open Image Denoise has no Debian package: take the libraries of the
+# pyoidn wheel (pinned by hash) into target/oidn/lib, where .cargo/config.toml
+# points OIDN_DIR for the `oidn` crate. Only the CPU device and TBB are kept.
+oidn_dir="$(cd "$(dirname "$0")/.." && pwd)/target/oidn"
+if [ ! -e "$oidn_dir/lib/libOpenImageDenoise_device_cpu.so.2.5.1" ]; then
+  echo "setup: fetching Open Image Denoise 2.5.1 (the pyoidn wheel, 88 MB)"
+  tmp="$(mktemp -d)"
+  echo "pyoidn==2.5.1.0 --hash=sha256:32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e" > "$tmp/requirements.txt"
+  python3 -m pip download --quiet --no-deps --only-binary=:all: --require-hashes \
+    --python-version 3.11 --platform manylinux2014_x86_64 -d "$tmp" -r "$tmp/requirements.txt"
+  mkdir -p "$oidn_dir/lib"
+  python3 - "$tmp"/pyoidn-*.whl "$oidn_dir/lib" <<'PY'
+import re, sys, zipfile, os
+wheel, out = sys.argv[1], sys.argv[2]
+keep = re.compile(r"pyoidn/oidn/lib/(libOpenImageDenoise(_core|_device_cpu)?\.so[.0-9]*|libtbb\.so[.0-9]*)$")
+with zipfile.ZipFile(wheel) as z:
+    for name in z.namelist():
+        if keep.match(name):
+            target = os.path.join(out, os.path.basename(name))
+            with z.open(name) as src, open(target + ".part", "wb") as dst:
+                dst.write(src.read())
+            os.replace(target + ".part", target)
+PY
+  rm -rf "$tmp"
+fi
+
 command -v cargo >/dev/null || { echo "setup: cargo is missing; install Rust with rustup (https://rustup.rs), then run this again" >&2; exit 1; }
 echo "setup: ready"

@@ -201,6 +201,14 @@ pub struct RenderArgs {
     /// Samples a pixel for panoramas; default by quality.
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Real diffuse bounces before the radiance cache, for panoramas (0: the
+    /// cache at the first hit; 1 adds contact lighting at many times the cost).
+    #[arg(long, default_value_t = 0)]
+    pub bounces: u32,
+    /// Denoise panoramas and thumbnails with Intel Open Image Denoise, guided by
+    /// albedo and normal (for few samples or real bounces).
+    #[arg(long)]
+    pub denoise: bool,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

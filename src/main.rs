@@ -254,6 +254,11 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
         }
         settings.panorama.samples = spp;
     }
+    if args.bounces > 16 {
+        bail!(BadInput(format!("--bounces {}: use 0 to 16", args.bounces)));
+    }
+    settings.panorama.bounces = args.bounces;
+    settings.denoise = args.denoise;
     Ok(settings)
 }
 

@@ -317,7 +317,16 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let run = exploremaps(&args);
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(built.join("probes/0/pano.jpg").exists() && built.join("paths/0.mp4").exists() && built.join("graph.json").exists());
-    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--spp", "0"], vec!["--shard", "2/2"], vec!["--quality", "best"]] {
+    // Path traced with a real bounce and denoised.
+    let denoised = dir.path().join("denoised");
+    std::fs::create_dir_all(&denoised).unwrap();
+    std::fs::copy(one.join("graph.json"), denoised.join("graph.json")).unwrap();
+    let run = render(&denoised, &["--bounces", "1", "--spp", "4", "--denoise"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let g = exploremaps_format::Graph::from_json(&std::fs::read_to_string(denoised.join("graph.json")).unwrap()).unwrap();
+    assert_eq!(g.stats["render"]["denoised"], true);
+    assert!(g.probes.iter().all(|p| p.assets.equirect.is_some()));
+    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--spp", "0"], vec!["--bounces", "99"], vec!["--shard", "2/2"], vec!["--quality", "best"]] {
         let mut args = vec!["render", one.to_str().unwrap()];
         args.extend(bad.iter());
         let run = exploremaps(&args);

@@ -14,6 +14,8 @@ pub enum BundleError {
     Io { path: String, source: std::io::Error },
     #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
     Invalid(#[from] exploremaps_format::FormatError),
+    #[error("cannot denoise {path}: {message}")]
+    Denoise { path: String, message: String },
     #[error("cannot encode the transition video {path}: {message}")]
     Video { path: String, message: String },
     #[error(transparent)]
@@ -157,7 +159,13 @@ pub fn render_missing(
                 let probe = &graph.probes[k];
                 let eye = Vec3::from(probe.position);
                 let (cube, pano, thumb) = probe_files(k, &levels);
-                let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, k as u64).into_iter().map(|f| f.color).collect();
+                let denoised = |mut f: crate::render::Frame| -> Result<Vec<Vec3>, BundleError> {
+                    if settings.denoise {
+                        crate::render::denoise(&mut f).map_err(|message| BundleError::Denoise { path: dir.join(&pano).display().to_string(), message })?;
+                    }
+                    Ok(f.color)
+                };
+                let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, k as u64).into_iter().map(denoised).collect::<Result<_, _>>()?;
                 let full = faces.clone();
                 for level in cube.iter().rev() {
                     if faces.len() == 6 && level.size < settings.face {
@@ -172,8 +180,8 @@ pub fn render_missing(
                 let equirect = equirect_from_cube(&full, settings.face, pano_width);
                 write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), 90))?;
                 let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-                let view = renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, THUMBNAIL_STREAMS + k as u64);
-                write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view.color), 85))?;
+                let view = denoised(renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, THUMBNAIL_STREAMS + k as u64))?;
+                write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view), 85))?;
                 report.probes_rendered += 1;
             } else {
                 let id = k - probes;
@@ -206,6 +214,8 @@ pub fn render_missing(
                 "cache_cells": renderer.tracer.cache.as_ref().map(|c| c.stats.cells),
                 "video_encoder": report.video_encoder,
                 "samples_per_pixel": settings.panorama.samples,
+                "bounces": settings.panorama.bounces,
+                "denoised": settings.denoise,
                 "seed": settings.seed,
             }),
         );

@@ -21,10 +21,12 @@
 //! (the furnace test and the bench's references).
 
 mod cache;
+mod denoise;
 mod surface;
 mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
+pub use denoise::denoise;
 pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN};
 pub use trace::{Frame, TraceParams, Tracer};
 
@@ -69,6 +71,9 @@ pub struct Settings {
     pub face: u32,
     /// Video frame width (height is half), a multiple of 16.
     pub video_width: u32,
+    /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
+    /// real bounces or few samples; the cache alone leaves little noise).
+    pub denoise: bool,
     pub seed: u64,
 }
 
@@ -84,6 +89,7 @@ impl Settings {
                 max_cells: 300_000,
                 face: 512,
                 video_width: 512,
+                denoise: false,
                 seed,
             },
             Quality::Final => Settings {
@@ -95,6 +101,7 @@ impl Settings {
                 max_cells: 600_000,
                 face: 2048,
                 video_width: 1024,
+                denoise: false,
                 seed,
             },
         }
