@@ -277,9 +277,9 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     }
     for p in &graph.paths {
         let video = std::fs::read(one.join(p.assets.video.as_ref().expect("graph.json lists the video"))).unwrap();
-        let frames = exploremaps_builder::video::decode_mp4(&video).unwrap();
+        let frames = exploremaps_format::video::decode_mp4(video).unwrap();
         assert_eq!(frames.len(), p.camera.len(), "a frame per camera key");
-        assert_eq!(frames[0].dimensions(), (128, 64));
+        assert_eq!((frames[0].width, frames[0].height), (128, 64));
         assert!(one.join(p.assets.poster.as_ref().unwrap()).exists());
     }
     // Resuming renders nothing new and leaves the files untouched.
@@ -360,7 +360,7 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
             if name.ends_with(".jpg") {
                 image::open(entry.path()).unwrap_or_else(|e| panic!("{name}: {e}"));
             } else {
-                exploremaps_builder::video::decode_mp4(&std::fs::read(entry.path()).unwrap()).unwrap();
+                exploremaps_format::video::decode_mp4(std::fs::read(entry.path()).unwrap()).unwrap();
             }
             whole += 1;
         }

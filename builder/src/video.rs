@@ -24,8 +24,6 @@ pub enum VideoError {
     Mux(String),
     #[error("ffmpeg failed: {0}")]
     Ffmpeg(String),
-    #[error("MP4 reading: {0}")]
-    Read(String),
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -131,52 +129,11 @@ fn ffmpeg(program: &PathBuf, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, V
     std::fs::read(&out).map_err(|e| VideoError::Ffmpeg(e.to_string()))
 }
 
-/// Decodes an H.264 MP4 to RGB frames (for checks; no B-frames expected).
-pub fn decode_mp4(bytes: &[u8]) -> Result<Vec<RgbImage>, VideoError> {
-    let err = |e: mp4::Error| VideoError::Read(e.to_string());
-    let mut reader = mp4::Mp4Reader::read_header(std::io::Cursor::new(bytes), bytes.len() as u64).map_err(err)?;
-    let track = reader.tracks().values().find(|t| t.media_type().ok() == Some(mp4::MediaType::H264)).ok_or_else(|| VideoError::Read("no H.264 track".into()))?;
-    let (id, count) = (track.track_id(), track.sample_count());
-    let mut annex_b = Vec::new();
-    for ps in [track.sequence_parameter_set().map_err(err)?, track.picture_parameter_set().map_err(err)?] {
-        annex_b.extend_from_slice(&[0, 0, 0, 1]);
-        annex_b.extend_from_slice(ps);
-    }
-    let mut decoder = openh264::decoder::Decoder::new().map_err(|e| VideoError::OpenH264(e.to_string()))?;
-    let mut frames = Vec::new();
-    let mut keep = |yuv: &openh264::decoder::DecodedYUV| {
-        use openh264::formats::YUVSource;
-        let (w, h) = yuv.dimensions();
-        let mut rgb = vec![0; w * h * 3];
-        yuv.write_rgb8(&mut rgb);
-        frames.push(RgbImage::from_raw(w as u32, h as u32, rgb).expect("sized buffer"));
-    };
-    for sample in 1..=count {
-        let Some(s) = reader.read_sample(id, sample).map_err(err)? else { continue };
-        // MP4 stores NAL units with 4-byte lengths; the decoder wants start codes.
-        let mut data: &[u8] = &s.bytes;
-        while data.len() >= 4 {
-            let n = u32::from_be_bytes([data[0], data[1], data[2], data[3]]) as usize;
-            let nal = data.get(4..4 + n).ok_or_else(|| VideoError::Read(format!("sample {sample} is truncated")))?;
-            annex_b.extend_from_slice(&[0, 0, 0, 1]);
-            annex_b.extend_from_slice(nal);
-            data = &data[4 + n..];
-        }
-        if let Some(yuv) = decoder.decode(&annex_b).map_err(|e| VideoError::OpenH264(e.to_string()))? {
-            keep(&yuv);
-        }
-        annex_b.clear();
-    }
-    for yuv in decoder.flush_remaining().map_err(|e| VideoError::OpenH264(e.to_string()))? {
-        keep(&yuv);
-    }
-    Ok(frames)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::render::{psnr, Quality, Renderer, Settings};
+    use exploremaps_format::video::decode_mp4;
     use glam::Vec3;
 
     /// Frames of a walk through a lit room, as the bundle renders them.
@@ -195,7 +152,7 @@ mod tests {
         let moov = mp4.windows(4).position(|w| w == b"moov").unwrap();
         let mdat = mp4.windows(4).position(|w| w == b"mdat").unwrap();
         assert!(moov < mdat, "{}: moov at {moov}, mdat at {mdat}", encoder.name());
-        let decoded = decode_mp4(&mp4).unwrap();
+        let decoded: Vec<RgbImage> = decode_mp4(mp4.clone()).unwrap().into_iter().map(|f| RgbImage::from_raw(f.width, f.height, f.rgb).unwrap()).collect();
         assert_eq!(decoded.len(), frames.len(), "{}: every frame comes back", encoder.name());
         let mut worst = f64::INFINITY;
         for (i, (a, b)) in frames.iter().zip(&decoded).enumerate() {
@@ -224,6 +181,6 @@ mod tests {
         let odd = vec![RgbImage::new(100, 50)];
         assert!(matches!(Encoder::OpenH264.encode(&odd, 25.0), Err(VideoError::Size(100, 50))));
         assert!(matches!(Encoder::OpenH264.encode(&[], 25.0), Err(VideoError::Empty)));
-        assert!(decode_mp4(b"not an mp4 at all").is_err());
+        assert!(decode_mp4(b"not an mp4 at all".to_vec()).is_err());
     }
 }

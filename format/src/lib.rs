@@ -9,6 +9,9 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+#[cfg(feature = "video")]
+pub mod video;
+
 /// Bumped whenever a reader of the previous version would misread a bundle.
 pub const FORMAT_VERSION: u32 = 1;
 pub const GRAPH_FILE: &str = "graph.json";

@@ -74,16 +74,16 @@ pub enum NavError {
     Busy,
 }
 
-pub struct Navigator<'g> {
-    graph: &'g Graph,
+pub struct Navigator {
+    graph: Graph,
     pub state: State,
     pub view: View,
     rng: u64,
 }
 
-impl<'g> Navigator<'g> {
+impl Navigator {
     /// Starts at `probe` (default: first in the bar order) facing its preferred direction.
-    pub fn new(graph: &'g Graph, probe: Option<u32>, seed: u64) -> Result<Navigator<'g>, NavError> {
+    pub fn new(graph: Graph, probe: Option<u32>, seed: u64) -> Result<Navigator, NavError> {
         let probe = probe.or_else(|| graph.bar_order.first().copied()).unwrap_or(0);
         if probe as usize >= graph.probes.len() {
             return Err(NavError::NoSuchProbe(probe));
@@ -91,6 +91,10 @@ impl<'g> Navigator<'g> {
         let mut nav = Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1 };
         (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
         Ok(nav)
+    }
+
+    pub fn graph(&self) -> &Graph {
+        &self.graph
     }
 
     /// The probe the viewer is at, or is leaving.
@@ -327,7 +331,7 @@ mod tests {
     #[test]
     fn path_bar_is_sorted_by_angle_to_the_view() {
         let g = graph();
-        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        let mut nav = Navigator::new(g.clone(), Some(0), 1).unwrap();
         nav.view.yaw = 0.0; // toward −Z: the path to probe 2 (travelled in reverse) comes first
         let bar = nav.path_bar();
         assert_eq!(bar.iter().map(|c| c.to).collect::<Vec<_>>(), vec![2, 1, 3]);
@@ -340,7 +344,7 @@ mod tests {
     #[test]
     fn travelling_arrives_facing_the_arrival_direction() {
         let g = graph();
-        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        let mut nav = Navigator::new(g.clone(), Some(0), 1).unwrap();
         nav.view.yaw = 3.0;
         nav.go_to(2).unwrap();
         assert!(matches!(nav.state, State::Travelling { path: 1, reversed: true, .. }));
@@ -358,7 +362,7 @@ mod tests {
     #[test]
     fn without_a_preferred_direction_arrival_faces_the_direction_of_travel() {
         let g = graph();
-        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        let mut nav = Navigator::new(g.clone(), Some(0), 1).unwrap();
         nav.go_to(3).unwrap();
         nav.update(10.0);
         assert_eq!(nav.state, State::AtProbe { probe: 3 });
@@ -368,7 +372,7 @@ mod tests {
     #[test]
     fn unconnected_probes_cross_fade() {
         let g = graph();
-        let mut nav = Navigator::new(&g, Some(0), 1).unwrap();
+        let mut nav = Navigator::new(g.clone(), Some(0), 1).unwrap();
         nav.go_to(4).unwrap();
         assert!(matches!(nav.state, State::CrossFading { from: 0, to: 4, .. }));
         nav.update(CROSS_FADE_S * 0.5);
@@ -382,7 +386,7 @@ mod tests {
     #[test]
     fn look_and_zoom_are_clamped() {
         let g = graph();
-        let mut nav = Navigator::new(&g, None, 1).unwrap();
+        let mut nav = Navigator::new(g.clone(), None, 1).unwrap();
         nav.look(10.0 * TAU + 0.5, 5.0);
         assert!((nav.view.yaw - 0.5).abs() < 1e-3 && nav.view.pitch == MAX_PITCH);
         nav.zoom(0.01);
@@ -395,7 +399,7 @@ mod tests {
     fn random_walk_is_seeded_and_follows_paths() {
         let g = graph();
         let walk = |seed| {
-            let mut nav = Navigator::new(&g, Some(0), seed).unwrap();
+            let mut nav = Navigator::new(g.clone(), Some(0), seed).unwrap();
             let mut visited = vec![];
             let mut came_by = None;
             for _ in 0..20 {

@@ -1,26 +1,20 @@
-//! Draws a probe's cube-map panorama for a view: one full-screen triangle
-//! whose fragment shader turns each pixel into a world direction and samples
-//! the cube. The bundle's faces follow the GPU cube-map convention
-//! (`exploremaps_format::cube_direction`), so they upload as they are.
+//! Draws what the viewer sees: a probe's cube map, a cross-fade between two
+//! cube maps, or a frame of a path's 360° video (equirectangular, world
+//! aligned), for a view. One full-screen triangle whose fragment shader turns
+//! each pixel into a world direction and samples the source. The bundle's
+//! faces follow the GPU cube-map convention (`exploremaps_format::cube_direction`),
+//! so they upload as they are.
 
+use crate::navigation::View;
 use exploremaps_format::direction;
-
-/// Where the viewer looks.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct View {
-    /// Radians, the bundle's convention (0 toward −Z, π/2 toward +X).
-    pub yaw: f32,
-    /// Radians, positive up.
-    pub pitch: f32,
-    /// Vertical field of view, radians.
-    pub fov_y: f32,
-}
 
 const SHADER: &str = r#"
 struct U { forward: vec4f, right: vec4f, up: vec4f, params: vec4f };
 @group(0) @binding(0) var<uniform> u: U;
-@group(0) @binding(1) var cube: texture_cube<f32>;
-@group(0) @binding(2) var samp: sampler;
+@group(0) @binding(1) var cube_a: texture_cube<f32>;
+@group(0) @binding(2) var cube_b: texture_cube<f32>;
+@group(0) @binding(3) var video: texture_2d<f32>;
+@group(0) @binding(4) var samp: sampler;
 
 struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 
@@ -33,14 +27,21 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 }
 
 @fragment fn fs(v: VOut) -> @location(0) vec4f {
-    // params: tan(fov_y / 2), aspect.
-    let d = u.forward.xyz + u.right.xyz * (v.ndc.x * u.params.x * u.params.y) + u.up.xyz * (v.ndc.y * u.params.x);
-    return vec4f(textureSample(cube, samp, d).rgb, 1.0);
+    // params: tan(fov_y / 2), aspect, fade toward cube_b, 1 for video.
+    let d = normalize(u.forward.xyz + u.right.xyz * (v.ndc.x * u.params.x * u.params.y) + u.up.xyz * (v.ndc.y * u.params.x));
+    let a = textureSampleLevel(cube_a, samp, d, 0.0).rgb;
+    let b = textureSampleLevel(cube_b, samp, d, 0.0).rgb;
+    // Equirectangular: s = yaw / 2π with yaw 0 toward −Z, t = 0 straight up.
+    let yaw = atan2(d.x, -d.z);
+    let st = vec2f(fract(yaw / 6.2831853), acos(clamp(d.y, -1.0, 1.0)) / 3.14159265);
+    // One mip level, so sampling level 0 avoids derivative seams at s = 0.
+    let e = textureSampleLevel(video, samp, st, 0.0).rgb;
+    return vec4f(select(mix(a, b, u.params.z), e, u.params.w > 0.5), 1.0);
 }
 "#;
 
 /// The camera basis and projection, as the shader reads them.
-fn uniforms(view: &View, aspect: f32) -> [f32; 16] {
+fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
     let f = direction(view.yaw, view.pitch);
     // Right is forward × up; straight up or down it falls back to the yaw's right.
     let mut r = [-f[2], 0.0, f[0]];
@@ -51,7 +52,94 @@ fn uniforms(view: &View, aspect: f32) -> [f32; 16] {
         r = [r[0] / len, 0.0, r[2] / len];
     }
     let u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]];
-    [f[0], f[1], f[2], 0.0, r[0], r[1], r[2], 0.0, u[0], u[1], u[2], 0.0, (0.5 * view.fov_y).tan(), aspect, 0.0, 0.0]
+    let video = if video { 1.0 } else { 0.0 };
+    [f[0], f[1], f[2], 0.0, r[0], r[1], r[2], 0.0, u[0], u[1], u[2], 0.0, (0.5 * view.fov_y).tan(), aspect, fade, video]
+}
+
+/// A probe's panorama on the GPU: six square RGBA8 sRGB faces.
+pub struct Cube {
+    pub texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pub size: u32,
+}
+
+impl Cube {
+    /// An empty cube; fill it with [`Cube::write_face`] (or, on the web, by
+    /// copying decoded images into its layers).
+    pub fn new(device: &wgpu::Device, size: u32) -> Cube {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("panorama cube"),
+            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 6 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            // RENDER_ATTACHMENT: browsers copy decoded images in with a draw.
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
+        Cube { texture, view, size }
+    }
+
+    /// Uploads face `face` (bundle order) from RGBA8 pixels, `size`² of them.
+    pub fn write_face(&self, queue: &wgpu::Queue, face: usize, rgba: &[u8]) {
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture: &self.texture, mip_level: 0, origin: wgpu::Origin3d { x: 0, y: 0, z: face as u32 }, aspect: wgpu::TextureAspect::All },
+            rgba,
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * self.size), rows_per_image: Some(self.size) },
+            wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: 1 },
+        );
+    }
+
+    /// Bytes of GPU memory it holds.
+    pub fn bytes(&self) -> u64 {
+        6 * 4 * u64::from(self.size) * u64::from(self.size)
+    }
+}
+
+/// The texture a path's video frames are copied into.
+pub struct VideoTexture {
+    pub texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl VideoTexture {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> VideoTexture {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("video frame"),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        VideoTexture { texture, view, width, height }
+    }
+
+    /// Uploads one frame of RGBA8 pixels.
+    pub fn write(&self, queue: &wgpu::Queue, rgba: &[u8]) {
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture: &self.texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            rgba,
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * self.width), rows_per_image: Some(self.height) },
+            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
+        );
+    }
+}
+
+/// What to draw.
+#[derive(Clone, Copy)]
+pub enum Source<'a> {
+    Cube(&'a Cube),
+    /// From the first cube to the second, by the fraction given.
+    Fade(&'a Cube, &'a Cube, f32),
+    Video(&'a VideoTexture),
 }
 
 /// The GPU side of drawing panoramas into targets of one format.
@@ -60,19 +148,24 @@ pub struct PanoramaPass {
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     uniforms: wgpu::Buffer,
-    bind: Option<wgpu::BindGroup>,
+    /// Bound where a source leaves a slot unused.
+    blank_cube: Cube,
+    blank_video: VideoTexture,
 }
 
 impl PanoramaPass {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> PanoramaPass {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("panorama"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::FRAGMENT, ty, count: None };
+        let texture = |dim| wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: dim, multisampled: false };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("panorama"),
             entries: &[
                 entry(0, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None }),
-                entry(1, wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: wgpu::TextureViewDimension::Cube, multisampled: false }),
-                entry(2, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+                entry(1, texture(wgpu::TextureViewDimension::Cube)),
+                entry(2, texture(wgpu::TextureViewDimension::Cube)),
+                entry(3, texture(wgpu::TextureViewDimension::D2)),
+                entry(4, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("panorama"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
@@ -94,56 +187,39 @@ impl PanoramaPass {
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("panorama"),
+            address_mode_u: wgpu::AddressMode::Repeat,
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor { label: Some("panorama view"), size: 64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-        PanoramaPass { pipeline, layout, sampler, uniforms, bind: None }
+        PanoramaPass { pipeline, layout, sampler, uniforms, blank_cube: Cube::new(device, 1), blank_video: VideoTexture::new(device, 1, 1) }
     }
 
-    /// Uploads six RGBA8 sRGB faces, `size` pixels square, in the bundle's order.
-    pub fn set_cube(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, size: u32, faces: [&[u8]; 6]) {
-        let extent = wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 6 };
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("panorama cube"),
-            size: extent,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        for (layer, face) in faces.iter().enumerate() {
-            queue.write_texture(
-                wgpu::TexelCopyTextureInfo { texture: &texture, mip_level: 0, origin: wgpu::Origin3d { x: 0, y: 0, z: layer as u32 }, aspect: wgpu::TextureAspect::All },
-                face,
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * size), rows_per_image: Some(size) },
-                wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-            );
-        }
-        let view = texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
-        self.bind = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+    /// Draws `source` as seen in `view` into a pass over a target of aspect
+    /// ratio `aspect`.
+    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, source: Source<'_>) {
+        let (a, b, video, fade) = match source {
+            Source::Cube(c) => (c, &self.blank_cube, &self.blank_video, 0.0),
+            Source::Fade(a, b, t) => (a, b, &self.blank_video, t.clamp(0.0, 1.0)),
+            Source::Video(v) => (&self.blank_cube, &self.blank_cube, v, 0.0),
+        };
+        let u = uniforms(view, aspect, fade, matches!(source, Source::Video(_)));
+        let bytes: Vec<u8> = u.iter().flat_map(|x| x.to_le_bytes()).collect();
+        queue.write_buffer(&self.uniforms, 0, &bytes);
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("panorama"),
             layout: &self.layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: self.uniforms.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&a.view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&b.view) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&video.view) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.sampler) },
             ],
-        }));
-    }
-
-    /// Draws the panorama as seen in `view` into a pass over a target of
-    /// aspect ratio `aspect`; nothing before a cube is set.
-    pub fn draw(&self, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32) {
-        let Some(bind) = &self.bind else { return };
-        let u = uniforms(view, aspect);
-        let bytes: Vec<u8> = u.iter().flat_map(|x| x.to_le_bytes()).collect();
-        queue.write_buffer(&self.uniforms, 0, &bytes);
+        });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, bind, &[]);
+        pass.set_bind_group(0, &bind, &[]);
         pass.draw(0..3, 0..1);
     }
 }

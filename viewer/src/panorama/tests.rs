@@ -27,11 +27,23 @@ fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
 
 const SIZE: u32 = 64;
 
+fn cube(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_size: u32) -> Cube {
+    let cube = Cube::new(device, face_size);
+    for (f, pixels) in faces.iter().enumerate() {
+        cube.write_face(queue, f, pixels);
+    }
+    cube
+}
+
 /// Renders `view` of a cube whose faces are `faces` into SIZE² RGBA8 pixels.
 fn render(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_size: u32, view: View) -> Vec<u8> {
+    let c = cube(device, queue, faces, face_size);
+    render_source(device, queue, Source::Cube(&c), view)
+}
+
+fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>, view: View) -> Vec<u8> {
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let mut pass = PanoramaPass::new(device, format);
-    pass.set_cube(device, queue, face_size, faces);
+    let pass = PanoramaPass::new(device, format);
     let target = device.create_texture(&wgpu::TextureDescriptor {
         label: None,
         size: wgpu::Extent3d { width: SIZE, height: SIZE, depth_or_array_layers: 1 },
@@ -59,7 +71,7 @@ fn render(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_si
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.draw(queue, &mut rp, &view, 1.0);
+        pass.draw(device, queue, &mut rp, &view, 1.0, source);
     }
     encoder.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
@@ -117,4 +129,38 @@ fn known_views_show_the_right_faces_the_right_way_up() {
     let wide = render(&device, &queue, faces, n, View { yaw: 0.0, pitch: 0.0, fov_y: 2.0 });
     assert!(close(pixel(&wide, SIZE - 1, SIZE / 2), colours[0]), "right edge: {:?}", pixel(&wide, SIZE - 1, SIZE / 2));
     assert!(close(pixel(&wide, 0, SIZE / 2), colours[1]), "left edge: {:?}", pixel(&wide, 0, SIZE / 2));
+}
+
+fn solid(n: u32, c: [u8; 3]) -> Vec<u8> {
+    (0..n * n).flat_map(|_| [c[0], c[1], c[2], 255]).collect()
+}
+
+#[test]
+fn a_cross_fade_mixes_the_two_cubes() {
+    let Some((device, queue)) = gpu() else { return };
+    let (red, blue) = (solid(4, [255, 0, 0]), solid(4, [0, 0, 255]));
+    let a = cube(&device, &queue, [&red[..]; 6], 4);
+    let b = cube(&device, &queue, [&blue[..]; 6], 4);
+    let view = View { yaw: 0.4, pitch: 0.1, fov_y: 1.0 };
+    let at = |t: f32| pixel(&render_source(&device, &queue, Source::Fade(&a, &b, t), view), SIZE / 2, SIZE / 2);
+    assert!(close(at(0.0), [255, 0, 0]) && close(at(1.0), [0, 0, 255]), "{:?} {:?}", at(0.0), at(1.0));
+    // Halfway in linear light is 0.5, which sRGB encodes as 188.
+    assert!(close(at(0.5), [188, 0, 188]), "halfway: {:?}", at(0.5));
+}
+
+#[test]
+fn video_frames_are_sampled_as_world_aligned_equirectangular_images() {
+    let Some((device, queue)) = gpu() else { return };
+    // Four vertical bands by yaw: [−Z..+X) red, [+X..+Z) green, [+Z..−X) blue, [−X..−Z) white.
+    let (w, h) = (64u32, 32u32);
+    let bands = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]];
+    let rgba: Vec<u8> = (0..w * h).flat_map(|i| { let c = bands[((i % w) * 4 / w) as usize]; [c[0], c[1], c[2], 255] }).collect();
+    let video = VideoTexture::new(&device, w, h);
+    video.write(&queue, &rgba);
+    use std::f32::consts::PI;
+    for (k, band) in bands.iter().enumerate() {
+        let yaw = (k as f32 + 0.5) * PI / 2.0;
+        let p = pixel(&render_source(&device, &queue, Source::Video(&video), View { yaw, pitch: 0.0, fov_y: 0.3 }), SIZE / 2, SIZE / 2);
+        assert!(close(p, *band), "yaw {yaw}: {p:?}");
+    }
 }
