@@ -1,6 +1,8 @@
-//! The ExploreMaps viewer. So far: navigation (the pure logic of where the
-//! viewer is, looks and goes) and the panorama pass (a probe's cube map drawn
-//! for a view with wgpu). The native window and the web entry point come next.
+//! The ExploreMaps viewer: navigation (pure logic of where the viewer is,
+//! looks and goes), the interface layout (pure), and the GPU passes that draw
+//! panoramas, videos and the interface with wgpu.
 
 pub mod navigation;
+pub mod overlay;
 pub mod panorama;
+pub mod ui;

@@ -137,6 +137,11 @@ impl Navigator {
         }
     }
 
+    /// The direction a path leaves its start in (travelled either way).
+    pub fn departure(&self, path: u32, reversed: bool) -> (f32, f32) {
+        Self::travel_direction(&self.graph.paths[path as usize], reversed, false)
+    }
+
     /// Paths leaving the current probe, best aligned with the view first.
     pub fn path_bar(&self) -> Vec<PathChoice> {
         let here = self.probe();
@@ -280,13 +285,13 @@ impl Navigator {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use exploremaps_format::{PathAssets, Probe, SceneInfo, ViewDirection};
 
     /// Probe 0 at the origin with paths to probes 1 (+X), 2 (−Z) and 3 (+Z, bent);
     /// probe 4 unconnected. Probe 2 prefers to look toward +X.
-    fn graph() -> Graph {
+    pub(crate) fn graph() -> Graph {
         let mut g = Graph::new(SceneInfo {
             name: "t".into(),
             source: "test".into(),

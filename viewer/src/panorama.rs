@@ -40,8 +40,8 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 }
 "#;
 
-/// The camera basis and projection, as the shader reads them.
-fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
+/// The camera's forward, right and up vectors for a view.
+pub fn basis(view: &View) -> [[f32; 3]; 3] {
     let f = direction(view.yaw, view.pitch);
     // Right is forward × up; straight up or down it falls back to the yaw's right.
     let mut r = [-f[2], 0.0, f[0]];
@@ -52,6 +52,26 @@ fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
         r = [r[0] / len, 0.0, r[2] / len];
     }
     let u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]];
+    [f, r, u]
+}
+
+/// Where direction `d` lands on a `width` × `height` target showing `view`
+/// (pixels, y down), if it is in front of the camera.
+pub fn project(view: &View, d: [f32; 3], width: f32, height: f32) -> Option<[f32; 2]> {
+    let [f, r, u] = basis(view);
+    let dot = |a: [f32; 3]| a[0] * d[0] + a[1] * d[1] + a[2] * d[2];
+    let z = dot(f);
+    if z <= 1e-3 {
+        return None;
+    }
+    let t = (0.5 * view.fov_y).tan();
+    let (x, y) = (dot(r) / (z * t * width / height), dot(u) / (z * t));
+    Some([(x + 1.0) * 0.5 * width, (1.0 - y) * 0.5 * height])
+}
+
+/// The uniforms as the shader reads them.
+fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
+    let [f, r, u] = basis(view);
     let video = if video { 1.0 } else { 0.0 };
     [f[0], f[1], f[2], 0.0, r[0], r[1], r[2], 0.0, u[0], u[1], u[2], 0.0, (0.5 * view.fov_y).tan(), aspect, fade, video]
 }
