@@ -58,9 +58,33 @@ pub enum Command {
         #[arg(long, default_value_t = 200_000)]
         samples: usize,
     },
-    /// Open a bundle in the native viewer.
+    /// Open a bundle in the native viewer. Drag or arrow keys to look, wheel
+    /// or +/- to zoom, Enter or a tap to go along the best-aligned path, the
+    /// bars and the map to jump; N/P next/previous probe, M map, T tour, Esc quits.
     View {
         bundle: PathBuf,
+        /// Start at this probe (default: the first in the probe bar).
+        #[arg(long)]
+        probe: Option<u32>,
+        /// Start looking this way, degrees (0 toward -Z, 90 toward +X).
+        #[arg(long, allow_negative_numbers = true)]
+        yaw: Option<f32>,
+        /// Degrees above the horizon.
+        #[arg(long, allow_negative_numbers = true)]
+        pitch: Option<f32>,
+        /// Vertical field of view, degrees.
+        #[arg(long)]
+        fov: Option<f32>,
+        /// A deep link as the web viewer writes it after `#`, e.g. "probe=3&yaw=90".
+        #[arg(long, conflicts_with_all = ["probe", "yaw", "pitch", "fov"])]
+        link: Option<String>,
+        /// Start the automatic tour (a random walk along the paths).
+        #[arg(long)]
+        tour: bool,
+        /// Print the time to the first panorama and frame times in a probe and
+        /// along a path, then close.
+        #[arg(long)]
+        benchmark: bool,
     },
     /// Serve a bundle and the web viewer over HTTP on this machine.
     Serve {

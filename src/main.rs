@@ -31,7 +31,11 @@ struct BadInput(String);
 #[error("`exploremaps {0}` is not available yet: its pipeline stage has not been built. Nothing was written.")]
 struct NotBuiltYet(&'static str);
 
+/// When the program started (the viewer's time to first panorama counts from here).
+static STARTED: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+
 fn main() -> ExitCode {
+    STARTED.get_or_init(Instant::now);
     let cli = Cli::parse();
     init_logging(cli.verbose, cli.quiet);
     if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(cli.threads).build_global() {
@@ -95,7 +99,18 @@ fn run(cli: &Cli) -> Result<()> {
             render(&job.output, &settings, None)
         }
         Command::Render { bundle, render: args, shard } => render(bundle, &render_settings(args, cli.seed)?, *shard),
-        Command::View { .. } => Err(NotBuiltYet("view").into()),
+        Command::View { bundle, probe, yaw, pitch, fov, link, tour, benchmark } => {
+            use exploremaps_viewer::{native, ui::Link};
+            let link = match link {
+                Some(text) => Link::parse(text).map_err(|e| BadInput(format!("--link: {e}")))?,
+                None => Link { probe: *probe, yaw_deg: *yaw, pitch_deg: *pitch, fov_deg: *fov },
+            };
+            let options = native::ViewOptions { link, tour: *tour, benchmark: *benchmark, started: *STARTED.get_or_init(Instant::now) };
+            native::run(bundle, options).map_err(|e| match e {
+                native::ViewError::Read { .. } | native::ViewError::Format { .. } | native::ViewError::Link(_) | native::ViewError::Empty => BadInput(e.to_string()).into(),
+                e => anyhow::Error::from(e),
+            })
+        }
         Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
     }
 }

@@ -2,7 +2,10 @@
 //! looks and goes), the interface layout (pure), and the GPU passes that draw
 //! panoramas, videos and the interface with wgpu.
 
+pub mod app;
 pub mod navigation;
 pub mod overlay;
 pub mod panorama;
 pub mod ui;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod native;

@@ -42,7 +42,7 @@ fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
     ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
 }
 
-fn smoothstep(t: f32) -> f32 {
+pub(crate) fn smoothstep(t: f32) -> f32 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
@@ -134,6 +134,15 @@ impl Navigator {
         match via {
             Some((path, reversed)) => Self::travel_direction(&self.graph.paths[path as usize], reversed, true),
             None => (self.view.yaw, self.view.pitch),
+        }
+    }
+
+    /// Where the current move ends, if moving.
+    pub fn destination(&self) -> Option<u32> {
+        match self.state {
+            State::AtProbe { .. } => None,
+            State::Travelling { path, reversed, .. } => Some(self.endpoints(path, reversed).1),
+            State::CrossFading { to, .. } => Some(to),
         }
     }
 
