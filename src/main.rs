@@ -3,6 +3,7 @@
 //! (1: failure, 2: bad input, 3: stage not built yet).
 
 mod cli;
+mod serve;
 
 use anyhow::{bail, Result};
 use clap::Parser;
@@ -111,7 +112,7 @@ fn run(cli: &Cli) -> Result<()> {
                 e => anyhow::Error::from(e),
             })
         }
-        Command::Serve { .. } => Err(NotBuiltYet("serve").into()),
+        Command::Serve { bundle, address } => serve::serve(bundle, address, web_dir().as_deref()),
     }
 }
 
@@ -288,6 +289,12 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
+    match web_dir() {
+        Some(web) => {
+            exploremaps_builder::bundle::install_web_viewer(bundle, &web)?;
+        }
+        None => tracing::warn!("the web viewer is not built, so the bundle has none; run web/build.sh, then `exploremaps render` again (it only adds what is missing)"),
+    }
     println!(
         "{}: rendered {} probes and {} paths, {} already there ({:.1} s{})",
         bundle.display(),
@@ -298,6 +305,17 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
         report.video_encoder.map(|e| format!(", videos by {e}")).unwrap_or_default()
     );
     Ok(())
+}
+
+/// The built web viewer (web/build.sh): EXPLOREMAPS_WEB_DIR, else `web-viewer` in
+/// the build's target folder (beside `debug` or `release`, where this program is).
+fn web_dir() -> Option<std::path::PathBuf> {
+    let complete = |d: &Path| exploremaps_builder::bundle::WEB_VIEWER_FILES.iter().all(|f| d.join(f).is_file());
+    if let Some(d) = std::env::var_os("EXPLOREMAPS_WEB_DIR") {
+        return Some(d.into()).filter(|d: &std::path::PathBuf| complete(d));
+    }
+    let exe = std::env::current_exe().ok()?;
+    exe.ancestors().skip(1).take(3).map(|d| d.join("web-viewer")).find(|d| complete(d))
 }
 
 /// `exploremaps coverage`: measure a planned bundle's probes again.

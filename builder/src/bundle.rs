@@ -33,6 +33,30 @@ fn png(image: &image::RgbImage) -> Vec<u8> {
     bytes
 }
 
+/// The web viewer's files (`index.html`, `viewer/…`), relative to its folder.
+pub const WEB_VIEWER_FILES: [&str; 3] = ["index.html", "viewer/exploremaps.js", "viewer/exploremaps_bg.wasm"];
+
+/// Copies the built web viewer (web/build.sh writes it to target/web-viewer) into a
+/// bundle, so the folder can be hosted anywhere as static files. Files that
+/// are already identical are left alone. Returns how many were written.
+pub fn install_web_viewer(dir: &Path, web: &Path) -> Result<usize, BundleError> {
+    let mut written = 0;
+    for name in WEB_VIEWER_FILES {
+        let from = web.join(name);
+        let bytes = std::fs::read(&from).map_err(|source| BundleError::Io { path: from.display().to_string(), source })?;
+        let to = dir.join(name);
+        if std::fs::read(&to).is_ok_and(|old| old == bytes) {
+            continue;
+        }
+        if let Some(parent) = to.parent() {
+            std::fs::create_dir_all(parent).map_err(|source| BundleError::Io { path: parent.display().to_string(), source })?;
+        }
+        write(dir, name, &bytes)?;
+        written += 1;
+    }
+    Ok(written)
+}
+
 /// The coverage report as JSON: overall, per material and object, the curve,
 /// and the baselines at the same probe count.
 pub fn coverage_json(plan: &Plan) -> serde_json::Value {

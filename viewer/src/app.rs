@@ -166,11 +166,6 @@ impl App {
         let panorama = PanoramaPass::new(&gpu.device, gpu.format);
         let overlay = OverlayPass::new(&gpu.device, gpu.format, probes);
         let max_face = options.max_face.min(gpu.device.limits().max_texture_dimension_2d);
-        for p in &nav.graph().probes {
-            if let Some(t) = &p.assets.thumbnail {
-                platform.load_thumbnail(p.id, t);
-            }
-        }
         let last_state = nav.state;
         let mut app = App {
             nav,
@@ -199,7 +194,13 @@ impl App {
             shown_panorama: false,
             layout: ui::Layout::default(),
         };
+        // The first panorama before the thumbnails, which queue behind it.
         app.request_assets(platform);
+        for p in &app.nav.graph().probes {
+            if let Some(t) = &p.assets.thumbnail {
+                platform.load_thumbnail(p.id, t);
+            }
+        }
         app
     }
 

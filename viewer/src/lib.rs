@@ -9,3 +9,5 @@ pub mod panorama;
 pub mod ui;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod native;
+#[cfg(target_arch = "wasm32")]
+pub mod web;

@@ -1,0 +1,444 @@
+//! The web viewer (wasm32): a canvas, WebGPU when the browser has it, else
+//! WebGL2; images fetched and decoded by the browser (`createImageBitmap`),
+//! videos played by a `<video>` element, both copied into textures. The page
+//! (web/index.html, written into every bundle) calls `start`.
+
+use crate::app::{App, Gpu, Input, Key, Loaded, Options, Pano, Platform};
+use crate::navigation::Navigator;
+use crate::overlay::{OverlayPass, THUMB_H, THUMB_W};
+use crate::panorama::{Cube, VideoTexture};
+use crate::ui::Link;
+use exploremaps_format::{Graph, GRAPH_FILE};
+use std::cell::RefCell;
+use std::rc::Rc;
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
+use wasm_bindgen_futures::JsFuture;
+
+fn window() -> web_sys::Window {
+    web_sys::window().expect("a browser window")
+}
+
+fn js_error(e: JsValue) -> String {
+    e.as_string().or_else(|| e.dyn_ref::<js_sys::Error>().map(|e| String::from(e.message()))).unwrap_or_else(|| format!("{e:?}"))
+}
+
+/// Shows `text` in the page's message box (id "message") for a few seconds.
+fn show(text: &str) {
+    web_sys::console::warn_1(&text.into());
+    let Some(el) = window().document().and_then(|d| d.get_element_by_id("message")) else { return };
+    el.set_text_content(Some(text));
+    let _ = el.set_attribute("class", "shown");
+    let hide = Closure::once_into_js(move || {
+        let _ = el.set_attribute("class", "");
+    });
+    let _ = window().set_timeout_with_callback_and_timeout_and_arguments_0(hide.unchecked_ref(), 6000);
+}
+
+async fn fetch(url: &str) -> Result<web_sys::Response, String> {
+    let response: web_sys::Response = JsFuture::from(window().fetch_with_str(url)).await.map_err(|e| format!("cannot be fetched ({})", js_error(e)))?.unchecked_into();
+    if !response.ok() {
+        return Err(format!("HTTP {} {}", response.status(), response.status_text()));
+    }
+    Ok(response)
+}
+
+/// Fetches and decodes an image, optionally resized by the browser.
+async fn bitmap(url: String, resize: Option<(u32, u32)>) -> Result<web_sys::ImageBitmap, String> {
+    let blob: web_sys::Blob = JsFuture::from(fetch(&url).await?.blob().map_err(js_error)?).await.map_err(js_error)?.unchecked_into();
+    let promise = match resize {
+        Some((w, h)) => {
+            let options = web_sys::ImageBitmapOptions::new();
+            options.set_resize_width(w);
+            options.set_resize_height(h);
+            options.set_resize_quality(web_sys::ResizeQuality::High);
+            window().create_image_bitmap_with_blob_and_image_bitmap_options(&blob, &options)
+        }
+        None => window().create_image_bitmap_with_blob(&blob),
+    }
+    .map_err(js_error)?;
+    Ok(JsFuture::from(promise).await.map_err(|e| format!("is not a readable image ({})", js_error(e)))?.unchecked_into())
+}
+
+enum Fetched {
+    Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
+    Equirect { probe: u32, image: web_sys::ImageBitmap },
+    Thumbnail { probe: u32, image: web_sys::ImageBitmap },
+    Failed { what: String, error: String, probe: Option<u32> },
+}
+
+fn copy_image(gpu: &Gpu, source: wgpu::ExternalImageSource, texture: &wgpu::Texture, layer: u32, width: u32, height: u32) {
+    gpu.queue.copy_external_image_to_texture(
+        &wgpu::CopyExternalImageSourceInfo { source, origin: wgpu::Origin2d::ZERO, flip_y: false },
+        wgpu::CopyExternalImageDestInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+            aspect: wgpu::TextureAspect::All,
+            color_space: wgpu::PredefinedColorSpace::Srgb,
+            premultiplied_alpha: false,
+        },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+}
+
+struct WebPlatform {
+    base: String,
+    done: Rc<RefCell<Vec<Fetched>>>,
+    video: web_sys::HtmlVideoElement,
+    video_texture: Option<VideoTexture>,
+    playing: Option<bool>,
+    message: Option<String>,
+}
+
+impl WebPlatform {
+    fn url(&self, file: &str) -> String {
+        format!("{}{file}", self.base)
+    }
+
+    fn spawn(&self, task: impl std::future::Future<Output = Fetched> + 'static) {
+        let done = self.done.clone();
+        wasm_bindgen_futures::spawn_local(async move {
+            let result = task.await;
+            done.borrow_mut().push(result);
+        });
+    }
+}
+
+impl Platform for WebPlatform {
+    fn load_cube(&mut self, probe: u32, size: u32, faces: &[String; 6]) {
+        // The six faces are fetched and decoded at once; the last to arrive hands in the cube.
+        let slots: Rc<RefCell<Vec<Option<Result<web_sys::ImageBitmap, Fetched>>>>> = Rc::new(RefCell::new((0..6).map(|_| None).collect()));
+        for (i, file) in faces.iter().enumerate() {
+            let (file, url, slots, done) = (file.clone(), self.url(file), slots.clone(), self.done.clone());
+            wasm_bindgen_futures::spawn_local(async move {
+                let result = match bitmap(url, None).await {
+                    Ok(b) if (b.width(), b.height()) == (size, size) => Ok(b),
+                    Ok(b) => Err(Fetched::Failed { what: file, error: format!("is {}×{}, but graph.json says {size}×{size}", b.width(), b.height()), probe: Some(probe) }),
+                    Err(error) => Err(Fetched::Failed { what: file, error, probe: Some(probe) }),
+                };
+                let mut slots = slots.borrow_mut();
+                slots[i] = Some(result);
+                if slots.iter().all(Option::is_some) {
+                    let results: Vec<_> = slots.drain(..).flatten().collect();
+                    let mut faces = Vec::with_capacity(6);
+                    for r in results {
+                        match r {
+                            Ok(b) => faces.push(b),
+                            Err(failed) => return done.borrow_mut().push(failed),
+                        }
+                    }
+                    done.borrow_mut().push(Fetched::Cube { probe, size, faces });
+                }
+            });
+        }
+    }
+
+    fn load_equirect(&mut self, probe: u32, file: &str) {
+        let (file, url) = (file.to_string(), self.url(file));
+        self.spawn(async move {
+            match bitmap(url, None).await {
+                Ok(image) => Fetched::Equirect { probe, image },
+                Err(error) => Fetched::Failed { what: file, error, probe: Some(probe) },
+            }
+        });
+    }
+
+    fn load_thumbnail(&mut self, probe: u32, file: &str) {
+        let (file, url) = (file.to_string(), self.url(file));
+        self.spawn(async move {
+            match bitmap(url, Some((THUMB_W, THUMB_H))).await {
+                Ok(image) => Fetched::Thumbnail { probe, image },
+                Err(error) => Fetched::Failed { what: file, error, probe: None },
+            }
+        });
+    }
+
+    fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
+        let fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
+        fetched
+            .into_iter()
+            .map(|f| match f {
+                Fetched::Cube { probe, size, faces } => {
+                    let cube = Cube::new(&gpu.device, size);
+                    for (layer, face) in faces.into_iter().enumerate() {
+                        // Not closed here: WebGL copies when the queue is submitted.
+                        copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(face), &cube.texture, layer as u32, size, size);
+                    }
+                    Loaded::Pano { probe, pano: Pano::Cube(cube) }
+                }
+                Fetched::Equirect { probe, image } => {
+                    let limit = gpu.device.limits().max_texture_dimension_2d;
+                    let (w, h) = (image.width().min(limit), image.height().min(limit));
+                    let t = VideoTexture::new(&gpu.device, w, h);
+                    copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &t.texture, 0, w, h);
+                    Loaded::Pano { probe, pano: Pano::Equirect(t) }
+                }
+                Fetched::Thumbnail { probe, image } => {
+                    if probe < overlay.thumb_count {
+                        copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &overlay.thumbs, probe, THUMB_W, THUMB_H);
+                    }
+                    Loaded::Thumbnail { probe }
+                }
+                Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
+            })
+            .collect()
+    }
+
+    fn play_video(&mut self, file: &str, reversed: bool) {
+        self.video.set_src(&self.url(file));
+        self.playing = Some(reversed);
+        if !reversed {
+            let _ = self.video.play();
+        }
+    }
+
+    fn stop_video(&mut self) {
+        self.playing = None;
+        let _ = self.video.pause();
+    }
+
+    fn video_frame(&mut self, gpu: &Gpu, t: f32) -> Result<Option<&VideoTexture>, String> {
+        let Some(reversed) = self.playing else { return Ok(None) };
+        let v = &self.video;
+        if let Some(e) = v.error() {
+            self.playing = None;
+            return Err(format!("{} (code {})", e.message(), e.code()));
+        }
+        let duration = v.duration();
+        if duration.is_finite() && duration > 0.0 {
+            let wanted = if reversed { (1.0 - f64::from(t)) * duration } else { f64::from(t) * duration };
+            // Forward playback runs by itself; reversed is seeked frame by frame,
+            // and either is pulled back in step with the travel when it drifts.
+            if reversed || (v.current_time() - wanted).abs() > 0.25 {
+                if !v.seeking() {
+                    v.set_current_time(wanted.min(duration - 0.001));
+                }
+            }
+        }
+        // HAVE_CURRENT_DATA: a frame can be copied.
+        if v.ready_state() < 2 {
+            return Ok(self.video_texture.as_ref());
+        }
+        let (w, h) = (v.video_width(), v.video_height());
+        if w == 0 || h == 0 {
+            return Ok(self.video_texture.as_ref());
+        }
+        if self.video_texture.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
+            self.video_texture = Some(VideoTexture::new(&gpu.device, w, h));
+        }
+        let texture = self.video_texture.as_ref().expect("made above");
+        copy_image(gpu, wgpu::ExternalImageSource::HTMLVideoElement(v.clone()), &texture.texture, 0, w, h);
+        Ok(Some(texture))
+    }
+
+    fn show_message(&mut self, text: &str) {
+        self.message = Some(text.to_string());
+        show(text);
+    }
+
+    fn link_changed(&mut self, link: &Link) {
+        let fragment = format!("#{}", link.to_fragment());
+        let _ = window().history().and_then(|h| h.replace_state_with_url(&JsValue::NULL, "", Some(&fragment)));
+    }
+}
+
+struct State {
+    app: App,
+    platform: WebPlatform,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    view_format: wgpu::TextureFormat,
+    canvas: web_sys::HtmlCanvasElement,
+    last_ms: f64,
+    first_frame_logged: bool,
+}
+
+impl State {
+    /// Matches the drawing buffer to the canvas's size on screen.
+    fn fit(&mut self) {
+        let dpr = window().device_pixel_ratio().max(1.0);
+        let limit = self.app.gpu().device.limits().max_texture_dimension_2d;
+        let w = ((f64::from(self.canvas.client_width()) * dpr).round() as u32).clamp(1, limit);
+        let h = ((f64::from(self.canvas.client_height()) * dpr).round() as u32).clamp(1, limit);
+        if (w, h) != (self.config.width, self.config.height) {
+            self.canvas.set_width(w);
+            self.canvas.set_height(h);
+            self.config.width = w;
+            self.config.height = h;
+            self.surface.configure(&self.app.gpu().device, &self.config);
+        }
+        self.app.resize(w, h, dpr as f32);
+    }
+
+    fn frame(&mut self, now_ms: f64) {
+        self.fit();
+        let dt = ((now_ms - self.last_ms) / 1000.0).clamp(0.0, 0.1) as f32;
+        self.last_ms = now_ms;
+        self.app.update(dt, &mut self.platform);
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
+            _ => {
+                self.surface.configure(&self.app.gpu().device, &self.config);
+                return;
+            }
+        };
+        let view = frame.texture.create_view(&wgpu::TextureViewDescriptor { format: Some(self.view_format), ..Default::default() });
+        let commands = self.app.render(&view, &mut self.platform);
+        let queue = self.app.gpu().queue.clone();
+        queue.submit([commands]);
+        queue.present(frame);
+        if self.app.shown_panorama && !self.first_frame_logged {
+            self.first_frame_logged = true;
+            let ms = window().performance().map_or(0.0, |p| p.now());
+            web_sys::console::info_1(&format!("first panorama: {ms:.0} ms after navigation start").into());
+            set_status("first_panorama_ms", &ms.into());
+        }
+        set_status("probe", &self.app.nav.probe().into());
+        set_status("moving", &self.app.nav.progress().is_some().into());
+    }
+}
+
+/// Exposes a little state on `window.exploremaps` for tests and benchmarks.
+fn set_status(key: &str, value: &JsValue) {
+    let w = window();
+    let status = js_sys::Reflect::get(&w, &"exploremaps".into()).ok().filter(|v| v.is_object()).unwrap_or_else(|| {
+        let o: JsValue = js_sys::Object::new().into();
+        let _ = js_sys::Reflect::set(&w, &"exploremaps".into(), &o);
+        o
+    });
+    let _ = js_sys::Reflect::set(&status, &key.into(), value);
+}
+
+fn key(code: &str) -> Option<Key> {
+    Some(match code {
+        "ArrowLeft" | "KeyA" => Key::Left,
+        "ArrowRight" | "KeyD" => Key::Right,
+        "ArrowUp" | "KeyW" => Key::Up,
+        "ArrowDown" | "KeyS" => Key::Down,
+        "Equal" | "NumpadAdd" => Key::ZoomIn,
+        "Minus" | "NumpadSubtract" => Key::ZoomOut,
+        "Enter" | "Space" => Key::Go,
+        "KeyN" => Key::NextProbe,
+        "KeyP" => Key::PreviousProbe,
+        "KeyM" => Key::Map,
+        "KeyT" => Key::Tour,
+        _ => return None,
+    })
+}
+
+fn listen<E: JsCast + 'static>(target: &web_sys::EventTarget, name: &str, state: &Rc<RefCell<State>>, handler: impl Fn(&mut State, E) + 'static) {
+    let state = state.clone();
+    let closure = Closure::<dyn FnMut(web_sys::Event)>::new(move |e: web_sys::Event| {
+        if let Ok(mut s) = state.try_borrow_mut() {
+            handler(&mut s, e.unchecked_into());
+        }
+    });
+    let _ = target.add_event_listener_with_callback(name, closure.as_ref().unchecked_ref());
+    closure.forget();
+}
+
+fn pointer(s: &State, e: &web_sys::PointerEvent) -> (u64, f32, f32) {
+    let dpr = window().device_pixel_ratio() as f32;
+    let rect = s.canvas.get_bounding_client_rect();
+    (e.pointer_id() as u64, (e.client_x() as f32 - rect.left() as f32) * dpr, (e.client_y() as f32 - rect.top() as f32) * dpr)
+}
+
+/// Starts the viewer on `canvas_id` for the bundle at `bundle_url` (ending in `/`).
+#[wasm_bindgen]
+pub async fn start(canvas_id: String, bundle_url: String) -> Result<(), JsValue> {
+    match run(&canvas_id, &bundle_url).await {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            show(&e);
+            set_status("error", &e.clone().into());
+            Err(e.into())
+        }
+    }
+}
+
+async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
+    let graph_url = format!("{base}{GRAPH_FILE}");
+    let text = JsFuture::from(fetch(&graph_url).await.map_err(|e| format!("{graph_url}: {e}"))?.text().map_err(js_error)?).await.map_err(js_error)?;
+    let graph = Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {e}"))?;
+    if graph.probes.is_empty() {
+        return Err(format!("{graph_url}: the bundle has no probes to show"));
+    }
+    let link = Link::parse(&window().location().hash().unwrap_or_default()).unwrap_or_else(|e| {
+        show(&format!("the link's {e}; starting at the first probe"));
+        Link::default()
+    });
+    let probe = link.probe.filter(|&p| (p as usize) < graph.probes.len());
+
+    let document = window().document().ok_or("no document")?;
+    let canvas: web_sys::HtmlCanvasElement = document.get_element_by_id(canvas_id).ok_or_else(|| format!("no canvas #{canvas_id}"))?.dyn_into().map_err(|_| format!("#{canvas_id} is not a canvas"))?;
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL;
+    let instance = wgpu::util::new_instance_with_webgpu_detection(desc).await;
+    let surface = instance.create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone())).map_err(|e| format!("cannot draw on the canvas: {e}"))?;
+    let adapter = instance
+        .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
+        .await
+        .map_err(|e| format!("this browser offers neither WebGPU nor WebGL2 ({e})"))?;
+    let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
+    let (device, queue) = adapter.request_device(&wgpu::DeviceDescriptor { label: Some("viewer"), required_limits: limits, ..Default::default() }).await.map_err(|e| format!("no GPU device: {e}"))?;
+    let (w, h) = (canvas.width().max(1), canvas.height().max(1));
+    let mut config = surface.get_default_config(&adapter, w, h).ok_or("the canvas cannot be drawn on by this adapter")?;
+    // WebGPU canvases offer only non-sRGB formats: draw through an sRGB view.
+    let view_format = config.format.add_srgb_suffix();
+    config.view_formats = vec![view_format];
+    surface.configure(&device, &config);
+    set_status("backend", &format!("{:?}", adapter.get_info().backend).into());
+
+    let video: web_sys::HtmlVideoElement = document.create_element("video").map_err(js_error)?.unchecked_into();
+    video.set_muted(true);
+    video.set_preload("auto");
+    let _ = video.set_attribute("playsinline", "");
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None };
+    let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
+    // Phones: faces up to 1024 and a smaller texture budget.
+    let small = canvas.client_width().min(canvas.client_height()) < 600;
+    let options = Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
+    let app = App::new(Gpu { device, queue, format: view_format }, nav, Some(&link), options, &mut platform);
+    let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false }));
+
+    let target: &web_sys::EventTarget = canvas.as_ref();
+    listen(target, "pointerdown", &state, |s, e: web_sys::PointerEvent| {
+        let _ = s.canvas.set_pointer_capture(e.pointer_id());
+        let (id, x, y) = pointer(s, &e);
+        s.app.input(Input::PointerDown { id, x, y }, &mut s.platform);
+    });
+    listen(target, "pointermove", &state, |s, e: web_sys::PointerEvent| {
+        let (id, x, y) = pointer(s, &e);
+        s.app.input(Input::PointerMove { id, x, y }, &mut s.platform);
+    });
+    for name in ["pointerup", "pointercancel"] {
+        listen(target, name, &state, |s, e: web_sys::PointerEvent| {
+            let (id, x, y) = pointer(s, &e);
+            s.app.input(Input::PointerUp { id, x, y }, &mut s.platform);
+        });
+    }
+    listen(target, "wheel", &state, |s, e: web_sys::WheelEvent| {
+        e.prevent_default();
+        s.app.input(Input::Wheel(-(e.delta_y() as f32) / 100.0), &mut s.platform);
+    });
+    listen(window().as_ref(), "keydown", &state, |s, e: web_sys::KeyboardEvent| {
+        if let Some(k) = key(&e.code()) {
+            e.prevent_default();
+            s.app.input(Input::Key(k), &mut s.platform);
+        }
+    });
+
+    // The frame loop: requestAnimationFrame, every frame (the view may move at any time).
+    let tick: Rc<RefCell<Option<Closure<dyn FnMut(f64)>>>> = Rc::default();
+    let next = tick.clone();
+    *tick.borrow_mut() = Some(Closure::new(move |now: f64| {
+        state.borrow_mut().frame(now);
+        if let Some(f) = next.borrow().as_ref() {
+            let _ = window().request_animation_frame(f.as_ref().unchecked_ref());
+        }
+    }));
+    let _ = window().request_animation_frame(tick.borrow().as_ref().expect("set above").as_ref().unchecked_ref());
+    std::mem::forget(tick);
+    Ok(())
+}
