@@ -1,6 +1,6 @@
 //! `exploremaps`: the command-line front end. Glue only: parse arguments, set
 //! up logging and threads, call the builder, map errors to exit codes
-//! (1: failure, 2: bad input, 3: stage not built yet).
+//! (1: failure, 2: bad input).
 
 mod cli;
 mod serve;
@@ -27,11 +27,6 @@ use std::time::{Duration, Instant};
 #[error("{0}")]
 struct BadInput(String);
 
-/// A subcommand whose pipeline stage does not exist yet: exit code 3.
-#[derive(Debug, thiserror::Error)]
-#[error("`exploremaps {0}` is not available yet: its pipeline stage has not been built. Nothing was written.")]
-struct NotBuiltYet(&'static str);
-
 /// When the program started (the viewer's time to first panorama counts from here).
 static STARTED: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
 
@@ -46,9 +41,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<NotBuiltYet>().is_some() {
-                ExitCode::from(3)
-            } else if e.downcast_ref::<BadInput>().is_some() || e.downcast_ref::<LoadError>().is_some() {
+            if e.downcast_ref::<BadInput>().is_some() || e.downcast_ref::<LoadError>().is_some() {
                 ExitCode::from(2)
             } else {
                 ExitCode::FAILURE

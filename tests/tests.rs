@@ -3,6 +3,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod viewer;
+
 fn exploremaps(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(args).env("RUST_LOG", "warn").output().expect("run exploremaps")
 }
@@ -130,20 +132,6 @@ fn recoverable_problems_are_warnings_naming_the_file() {
     assert!(err.contains("bad.png") && err.contains("cannot be decoded"), "{err}");
     assert!(err.contains("warn.obj") && err.contains("1 non-finite"), "{err}");
     assert!(stdout(&out).contains("triangles   1 "));
-}
-
-#[test]
-fn stages_not_built_yet_say_so_and_write_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("bundle");
-    let b = bundle.to_str().unwrap();
-    for args in [vec!["view", b], vec!["serve", b]] {
-        let out = exploremaps(&args);
-        assert_eq!(out.status.code(), Some(3), "{args:?}");
-        assert!(stderr(&out).contains("not available yet"), "{args:?}: {}", stderr(&out));
-        assert!(stdout(&out).is_empty());
-        assert!(!bundle.exists(), "{args:?} wrote output");
-    }
 }
 
 /// Probe positions of a bundle, via the format crate (which validates it).

@@ -394,6 +394,11 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     video.set_muted(true);
     video.set_preload("auto");
     let _ = video.set_attribute("playsinline", "");
+    // Attached (invisibly), so the browser decodes its frames.
+    let _ = video.set_attribute("style", "position:fixed;left:0;top:0;width:1px;height:1px;opacity:0;pointer-events:none");
+    if let Some(body) = document.body() {
+        let _ = body.append_child(&video);
+    }
     let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.

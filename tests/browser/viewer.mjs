@@ -1,0 +1,84 @@
+// Drives the web viewer in headless Chromium for tests/viewer.rs.
+// usage: node viewer.mjs MODE URL OUT_DIR   (PLAYWRIGHT_CORE: path to playwright-core's index.mjs)
+// MODE tour: load, drag, take the path, screenshot each step; then a deep link
+// to a probe with a corrupt face, and on to the next probe.
+// MODE message: load and report the message the page shows.
+// MODE bench: time to first panorama and frame times in a probe and along a path.
+// Prints one JSON object per line: {"step": ..., ...}.
+const { chromium } = await import(process.env.PLAYWRIGHT_CORE);
+const [mode, url, out] = process.argv.slice(2);
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+         '--disable-component-update', '--disable-sync'],
+});
+const report = (step, extra) => console.log(JSON.stringify({ step, ...extra }));
+const status = (page) => page.evaluate(() => ({ ...(window.exploremaps || {}), hash: location.hash,
+  message: document.getElementById('message')?.className === 'shown' ? document.getElementById('message').textContent : null }));
+const open = async (target, viewport = { width: 1280, height: 720 }) => {
+  const page = await browser.newPage({ viewport });
+  page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+  const t0 = Date.now();
+  await page.goto(target);
+  await page.waitForFunction(() => window.exploremaps && (window.exploremaps.first_panorama_ms || window.exploremaps.error
+    || document.getElementById('message')?.className === 'shown'), null, { timeout: 30000 });
+  return { page, ms: Date.now() - t0 };
+};
+try {
+  if (mode === 'tour') {
+    const { page } = await open(url);
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/start.png` });
+    report('start', await status(page));
+    // Drag from right to left: the view turns right (toward +X).
+    await page.mouse.move(1100, 300);
+    await page.mouse.down();
+    await page.mouse.move(158, 300, { steps: 20 });
+    await page.mouse.up();
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/turned.png` });
+    report('turned', await status(page));
+    // The path bar's only tile, centred above the probe bar.
+    await page.mouse.click(640, 581);
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+    await page.waitForTimeout(700);
+    await page.screenshot({ path: `${out}/travel.png` });
+    report('travel', await status(page));
+    await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/arrived.png` });
+    report('arrived', await status(page));
+    await page.close();
+    // A probe whose cube has a corrupt face: a message, then the viewer goes on.
+    const bad = await open(`${url}#probe=2`);
+    await bad.page.waitForFunction(() => document.getElementById('message').className === 'shown', null, { timeout: 15000 });
+    report('corrupt', await status(bad.page));
+    await bad.page.keyboard.press('KeyN');
+    await bad.page.waitForFunction(() => window.exploremaps.probe === 0 && window.exploremaps.moving === false, null, { timeout: 15000 });
+    await bad.page.waitForTimeout(300);
+    await bad.page.screenshot({ path: `${out}/recovered.png` });
+    report('recovered', await status(bad.page));
+  } else if (mode === 'message') {
+    const { page } = await open(url);
+    report('message', await status(page));
+  } else if (mode === 'bench') {
+    const { page, ms } = await open(url);
+    const s = await status(page);
+    report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend });
+    const frames = (n) => page.evaluate((n) => new Promise((done) => {
+      const times = []; let last = performance.now();
+      const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
+      requestAnimationFrame(step);
+    }), n);
+    await page.keyboard.down('ArrowRight');
+    report('probe', { frames_ms: await frames(60) });
+    await page.keyboard.up('ArrowRight');
+    await page.keyboard.press('Enter');
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+    report('transition', { frames_ms: await frames(30) });
+  }
+} catch (e) {
+  report('error', { error: String(e) });
+} finally {
+  await browser.close();
+}

@@ -1,0 +1,345 @@
+//! The viewer end to end: `serve`, the web viewer in headless Chromium, the
+//! native window under Xvfb. They run on a synthetic bundle whose panoramas
+//! are solid colours a face, so what is on screen says where the viewer is
+//! and which way it looks.
+//!
+//! They need Chromium, Node with playwright-core, the wasm toolchain, Xvfb and
+//! xdotool, which scripts/setup.sh installs; without them they fail, unless
+//! EXPLOREMAPS_SKIP_BROWSER=1 (or EXPLOREMAPS_SKIP_WINDOW=1) says so.
+
+use super::{exploremaps, stderr};
+use exploremaps_format::{CameraKey, CubeLevel, Graph, Path as GraphPath, PathAssets, Probe, ProbeAssets, SceneInfo, ViewDirection, CUBE_FACES};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
+
+/// Face colours (+X, −X, +Y, −Y, +Z, −Z) of probes 0 and 1; probe 2's +X face is corrupt.
+const FACES: [[[u8; 3]; 6]; 3] = [
+    [[220, 40, 40], [40, 200, 200], [235, 235, 235], [30, 30, 30], [40, 40, 220], [40, 200, 40]],
+    [[230, 140, 20], [140, 40, 200], [235, 235, 235], [30, 30, 30], [220, 220, 40], [230, 110, 170]],
+    [[90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90]],
+];
+const VIDEO: [u8; 3] = [230, 40, 230];
+
+fn jpeg(img: &image::RgbImage) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 95).encode_image(img).unwrap();
+    bytes
+}
+
+/// Probe 0 at the origin facing −Z, probe 1 4 m along +X (a 2 s path between
+/// them; it arrives facing +Z), probe 2 unconnected with a corrupt face.
+pub fn synthetic_bundle(dir: &Path) {
+    let scene = SceneInfo {
+        name: "synthetic".into(),
+        source: "test".into(),
+        triangles: 12,
+        bounds_min: [-5.0, -1.0, -5.0],
+        bounds_max: [9.0, 3.0, 9.0],
+        metres_per_unit: 1.0,
+        scale_source: "file".into(),
+        space: None,
+        near_distance: None,
+        credits: vec![],
+    };
+    let mut graph = Graph::new(scene);
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
+    };
+    let positions = [[0.0, 1.5, 0.0], [4.0, 1.5, 0.0], [0.0, 1.5, 8.0]];
+    let facing = [0.0, std::f32::consts::PI, 0.0];
+    for (p, position) in positions.iter().enumerate() {
+        let mut levels = Vec::new();
+        for size in [32u32, 64] {
+            let faces: [String; 6] = std::array::from_fn(|f| format!("probes/{p}/{size}_{}.jpg", CUBE_FACES[f]));
+            for (f, name) in faces.iter().enumerate() {
+                if p == 2 && f == 0 {
+                    write(name, b"\xff\xd8 this is not a JPEG");
+                } else {
+                    write(name, &jpeg(&image::RgbImage::from_pixel(size, size, image::Rgb(FACES[p][f]))));
+                }
+            }
+            levels.push(CubeLevel { size, faces });
+        }
+        let thumbnail = format!("thumbs/{p}.jpg");
+        write(&thumbnail, &jpeg(&image::RgbImage::from_pixel(320, 180, image::Rgb(FACES[p][5]))));
+        graph.probes.push(Probe {
+            id: p as u32,
+            position: *position,
+            cluster: None,
+            preferred_directions: vec![ViewDirection { yaw: facing[p], pitch: 0.0, goodness: 1.0 }],
+            user_placed: false,
+            assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail) },
+        });
+    }
+    let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb(VIDEO))).collect();
+    write("paths/0.mp4", &exploremaps_builder::video::Encoder::OpenH264.encode(&frames, 25.0).unwrap());
+    let camera = (0..50).map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 }).collect();
+    graph.paths.push(GraphPath {
+        id: 0,
+        from: 0,
+        to: 1,
+        polyline: vec![positions[0], [2.0, 1.5, 0.0], positions[1]],
+        length: 4.0,
+        duration_s: 2.0,
+        camera,
+        assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
+    });
+    graph.bar_order = vec![0, 1, 2];
+    graph.validate().unwrap();
+    write("graph.json", graph.to_json().as_bytes());
+}
+
+/// A running `exploremaps serve`, stopped on drop.
+struct Server {
+    child: Child,
+    url: String,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(bundle: &Path) -> Server {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps"))
+        .args(["serve", bundle.to_str().unwrap(), "--address", "127.0.0.1:0"])
+        .env("RUST_LOG", "warn")
+        .env("EXPLOREMAPS_WEB_DIR", web_viewer())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let url = line.split_whitespace().find(|w| w.starts_with("http://")).unwrap_or_else(|| panic!("no address in {line:?}")).to_string();
+    Server { child, url }
+}
+
+fn skip(var: &str, what: &str) -> bool {
+    let skip = std::env::var(var).is_ok_and(|v| v == "1");
+    if skip {
+        eprintln!("SKIPPED: {var}=1 ({what})");
+    }
+    skip
+}
+
+/// Builds the web viewer (web/build.sh; quick when it is up to date) once.
+fn web_viewer() -> PathBuf {
+    static BUILT: Mutex<Option<PathBuf>> = Mutex::new(None);
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(p) = &*built {
+        return p.clone();
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new(root.join("web/build.sh")).output().expect("run web/build.sh");
+    assert!(out.status.success(), "web/build.sh failed (scripts/setup.sh installs the wasm target and wasm-bindgen): {}", stderr(&out));
+    let dir = root.join("target/web-viewer");
+    *built = Some(dir.clone());
+    dir
+}
+
+/// Runs tests/browser/viewer.mjs; returns its JSON lines by step.
+fn browser(mode: &str, url: &str, out: &Path) -> Vec<serde_json::Value> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let playwright = root.join("target/node/node_modules/playwright-core/index.mjs");
+    assert!(playwright.exists(), "{} is missing: run scripts/setup.sh (or set EXPLOREMAPS_SKIP_BROWSER=1)", playwright.display());
+    let run = Command::new("node")
+        .arg(root.join("tests/browser/viewer.mjs"))
+        .args([mode, url, out.to_str().unwrap()])
+        .env("PLAYWRIGHT_CORE", &playwright)
+        .output()
+        .expect("node (scripts/setup.sh installs it)");
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
+    assert!(run.status.success(), "{}\n{lines:?}", stderr(&run));
+    for l in &lines {
+        assert!(l["step"] != "error" && l["step"] != "pageerror", "{l}\nall: {lines:?}");
+    }
+    lines
+}
+
+fn step<'a>(lines: &'a [serde_json::Value], name: &str) -> &'a serde_json::Value {
+    lines.iter().find(|l| l["step"] == name).unwrap_or_else(|| panic!("no step {name} in {lines:?}"))
+}
+
+/// The colour at (x, y) of a screenshot.
+fn colour_at(png: &Path, x: u32, y: u32) -> [u8; 3] {
+    let img = image::open(png).unwrap_or_else(|e| panic!("{}: {e}", png.display())).to_rgb8();
+    img.get_pixel(x, y).0
+}
+
+fn near(a: [u8; 3], b: [u8; 3], tolerance: i32) -> bool {
+    a.iter().zip(b).all(|(&x, y)| (x as i32 - y as i32).abs() <= tolerance)
+}
+
+/// The yaw (degrees) in a deep link.
+fn link_yaw(hash: &str) -> f32 {
+    hash.trim_start_matches('#').split('&').find_map(|kv| kv.strip_prefix("yaw=")).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no yaw in {hash}"))
+}
+
+#[test]
+fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let server = serve(&bundle);
+    let lines = browser("tour", &server.url, dir.path());
+    let shot = |name: &str| dir.path().join(format!("{name}.png"));
+    // Above the centre, clear of the path markers (which sit below the horizon).
+    let (x, y) = (640, 300);
+    let start = colour_at(&shot("start"), x, y);
+    assert!(near(start, FACES[0][5], 24), "probe 0 facing −Z shows its −Z face: {start:?}");
+    let turned = colour_at(&shot("turned"), x, y);
+    assert!(near(turned, FACES[0][0], 24), "dragging left turns toward +X: {turned:?}");
+    let yaw = link_yaw(step(&lines, "turned")["hash"].as_str().unwrap());
+    assert!((yaw - 90.0).abs() < 8.0, "the deep link follows the view: {yaw}");
+    let travel = colour_at(&shot("travel"), x, y);
+    assert!(near(travel, VIDEO, 40), "the path's video plays on the way: {travel:?}");
+    let arrived = step(&lines, "arrived");
+    assert_eq!(arrived["probe"], 1);
+    let yaw = link_yaw(arrived["hash"].as_str().unwrap());
+    assert!((yaw.abs() - 180.0).abs() < 1.0, "arrival faces probe 1's preferred direction (+Z): {yaw}");
+    let there = colour_at(&shot("arrived"), x, y);
+    assert!(near(there, FACES[1][4], 24), "probe 1's +Z face: {there:?}");
+    // The corrupt face is named in a message, and the viewer goes on to probe 0.
+    let message = step(&lines, "corrupt")["message"].as_str().unwrap_or_default().to_string();
+    assert!(message.contains("probes/2/") && message.contains("_px.jpg"), "{message}");
+    let recovered = colour_at(&shot("recovered"), x, y);
+    assert!(near(recovered, FACES[0][5], 24), "back at probe 0: {recovered:?}");
+}
+
+fn other_version(dir: &Path) -> PathBuf {
+    let bundle = dir.join("old");
+    synthetic_bundle(&bundle);
+    let text = std::fs::read_to_string(bundle.join("graph.json")).unwrap();
+    std::fs::write(bundle.join("graph.json"), text.replacen("\"format_version\": 1", "\"format_version\": 99", 1)).unwrap();
+    bundle
+}
+
+#[test]
+fn the_web_viewer_refuses_another_format_version_with_a_message() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let server = serve(&other_version(dir.path()));
+    let lines = browser("message", &server.url, dir.path());
+    let message = step(&lines, "message")["message"].as_str().unwrap_or_default().to_string();
+    assert!(message.contains("graph.json") && message.contains("format version 99"), "{message}");
+}
+
+#[test]
+fn the_native_viewer_refuses_bad_bundles_and_links_before_opening_a_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = other_version(dir.path());
+    let out = exploremaps(&["view", old.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("format version 99") && stderr(&out).contains("graph.json"), "{}", stderr(&out));
+    let missing = dir.path().join("nothing");
+    for args in [vec!["view", missing.to_str().unwrap()], vec!["serve", missing.to_str().unwrap()]] {
+        let out = exploremaps(&args);
+        assert_ne!(out.status.code(), Some(0), "{args:?}");
+        assert!(stderr(&out).contains("nothing"), "{args:?}: {}", stderr(&out));
+    }
+    let good = dir.path().join("good");
+    synthetic_bundle(&good);
+    let out = exploremaps(&["view", good.to_str().unwrap(), "--probe", "7"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("probe 7"), "{}", stderr(&out));
+    let out = exploremaps(&["view", good.to_str().unwrap(), "--link", "yaw=left"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("yaw=left"), "{}", stderr(&out));
+}
+
+/// One raw HTTP/1.1 request; the status code and body.
+fn get(url: &str, path: &str, range: Option<&str>) -> (u16, Vec<u8>) {
+    let host = url.trim_start_matches("http://").trim_end_matches('/');
+    let mut stream = std::net::TcpStream::connect(host).unwrap();
+    let range = range.map(|r| format!("Range: {r}\r\n")).unwrap_or_default();
+    write!(stream, "GET {path} HTTP/1.1\r\nHost: {host}\r\n{range}Connection: close\r\n\r\n").unwrap();
+    let mut response = Vec::new();
+    stream.read_to_end(&mut response).unwrap();
+    let split = response.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&response[..split]).to_string();
+    let status = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+    (status, response[split + 4..].to_vec())
+}
+
+#[test]
+fn serve_serves_the_bundle_and_viewer_and_nothing_outside() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no wasm toolchain for the web viewer") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    std::fs::write(dir.path().join("secret.txt"), "TOP-SECRET").unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(dir.path().join("secret.txt"), bundle.join("link.txt")).unwrap();
+    let server = serve(&bundle);
+    let (status, body) = get(&server.url, "/", None);
+    assert_eq!(status, 200);
+    assert!(String::from_utf8_lossy(&body).contains("exploremaps.js"), "the viewer's page");
+    assert_eq!(get(&server.url, "/viewer/exploremaps_bg.wasm", None).0, 200);
+    let (status, body) = get(&server.url, "/graph.json", None);
+    assert_eq!(status, 200);
+    assert!(Graph::from_json(&String::from_utf8_lossy(&body)).is_ok());
+    let whole = std::fs::read(bundle.join("paths/0.mp4")).unwrap();
+    let (status, body) = get(&server.url, "/paths/0.mp4", Some("bytes=10-29"));
+    assert_eq!((status, body.as_slice()), (206, &whole[10..30]));
+    for bad in ["/../secret.txt", "/%2e%2e/secret.txt", "/probes/..%2f..%2fsecret.txt", "/link.txt"] {
+        let (status, body) = get(&server.url, bad, None);
+        assert!(status == 403 || status == 404, "{bad}: {status}");
+        assert!(!String::from_utf8_lossy(&body).contains("TOP-SECRET"), "{bad}");
+    }
+    assert_eq!(get(&server.url, "/missing.jpg", None).0, 404);
+}
+
+#[test]
+fn the_native_window_turns_with_keys_under_xvfb() {
+    if skip("EXPLOREMAPS_SKIP_WINDOW", "no X virtual framebuffer on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let (before, after, log) = (dir.path().join("before.png"), dir.path().join("after.png"), dir.path().join("view.log"));
+    // Open the window, look, press Right 20 times (20 × 0.08 rad ≈ 92°), look again.
+    let script = format!(
+        "{exe} view {b} > {log} 2>&1 & pid=$!\n\
+         for i in $(seq 100); do wid=$(xdotool search --name ExploreMaps 2>/dev/null | head -1); [ -n \"$wid\" ] && break; sleep 0.1; done\n\
+         sleep 2; import -window root {before}\n\
+         xdotool windowfocus --sync $wid; xdotool key --delay 30 {keys}\n\
+         sleep 1; import -window root {after}\n\
+         kill $pid; wait $pid",
+        exe = env!("CARGO_BIN_EXE_exploremaps"),
+        b = bundle.display(),
+        log = log.display(),
+        before = before.display(),
+        after = after.display(),
+        keys = vec!["Right"; 20].join(" ")
+    );
+    let run = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x720x24", "bash", "-c", &script])
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .env("RUST_LOG", "info")
+        .output()
+        .expect("xvfb-run (scripts/setup.sh installs xvfb, xdotool and imagemagick; or set EXPLOREMAPS_SKIP_WINDOW=1)");
+    let log = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(after.exists(), "no screenshot: {}\n{log}", stderr(&run));
+    let (x, y) = (640, 300);
+    assert!(near(colour_at(&before, x, y), FACES[0][5], 24), "probe 0's −Z face at first: {:?}\n{log}", colour_at(&before, x, y));
+    assert!(near(colour_at(&after, x, y), FACES[0][0], 24), "its +X face after turning right: {:?}\n{log}", colour_at(&after, x, y));
+    // Each key press turns by 0.08 rad and logs the new view.
+    let views: Vec<&str> = log.lines().filter_map(|l| l.split("view: ").nth(1)).collect();
+    let last = views.last().unwrap_or_else(|| panic!("no view lines in {log}"));
+    assert!(views.len() >= 20 && (link_yaw(last) - views.len() as f32 * 0.08f32.to_degrees()).abs() < 0.5, "{views:?}");
+}
