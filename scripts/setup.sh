@@ -10,9 +10,14 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 # Debian packages: libclang for embree4-sys's bindgen; pkg-config to find a
 # system Embree; python3-pip to fetch the Embree wheel when pip is missing;
 # ffmpeg (libx264) for transition videos half the size of the built-in
-# encoder's; Mesa's lavapipe (Vulkan on the CPU) for the viewer's GPU tests.
-packages=(libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1)
+# encoder's; Mesa's lavapipe (Vulkan on the CPU) for the viewer's GPU tests;
+# Chromium, Xvfb, xdotool and ImageMagick for the viewer's browser and window
+# tests; Node for Playwright.
+packages=(libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1
+          chromium xvfb xauth xdotool imagemagick)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -50,4 +55,21 @@ PY
 fi
 
 command -v cargo >/dev/null || { echo "setup: cargo is missing; install Rust with rustup (https://rustup.rs), then run this again" >&2; exit 1; }
+
+# The web viewer: the wasm32 target and wasm-bindgen's CLI at the version
+# the viewer pins (they must match), then the build itself (web/build.sh),
+# which `exploremaps build` copies into every bundle.
+rustup target list --installed 2>/dev/null | grep -q wasm32-unknown-unknown || rustup target add wasm32-unknown-unknown
+if [ "$(wasm-bindgen --version 2>/dev/null)" != "wasm-bindgen 0.2.130" ]; then
+  echo "setup: installing wasm-bindgen-cli 0.2.130 (about 4 minutes)"
+  cargo install --quiet wasm-bindgen-cli --version 0.2.130
+fi
+# Playwright (the library only; it drives Debian's Chromium) for the browser tests.
+node_dir="$(cd "$(dirname "$0")/.." && pwd)/target/node"
+if [ ! -e "$node_dir/node_modules/playwright-core/index.mjs" ]; then
+  mkdir -p "$node_dir"
+  npm install --prefix "$node_dir" --no-audit --no-fund --silent playwright-core@1.65.1
+fi
+echo "setup: building the web viewer"
+"$(dirname "$0")/../web/build.sh"
 echo "setup: ready"

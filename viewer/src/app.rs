@@ -266,7 +266,8 @@ impl App {
                 _ => self.request(p, 0, platform),
             }
         }
-        if matches!(self.nav.state, State::AtProbe { .. }) {
+        // Neighbours once the current panorama is in, so they do not delay it.
+        if matches!(self.nav.state, State::AtProbe { .. }) && self.panos.contains_key(&self.nav.probe()) {
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);
                 self.request(c.to, low, platform);

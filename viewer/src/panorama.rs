@@ -245,4 +245,4 @@ impl PanoramaPass {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

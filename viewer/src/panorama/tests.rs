@@ -4,7 +4,7 @@
 
 use super::*;
 
-fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
+pub(crate) fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         // SAFETY: set before any thread of this test reads the environment for it.
         unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
