@@ -150,14 +150,14 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     println!("serving {} at http://{shown}/ (Ctrl-C stops)", root.display());
     use std::io::Write;
     let _ = std::io::stdout().flush();
-    let web = web.map(Path::to_path_buf);
+    // One request at a time, in arrival order: tiny_http answers a connection's
+    // requests in order, and responses written from several threads could
+    // leave a browser waiting for one that never comes. Files are local and
+    // small, so this is fast enough.
     for request in server.incoming_requests() {
-        let (root, web) = (root.clone(), web.clone());
-        std::thread::spawn(move || {
-            let response = respond(&root, web.as_deref(), &request);
-            tracing::debug!("{} {} -> {}", request.method(), request.url(), response.status_code().0);
-            let _ = request.respond(response);
-        });
+        let response = respond(&root, web, &request);
+        tracing::debug!("{} {} -> {}", request.method(), request.url(), response.status_code().0);
+        let _ = request.respond(response);
     }
     Ok(())
 }

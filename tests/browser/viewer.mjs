@@ -65,6 +65,7 @@ try {
     const { page, ms } = await open(url);
     const s = await status(page);
     report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend });
+    const heap = () => page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null);
     const frames = (n) => page.evaluate((n) => new Promise((done) => {
       const times = []; let last = performance.now();
       const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
@@ -76,6 +77,8 @@ try {
     await page.keyboard.press('Enter');
     await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
     report('transition', { frames_ms: await frames(30) });
+    const metrics = await (await page.context().newCDPSession(page)).send('Performance.getMetrics').catch(() => ({ metrics: [] }));
+    report('memory', { js_heap_bytes: await heap(), metrics: Object.fromEntries((metrics.metrics || []).map((m) => [m.name, m.value])) });
   }
 } catch (e) {
   report('error', { error: String(e) });

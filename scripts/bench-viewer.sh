@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# The viewer's benchmark (issue 7): wasm size, time to first panorama, frame
+# times in a probe and along a path, natively (lavapipe under Xvfb, 1280x720)
+# and in headless Chromium (SwiftShader WebGL2, 1280x720, served on localhost),
+# and peak memory. Usage: scripts/bench-viewer.sh [BUNDLE]
+# (default: the gallery, rendered at preview quality into target/bench-viewer).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
+cargo build --quiet --release
+web/build.sh
+exe=target/release/exploremaps
+bundle="${1:-target/bench-viewer/gallery}"
+if [ ! -e "$bundle/graph.json" ]; then
+  "$exe" -q build gallery -o "$bundle" --quality preview
+fi
+"$exe" -q render "$bundle" --quality preview >/dev/null   # adds the web viewer if missing
+
+echo "== wasm"
+echo "wasm: $(stat -c %s target/web-viewer/viewer/exploremaps_bg.wasm) bytes, $(gzip -9 -c target/web-viewer/viewer/exploremaps_bg.wasm | wc -c) gzipped (goal: at most 1 MB gzipped)"
+
+echo "== native (lavapipe, Xvfb)"
+xvfb-run -a -s "-screen 0 1280x720x24" /usr/bin/time -f "peak memory (resident): %M KiB" "$exe" -q view "$bundle" --benchmark
+
+echo "== web (headless Chromium, WebGL2 on SwiftShader)"
+"$exe" -q serve "$bundle" --address 127.0.0.1:0 > target/bench-viewer/serve.log &
+server=$!
+trap 'kill $server 2>/dev/null' EXIT
+for _ in $(seq 50); do grep -q http target/bench-viewer/serve.log && break; sleep 0.1; done
+url=$(grep -o 'http://[^ ]*' target/bench-viewer/serve.log)
+PLAYWRIGHT_CORE="$PWD/target/node/node_modules/playwright-core/index.mjs" node tests/browser/viewer.mjs bench "$url" target/bench-viewer | node -e '
+  const lines = require("fs").readFileSync(0, "utf8").trim().split("\n").map(JSON.parse);
+  const stats = (a) => { const s = [...a].sort((x, y) => x - y); const mean = a.reduce((x, y) => x + y, 0) / a.length;
+    return `mean ${mean.toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
+  for (const l of lines) {
+    if (l.step === "first") console.log(`first panorama: ${Math.round(l.first_panorama_ms)} ms after navigation start (${l.backend}); page ready in ${l.page_ms} ms`);
+    else if (l.step === "probe") console.log(`frame time in a probe at 1280x720: ${stats(l.frames_ms)}`);
+    else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)}`);
+    else if (l.step === "memory") console.log(`JS heap: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
+    else console.log(JSON.stringify(l));
+  }'
