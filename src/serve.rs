@@ -1,5 +1,5 @@
-//! `exploremaps serve`: a small static HTTP server for one bundle and the web
-//! viewer. It serves only files inside the bundle folder (after resolving
+//! `exploremaps serve`: a small static HTTP/1.1 server (on std::net) for one
+//! bundle and the web viewer. It serves only files inside the bundle folder (after resolving
 //! symbolic links), answers byte ranges (browsers seek videos with them),
 //! and falls back to the built web viewer for a bundle written without it.
 
@@ -68,14 +68,16 @@ fn byte_range(header: &str, len: u64) -> Option<(u64, u64)> {
     (start <= end && start < len).then_some((start, end))
 }
 
-type Response = tiny_http::Response<std::io::Cursor<Vec<u8>>>;
-
-fn header(name: &str, value: &str) -> tiny_http::Header {
-    tiny_http::Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("valid header")
+/// A response: status, content type, extra headers, body.
+struct Response {
+    status: u16,
+    content_type: &'static str,
+    headers: Vec<String>,
+    body: Vec<u8>,
 }
 
 fn text(status: u16, body: &str) -> Response {
-    tiny_http::Response::from_string(body).with_status_code(status).with_header(header("Content-Type", "text/plain; charset=utf-8"))
+    Response { status, content_type: "text/plain; charset=utf-8", headers: Vec::new(), body: body.as_bytes().to_vec() }
 }
 
 /// Where a request's file is: inside the bundle, else (for the viewer's own
@@ -96,13 +98,11 @@ fn locate(root: &Path, web: Option<&Path>, rel: &Path) -> Result<PathBuf, u16> {
     }
 }
 
-fn respond(root: &Path, web: Option<&Path>, request: &tiny_http::Request) -> Response {
-    let head = match request.method() {
-        tiny_http::Method::Get => false,
-        tiny_http::Method::Head => true,
-        _ => return text(405, "only GET and HEAD are served"),
-    };
-    let Some(rel) = relative_path(request.url()) else { return text(403, "that path leads outside the bundle") };
+fn respond(root: &Path, web: Option<&Path>, method: &str, url: &str, range: Option<&str>) -> Response {
+    if method != "GET" && method != "HEAD" {
+        return text(405, "only GET and HEAD are served");
+    }
+    let Some(rel) = relative_path(url) else { return text(403, "that path leads outside the bundle") };
     let file = match locate(root, web, &rel) {
         Ok(f) => f,
         Err(403) => return text(403, "that path leads outside the bundle"),
@@ -113,22 +113,79 @@ fn respond(root: &Path, web: Option<&Path>, request: &tiny_http::Request) -> Res
         Err(e) => return text(500, &format!("cannot read {}: {e}", rel.display())),
     };
     let len = bytes.len() as u64;
-    let range = request.headers().iter().find(|h| h.field.equiv("Range")).map(|h| h.value.as_str().to_string());
-    let (status, body, extra) = match range.map(|r| byte_range(&r, len)) {
-        Some(Some((start, end))) => (206, bytes[start as usize..=end as usize].to_vec(), Some(header("Content-Range", &format!("bytes {start}-{end}/{len}")))),
-        Some(None) => return text(416, "unsatisfiable range").with_header(header("Content-Range", &format!("bytes */{len}"))),
-        None => (200, bytes, None),
+    let mut headers = vec!["Accept-Ranges: bytes".to_string(), "Cache-Control: no-cache".to_string()];
+    let (status, body) = match range.map(|r| byte_range(r, len)) {
+        Some(Some((start, end))) => {
+            headers.push(format!("Content-Range: bytes {start}-{end}/{len}"));
+            (206, bytes[start as usize..=end as usize].to_vec())
+        }
+        Some(None) => {
+            let mut r = text(416, "unsatisfiable range");
+            r.headers.push(format!("Content-Range: bytes */{len}"));
+            return r;
+        }
+        None => (200, bytes),
     };
-    let body = if head { Vec::new() } else { body };
-    let mut response = tiny_http::Response::from_data(body)
-        .with_status_code(status)
-        .with_header(header("Content-Type", content_type(&file)))
-        .with_header(header("Accept-Ranges", "bytes"))
-        .with_header(header("Cache-Control", "no-cache"));
-    if let Some(h) = extra {
-        response = response.with_header(h);
+    Response { status, content_type: content_type(&file), headers, body }
+}
+
+fn reason(status: u16) -> &'static str {
+    match status {
+        200 => "OK",
+        206 => "Partial Content",
+        400 => "Bad Request",
+        403 => "Forbidden",
+        404 => "Not Found",
+        405 => "Method Not Allowed",
+        416 => "Range Not Satisfiable",
+        _ => "Internal Server Error",
     }
-    response
+}
+
+/// Reads one request from a connection, answers it and closes the connection.
+/// One request a connection (`Connection: close`): no keep-alive bookkeeping,
+/// which is where a browser can end up waiting for an answer that never comes.
+fn handle(stream: std::net::TcpStream, root: &Path, web: Option<&Path>) -> std::io::Result<()> {
+    use std::io::{BufRead, BufReader, Write};
+    stream.set_read_timeout(Some(std::time::Duration::from_secs(10)))?;
+    let mut reader = BufReader::new(stream.try_clone()?);
+    let mut line = String::new();
+    reader.read_line(&mut line)?;
+    let mut parts = line.split_whitespace();
+    let (method, url) = (parts.next().unwrap_or("").to_string(), parts.next().unwrap_or("").to_string());
+    let mut range = None;
+    // Headers, up to a sane number and the blank line.
+    for _ in 0..100 {
+        let mut header = String::new();
+        if reader.read_line(&mut header)? == 0 || header.trim().is_empty() {
+            break;
+        }
+        if let Some((name, value)) = header.split_once(':') {
+            if name.trim().eq_ignore_ascii_case("range") {
+                range = Some(value.trim().to_string());
+            }
+        }
+    }
+    let response = if url.is_empty() { text(400, "bad request") } else { respond(root, web, &method, &url, range.as_deref()) };
+    tracing::debug!("{method} {url} -> {}", response.status);
+    let mut head = format!(
+        "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nConnection: close\r\n",
+        response.status,
+        reason(response.status),
+        response.content_type,
+        response.body.len()
+    );
+    for h in &response.headers {
+        head.push_str(h);
+        head.push_str("\r\n");
+    }
+    head.push_str("\r\n");
+    let mut out = std::io::BufWriter::new(stream);
+    out.write_all(head.as_bytes())?;
+    if method != "HEAD" {
+        out.write_all(&response.body)?;
+    }
+    out.flush()
 }
 
 /// Serves `bundle` on `address` until interrupted.
@@ -142,22 +199,23 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     if let Err(e) = exploremaps_viewer::native::read_graph(&root) {
         tracing::warn!("{e}");
     }
-    let server = tiny_http::Server::http(address).map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;
-    let shown = server.server_addr().to_ip().map_or(address.to_string(), |a| a.to_string());
+    let listener = std::net::TcpListener::bind(address).map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;
+    let shown = listener.local_addr().map_or(address.to_string(), |a| a.to_string());
     if !root.join("index.html").is_file() && web.is_none() {
         tracing::warn!("this bundle has no web viewer and none is built; run web/build.sh, then `exploremaps serve` again");
     }
     println!("serving {} at http://{shown}/ (Ctrl-C stops)", root.display());
     use std::io::Write;
     let _ = std::io::stdout().flush();
-    // One request at a time, in arrival order: tiny_http answers a connection's
-    // requests in order, and responses written from several threads could
-    // leave a browser waiting for one that never comes. Files are local and
-    // small, so this is fast enough.
-    for request in server.incoming_requests() {
-        let response = respond(&root, web, &request);
-        tracing::debug!("{} {} -> {}", request.method(), request.url(), response.status_code().0);
-        let _ = request.respond(response);
+    let web = web.map(Path::to_path_buf);
+    for stream in listener.incoming() {
+        let Ok(stream) = stream else { continue };
+        let (root, web) = (root.clone(), web.clone());
+        std::thread::spawn(move || {
+            if let Err(e) = handle(stream, &root, web.as_deref()) {
+                tracing::debug!("connection: {e}");
+            }
+        });
     }
     Ok(())
 }
