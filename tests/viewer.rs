@@ -177,11 +177,6 @@ fn near(a: [u8; 3], b: [u8; 3], tolerance: i32) -> bool {
     a.iter().zip(b).all(|(&x, y)| (x as i32 - y as i32).abs() <= tolerance)
 }
 
-/// The yaw (degrees) in a deep link.
-fn link_yaw(hash: &str) -> f32 {
-    hash.trim_start_matches('#').split('&').find_map(|kv| kv.strip_prefix("yaw=")).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no yaw in {hash}"))
-}
-
 #[test]
 fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
@@ -199,13 +194,13 @@ fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset() {
     assert!(near(start, FACES[0][5], 24), "probe 0 facing −Z shows its −Z face: {start:?}");
     let turned = colour_at(&shot("turned"), x, y);
     assert!(near(turned, FACES[0][0], 24), "dragging left turns toward +X: {turned:?}");
-    let yaw = link_yaw(step(&lines, "turned")["hash"].as_str().unwrap());
+    let yaw = link_value(step(&lines, "turned")["hash"].as_str().unwrap(), "yaw");
     assert!((yaw - 90.0).abs() < 8.0, "the deep link follows the view: {yaw}");
     let travel = colour_at(&shot("travel"), x, y);
     assert!(near(travel, VIDEO, 40), "the path's video plays on the way: {travel:?}");
     let arrived = step(&lines, "arrived");
     assert_eq!(arrived["probe"], 1);
-    let yaw = link_yaw(arrived["hash"].as_str().unwrap());
+    let yaw = link_value(arrived["hash"].as_str().unwrap(), "yaw");
     assert!((yaw.abs() - 180.0).abs() < 1.0, "arrival faces probe 1's preferred direction (+Z): {yaw}");
     let there = colour_at(&shot("arrived"), x, y);
     assert!(near(there, FACES[1][4], 24), "probe 1's +Z face: {there:?}");
@@ -214,6 +209,32 @@ fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset() {
     assert!(message.contains("probes/2/") && message.contains("_px.jpg"), "{message}");
     let recovered = colour_at(&shot("recovered"), x, y);
     assert!(near(recovered, FACES[0][5], 24), "back at probe 0: {recovered:?}");
+}
+
+/// A deep link's value for `key`.
+fn link_value(hash: &str, key: &str) -> f32 {
+    hash.trim_start_matches('#').split('&').find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no {key} in {hash}"))
+}
+
+#[test]
+fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let server = serve(&bundle);
+    let lines = browser("phone", &server.url, dir.path());
+    let centre = colour_at(&dir.path().join("phone.png"), 360, 600);
+    assert!(near(centre, FACES[0][5], 24), "probe 0's −Z face on the phone: {centre:?}");
+    // 240 CSS pixels = 480 device pixels of a 1480-pixel-high view at fov 68.8°: about 22°.
+    let yaw = link_value(step(&lines, "swiped")["hash"].as_str().unwrap(), "yaw");
+    assert!((yaw - 22.3).abs() < 4.0, "a swipe turns the view: {yaw}");
+    let fov = link_value(step(&lines, "pinched")["hash"].as_str().unwrap(), "fov");
+    assert!(fov < 60.0, "spreading two fingers zooms in: {fov}");
+    let tapped = step(&lines, "tapped");
+    assert_eq!(tapped["probe"], 1, "a tap on the path bar goes along the path");
 }
 
 fn other_version(dir: &Path) -> PathBuf {
@@ -341,5 +362,5 @@ fn the_native_window_turns_with_keys_under_xvfb() {
     // Each key press turns by 0.08 rad and logs the new view.
     let views: Vec<&str> = log.lines().filter_map(|l| l.split("view: ").nth(1)).collect();
     let last = views.last().unwrap_or_else(|| panic!("no view lines in {log}"));
-    assert!(views.len() >= 20 && (link_yaw(last) - views.len() as f32 * 0.08f32.to_degrees()).abs() < 0.5, "{views:?}");
+    assert!(views.len() >= 20 && (link_value(last, "yaw") - views.len() as f32 * 0.08f32.to_degrees()).abs() < 0.5, "{views:?}");
 }

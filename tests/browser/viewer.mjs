@@ -58,6 +58,33 @@ try {
     await bad.page.waitForTimeout(300);
     await bad.page.screenshot({ path: `${out}/recovered.png` });
     report('recovered', await status(bad.page));
+  } else if (mode === 'phone') {
+    // A 360x740 portrait phone screen at 2 device pixels a CSS pixel, touch only.
+    const context = await browser.newContext({ viewport: { width: 360, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
+    const page = await context.newPage();
+    page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    await page.goto(url);
+    await page.waitForFunction(() => window.exploremaps && window.exploremaps.first_panorama_ms, null, { timeout: 30000 });
+    await page.screenshot({ path: `${out}/phone.png` });
+    report('phone', await status(page));
+    const cdp = await context.newCDPSession(page);
+    const touch = (type, points) => cdp.send('Input.dispatchTouchEvent', { type, touchPoints: points.map(([x, y], id) => ({ x, y, id })) });
+    // One finger from right to left: the view turns right.
+    await touch('touchStart', [[300, 300]]);
+    for (let i = 1; i <= 12; i++) await touch('touchMove', [[300 - 20 * i, 300]]);
+    await touch('touchEnd', []);
+    await page.waitForTimeout(200);
+    report('swiped', await status(page));
+    // Two fingers spreading apart: zoom in.
+    await touch('touchStart', [[150, 300], [210, 300]]);
+    for (let i = 1; i <= 10; i++) await touch('touchMove', [[150 - 5 * i, 300], [210 + 5 * i, 300]]);
+    await touch('touchEnd', []);
+    await page.waitForTimeout(200);
+    report('pinched', await status(page));
+    // A tap on the path bar's tile (centred above the probe bar).
+    await page.touchscreen.tap(180, 660);
+    await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
+    report('tapped', await status(page));
   } else if (mode === 'message') {
     const { page } = await open(url);
     report('message', await status(page));
