@@ -146,6 +146,11 @@ fn web_viewer() -> PathBuf {
 
 /// Runs tests/browser/viewer.mjs; returns its JSON lines by step.
 fn browser(mode: &str, url: &str, out: &Path) -> Vec<serde_json::Value> {
+    browser_on(mode, url, out, false)
+}
+
+/// As [`browser`], on WebGPU when `webgpu`, else WebGL2.
+fn browser_on(mode: &str, url: &str, out: &Path, webgpu: bool) -> Vec<serde_json::Value> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let playwright = root.join("target/node/node_modules/playwright-core/index.mjs");
     assert!(playwright.exists(), "{} is missing: run scripts/setup.sh (or set EXPLOREMAPS_SKIP_BROWSER=1)", playwright.display());
@@ -153,6 +158,7 @@ fn browser(mode: &str, url: &str, out: &Path) -> Vec<serde_json::Value> {
         .arg(root.join("tests/browser/viewer.mjs"))
         .args([mode, url, out.to_str().unwrap()])
         .env("PLAYWRIGHT_CORE", &playwright)
+        .env("WEBGPU", if webgpu { "1" } else { "0" })
         .output()
         .expect("node (scripts/setup.sh installs it)");
     let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
@@ -177,38 +183,54 @@ fn near(a: [u8; 3], b: [u8; 3], tolerance: i32) -> bool {
     a.iter().zip(b).all(|(&x, y)| (x as i32 - y as i32).abs() <= tolerance)
 }
 
-#[test]
-fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset() {
-    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
-        return;
-    }
+/// Loads the synthetic bundle, drags, takes the path, then opens a probe with
+/// a corrupt face: checks each step on screen and in the deep link.
+fn tour(webgpu: bool) {
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("b");
     synthetic_bundle(&bundle);
     let server = serve(&bundle);
-    let lines = browser("tour", &server.url, dir.path());
+    let lines = browser_on("tour", &server.url, dir.path(), webgpu);
+    let backend = step(&lines, "start")["backend"].as_str().unwrap_or_default().to_string();
+    assert_eq!(backend, if webgpu { "BrowserWebGpu" } else { "Gl" });
     let shot = |name: &str| dir.path().join(format!("{name}.png"));
     // Above the centre, clear of the path markers (which sit below the horizon).
     let (x, y) = (640, 300);
     let start = colour_at(&shot("start"), x, y);
-    assert!(near(start, FACES[0][5], 24), "probe 0 facing −Z shows its −Z face: {start:?}");
+    assert!(near(start, FACES[0][5], 24), "{backend}: probe 0 facing −Z shows its −Z face: {start:?}");
     let turned = colour_at(&shot("turned"), x, y);
-    assert!(near(turned, FACES[0][0], 24), "dragging left turns toward +X: {turned:?}");
+    assert!(near(turned, FACES[0][0], 24), "{backend}: dragging left turns toward +X: {turned:?}");
     let yaw = link_value(step(&lines, "turned")["hash"].as_str().unwrap(), "yaw");
-    assert!((yaw - 90.0).abs() < 8.0, "the deep link follows the view: {yaw}");
+    assert!((yaw - 90.0).abs() < 8.0, "{backend}: the deep link follows the view: {yaw}");
     let travel = colour_at(&shot("travel"), x, y);
-    assert!(near(travel, VIDEO, 40), "the path's video plays on the way: {travel:?}");
+    assert!(near(travel, VIDEO, 40), "{backend}: the path's video plays on the way: {travel:?}");
     let arrived = step(&lines, "arrived");
     assert_eq!(arrived["probe"], 1);
     let yaw = link_value(arrived["hash"].as_str().unwrap(), "yaw");
-    assert!((yaw.abs() - 180.0).abs() < 1.0, "arrival faces probe 1's preferred direction (+Z): {yaw}");
+    assert!((yaw.abs() - 180.0).abs() < 1.0, "{backend}: arrival faces probe 1's preferred direction (+Z): {yaw}");
     let there = colour_at(&shot("arrived"), x, y);
-    assert!(near(there, FACES[1][4], 24), "probe 1's +Z face: {there:?}");
+    assert!(near(there, FACES[1][4], 24), "{backend}: probe 1's +Z face: {there:?}");
     // The corrupt face is named in a message, and the viewer goes on to probe 0.
     let message = step(&lines, "corrupt")["message"].as_str().unwrap_or_default().to_string();
-    assert!(message.contains("probes/2/") && message.contains("_px.jpg"), "{message}");
+    assert!(message.contains("probes/2/") && message.contains("_px.jpg"), "{backend}: {message}");
     let recovered = colour_at(&shot("recovered"), x, y);
-    assert!(near(recovered, FACES[0][5], 24), "back at probe 0: {recovered:?}");
+    assert!(near(recovered, FACES[0][5], 24), "{backend}: back at probe 0: {recovered:?}");
+}
+
+#[test]
+fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset_on_webgl2() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    tour(false);
+}
+
+#[test]
+fn the_web_viewer_does_the_same_on_webgpu() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    tour(true);
 }
 
 /// A deep link's value for `key`.

@@ -7,10 +7,14 @@
 // Prints one JSON object per line: {"step": ..., ...}.
 const { chromium } = await import(process.env.PLAYWRIGHT_CORE);
 const [mode, url, out] = process.argv.slice(2);
+// WEBGPU=1: WebGPU on SwiftShader's Vulkan; otherwise WebGL2 (the viewer picks WebGPU when offered).
+const gpu = process.env.WEBGPU === '1'
+  ? ['--enable-unsafe-webgpu', '--enable-features=Vulkan', '--use-vulkan=swiftshader', '--use-angle=swiftshader']
+  : ['--disable-gpu'];
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
-         '--disable-component-update', '--disable-sync'],
+  args: ['--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
+         '--disable-component-update', '--disable-sync', ...gpu],
 });
 const report = (step, extra) => console.log(JSON.stringify({ step, ...extra }));
 const status = (page) => page.evaluate(() => ({ ...(window.exploremaps || {}), hash: location.hash,
