@@ -22,20 +22,23 @@ echo "wasm: $(stat -c %s target/web-viewer/viewer/exploremaps_bg.wasm) bytes, $(
 echo "== native (lavapipe, Xvfb)"
 xvfb-run -a -s "-screen 0 1280x720x24" /usr/bin/time -f "peak memory (resident): %M KiB" "$exe" -q view "$bundle" --benchmark
 
-echo "== web (headless Chromium, WebGL2 on SwiftShader)"
 "$exe" -q serve "$bundle" --address 127.0.0.1:0 > target/bench-viewer/serve.log &
 server=$!
 trap 'kill $server 2>/dev/null' EXIT
 for _ in $(seq 50); do grep -q http target/bench-viewer/serve.log && break; sleep 0.1; done
 url=$(grep -o 'http://[^ ]*' target/bench-viewer/serve.log)
-PLAYWRIGHT_CORE="$PWD/target/node/node_modules/playwright-core/index.mjs" node tests/browser/viewer.mjs bench "$url" target/bench-viewer | node -e '
+for webgpu in 0 1; do
+  if [ $webgpu = 1 ]; then echo "== web (headless Chromium, WebGPU on SwiftShader Vulkan)"; else echo "== web (headless Chromium, WebGL2 on SwiftShader)"; fi
+  WEBGPU=$webgpu PLAYWRIGHT_CORE="$PWD/target/node/node_modules/playwright-core/index.mjs" node tests/browser/viewer.mjs bench "$url" target/bench-viewer | node -e '
   const lines = require("fs").readFileSync(0, "utf8").trim().split("\n").map(JSON.parse);
   const stats = (a) => { const s = [...a].sort((x, y) => x - y); const mean = a.reduce((x, y) => x + y, 0) / a.length;
     return `mean ${mean.toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
   for (const l of lines) {
-    if (l.step === "first") console.log(`first panorama: ${Math.round(l.first_panorama_ms)} ms after navigation start (${l.backend}); page ready in ${l.page_ms} ms`);
+    if (l.step === "first") console.log(`first panorama: ${Math.round(l.first_panorama_ms)} ms after navigation start (${l.backend}): wasm running at ${Math.round(l.wasm_ready_ms)}, graph at ${Math.round(l.graph_ms)}, GPU device at ${Math.round(l.device_ms)} ms`);
     else if (l.step === "probe") console.log(`frame time in a probe at 1280x720: ${stats(l.frames_ms)}`);
     else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)}`);
     else if (l.step === "memory") console.log(`JS heap: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
     else console.log(JSON.stringify(l));
   }'
+done
+

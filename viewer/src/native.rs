@@ -102,9 +102,12 @@ fn work(root: &Path, job: Job) -> Decoded {
     }
 }
 
+/// A decoded video frame: its place in travel order, RGBA pixels, size.
+type VideoFrame = (u32, Vec<u8>, u32, u32);
+
 /// A path's video being decoded: frames in travel order.
 struct Playback {
-    frames: Receiver<Result<(u32, Vec<u8>, u32, u32), String>>,
+    frames: Receiver<Result<VideoFrame, String>>,
     count: Arc<Mutex<Option<u32>>>,
     texture: Option<VideoTexture>,
     next: u32,

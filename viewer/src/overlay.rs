@@ -97,17 +97,8 @@ impl OverlayPass {
     /// `thumb_count` layers of THUMB_W × THUMB_H, filled later.
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat, thumb_count: u32) -> OverlayPass {
         let thumb_count = thumb_count.clamp(1, MAX_THUMBS);
-        let thumbs = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("thumbnails"),
-            // Two layers at least, so WebGL2 binds it as an array.
-            size: wgpu::Extent3d { width: THUMB_W, height: THUMB_H, depth_or_array_layers: thumb_count.max(2) },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        // Two layers at least, so WebGL2 binds it as an array.
+        let thumbs = crate::panorama::image_texture(device, "thumbnails", THUMB_W, THUMB_H, thumb_count.max(2));
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("overlay"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("overlay"),
@@ -173,12 +164,7 @@ impl OverlayPass {
         if layer >= self.thumb_count {
             return;
         }
-        queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &self.thumbs, mip_level: 0, origin: wgpu::Origin3d { x: 0, y: 0, z: layer }, aspect: wgpu::TextureAspect::All },
-            rgba,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * THUMB_W), rows_per_image: Some(THUMB_H) },
-            wgpu::Extent3d { width: THUMB_W, height: THUMB_H, depth_or_array_layers: 1 },
-        );
+        crate::panorama::write_layer(queue, &self.thumbs, layer, THUMB_W, THUMB_H, rgba);
     }
 
     /// Draws `shapes` in order over a target `width` × `height` pixels.

@@ -76,6 +76,31 @@ fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
     [f[0], f[1], f[2], 0.0, r[0], r[1], r[2], 0.0, u[0], u[1], u[2], 0.0, (0.5 * view.fov_y).tan(), aspect, fade, video]
 }
 
+/// An RGBA8 sRGB image texture of `layers` layers, sampled and written by
+/// copies (RENDER_ATTACHMENT too: browsers copy decoded images in with a draw).
+pub(crate) fn image_texture(device: &wgpu::Device, label: &str, width: u32, height: u32, layers: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: layers },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8UnormSrgb,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    })
+}
+
+/// Uploads RGBA8 pixels, `width` × `height`, into layer `layer` of `texture`.
+pub(crate) fn write_layer(queue: &wgpu::Queue, texture: &wgpu::Texture, layer: u32, width: u32, height: u32, rgba: &[u8]) {
+    queue.write_texture(
+        wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d { x: 0, y: 0, z: layer }, aspect: wgpu::TextureAspect::All },
+        rgba,
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * width), rows_per_image: Some(height) },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
+}
+
 /// A probe's panorama on the GPU: six square RGBA8 sRGB faces.
 pub struct Cube {
     pub texture: wgpu::Texture,
@@ -87,29 +112,14 @@ impl Cube {
     /// An empty cube; fill it with [`Cube::write_face`] (or, on the web, by
     /// copying decoded images into its layers).
     pub fn new(device: &wgpu::Device, size: u32) -> Cube {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("panorama cube"),
-            size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 6 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            // RENDER_ATTACHMENT: browsers copy decoded images in with a draw.
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let texture = image_texture(device, "panorama cube", size, size, 6);
         let view = texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
         Cube { texture, view, size }
     }
 
     /// Uploads face `face` (bundle order) from RGBA8 pixels, `size`² of them.
     pub fn write_face(&self, queue: &wgpu::Queue, face: usize, rgba: &[u8]) {
-        queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &self.texture, mip_level: 0, origin: wgpu::Origin3d { x: 0, y: 0, z: face as u32 }, aspect: wgpu::TextureAspect::All },
-            rgba,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * self.size), rows_per_image: Some(self.size) },
-            wgpu::Extent3d { width: self.size, height: self.size, depth_or_array_layers: 1 },
-        );
+        write_layer(queue, &self.texture, face as u32, self.size, self.size, rgba);
     }
 
     /// Bytes of GPU memory it holds.
@@ -128,28 +138,14 @@ pub struct VideoTexture {
 
 impl VideoTexture {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> VideoTexture {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("video frame"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let texture = image_texture(device, "video frame", width, height, 1);
         let view = texture.create_view(&Default::default());
         VideoTexture { texture, view, width, height }
     }
 
     /// Uploads one frame of RGBA8 pixels.
     pub fn write(&self, queue: &wgpu::Queue, rgba: &[u8]) {
-        queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &self.texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-            rgba,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * self.width), rows_per_image: Some(self.height) },
-            wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: 1 },
-        );
+        write_layer(queue, &self.texture, 0, self.width, self.height, rgba);
     }
 }
 

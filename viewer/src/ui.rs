@@ -57,7 +57,8 @@ impl Layout {
         self.hits.iter().rev().find(|h| h.contains(x, y)).map(|h| h.action)
     }
 
-    fn tile(&mut self, x: f32, y: f32, w: f32, h: f32, probe: u32, frame: Option<[f32; 4]>, thumbs_ready: bool, action: Action) {
+    /// A thumbnail tile at `[x, y, w, h]`, framed in `frame` if given.
+    fn tile(&mut self, [x, y, w, h]: [f32; 4], probe: u32, frame: Option<[f32; 4]>, thumbs_ready: bool, action: Action) {
         if let Some(c) = frame {
             let b = (h * 0.06).max(2.0);
             self.shapes.push(Shape::rect(x - b, y - b, w + 2.0 * b, h + 2.0 * b, c));
@@ -131,7 +132,7 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
         if x + tile_w < 0.0 || x > w {
             continue;
         }
-        out.tile(x, y, tile_w, bar_h, p, (p == current).then_some(HIGHLIGHT), s.thumbs_ready, Action::GoTo(p));
+        out.tile([x, y, tile_w, bar_h], p, (p == current).then_some(HIGHLIGHT), s.thumbs_ready, Action::GoTo(p));
     }
 
     // Path bar: left to right by relative yaw, the best aligned centred.
@@ -148,7 +149,7 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
                 continue;
             }
             let frame = if c.path == choices[0].path { HIGHLIGHT } else { WHITE };
-            out.tile(x, py, pw, ph, c.to, Some(frame), s.thumbs_ready, Action::TakePath(c.path));
+            out.tile([x, py, pw, ph], c.to, Some(frame), s.thumbs_ready, Action::TakePath(c.path));
         }
     }
 

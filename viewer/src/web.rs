@@ -82,6 +82,12 @@ fn copy_image(gpu: &Gpu, source: wgpu::ExternalImageSource, texture: &wgpu::Text
     );
 }
 
+/// A cube face as fetched: its image, or the failure to report for the cube.
+type FaceResult = Result<web_sys::ImageBitmap, Fetched>;
+
+/// The frame callback, which schedules itself again.
+type FrameLoop = Rc<RefCell<Option<Closure<dyn FnMut(f64)>>>>;
+
 struct WebPlatform {
     base: String,
     done: Rc<RefCell<Vec<Fetched>>>,
@@ -108,7 +114,7 @@ impl WebPlatform {
 impl Platform for WebPlatform {
     fn load_cube(&mut self, probe: u32, size: u32, faces: &[String; 6]) {
         // The six faces are fetched and decoded at once; the last to arrive hands in the cube.
-        let slots: Rc<RefCell<Vec<Option<Result<web_sys::ImageBitmap, Fetched>>>>> = Rc::new(RefCell::new((0..6).map(|_| None).collect()));
+        let slots: Rc<RefCell<Vec<Option<FaceResult>>>> = Rc::new(RefCell::new((0..6).map(|_| None).collect()));
         for (i, file) in faces.iter().enumerate() {
             let (file, url, slots, done) = (file.clone(), self.url(file), slots.clone(), self.done.clone());
             wasm_bindgen_futures::spawn_local(async move {
@@ -210,10 +216,8 @@ impl Platform for WebPlatform {
             let wanted = if reversed { (1.0 - f64::from(t)) * duration } else { f64::from(t) * duration };
             // Forward playback runs by itself; reversed is seeked frame by frame,
             // and either is pulled back in step with the travel when it drifts.
-            if reversed || (v.current_time() - wanted).abs() > 0.25 {
-                if !v.seeking() {
-                    v.set_current_time(wanted.min(duration - 0.001));
-                }
+            if (reversed || (v.current_time() - wanted).abs() > 0.25) && !v.seeking() {
+                v.set_current_time(wanted.min(duration - 0.001));
             }
         }
         // HAVE_CURRENT_DATA: a frame can be copied.
@@ -299,6 +303,13 @@ impl State {
     }
 }
 
+/// Records when a start-up step ended (ms since navigation) in
+/// `window.exploremaps.timeline`, for the benchmark.
+fn mark(step: &str) {
+    let ms = window().performance().map_or(0.0, |p| p.now());
+    set_status(&format!("t_{step}"), &ms.into());
+}
+
 /// Exposes a little state on `window.exploremaps` for tests and benchmarks.
 fn set_status(key: &str, value: &JsValue) {
     let w = window();
@@ -358,12 +369,14 @@ pub async fn start(canvas_id: String, bundle_url: String) -> Result<(), JsValue>
 }
 
 async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
+    mark("wasm_ready");
     let graph_url = format!("{base}{GRAPH_FILE}");
     let text = JsFuture::from(fetch(&graph_url).await.map_err(|e| format!("{graph_url}: {e}"))?.text().map_err(js_error)?).await.map_err(js_error)?;
     let graph = Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {e}"))?;
     if graph.probes.is_empty() {
         return Err(format!("{graph_url}: the bundle has no probes to show"));
     }
+    mark("graph");
     let link = Link::parse(&window().location().hash().unwrap_or_default()).unwrap_or_else(|e| {
         show(&format!("the link's {e}; starting at the first probe"));
         Link::default()
@@ -388,6 +401,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     let view_format = config.format.add_srgb_suffix();
     config.view_formats = vec![view_format];
     surface.configure(&device, &config);
+    mark("device");
     set_status("backend", &format!("{:?}", adapter.get_info().backend).into());
 
     let video: web_sys::HtmlVideoElement = document.create_element("video").map_err(js_error)?.unchecked_into();
@@ -435,7 +449,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     });
 
     // The frame loop: requestAnimationFrame, every frame (the view may move at any time).
-    let tick: Rc<RefCell<Option<Closure<dyn FnMut(f64)>>>> = Rc::default();
+    let tick: FrameLoop = Rc::default();
     let next = tick.clone();
     *tick.borrow_mut() = Some(Closure::new(move |now: f64| {
         state.borrow_mut().frame(now);
