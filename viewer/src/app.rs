@@ -128,8 +128,9 @@ pub struct App {
     requested: HashSet<(u32, u32)>,
     /// Bytes of panorama textures kept at most (current and target excepted).
     budget: u64,
-    /// The largest cube face used (device and memory limits).
+    /// The largest cube face used by choice (memory), and the largest the device takes.
     max_face: u32,
+    device_face: u32,
     width: f32,
     height: f32,
     scale: f32,
@@ -165,7 +166,7 @@ impl App {
         let probes = nav.graph().probes.len() as u32;
         let panorama = PanoramaPass::new(&gpu.device, gpu.format);
         let overlay = OverlayPass::new(&gpu.device, gpu.format, probes);
-        let max_face = options.max_face.min(gpu.device.limits().max_texture_dimension_2d);
+        let device_face = gpu.device.limits().max_texture_dimension_2d;
         let last_state = nav.state;
         let mut app = App {
             nav,
@@ -176,7 +177,8 @@ impl App {
             failed: HashSet::new(),
             requested: HashSet::new(),
             budget: options.budget_bytes,
-            max_face,
+            max_face: options.max_face.min(device_face),
+            device_face,
             width: 1.0,
             height: 1.0,
             scale: 1.0,
@@ -214,10 +216,14 @@ impl App {
         self.scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
     }
 
-    /// Cube sizes of a probe usable here, smallest first.
+    /// Cube sizes of a probe usable here, smallest first: those within
+    /// `max_face`, else the smallest the device can take (better a large
+    /// texture than no panorama).
     fn levels(&self, probe: u32) -> Vec<u32> {
-        let mut sizes: Vec<u32> = self.nav.graph().probes[probe as usize].assets.cube_levels.iter().map(|l| l.size).filter(|&s| s <= self.max_face).collect();
+        let mut sizes: Vec<u32> = self.nav.graph().probes[probe as usize].assets.cube_levels.iter().map(|l| l.size).filter(|&s| s <= self.device_face).collect();
         sizes.sort_unstable();
+        let fitting = sizes.iter().take_while(|&&s| s <= self.max_face).count();
+        sizes.truncate(fitting.max(1));
         sizes
     }
 
@@ -229,14 +235,18 @@ impl App {
             return;
         }
         let assets = &self.nav.graph().probes[probe as usize].assets;
-        match assets.cube_levels.iter().find(|l| l.size == size) {
-            Some(level) => platform.load_cube(probe, size, &level.faces),
-            None => {
-                if let Some(e) = &assets.equirect {
-                    platform.load_equirect(probe, e);
-                }
-            }
+        if let Some(level) = assets.cube_levels.iter().find(|l| l.size == size) {
+            return platform.load_cube(probe, size, &level.faces);
         }
+        if let Some(e) = &assets.equirect {
+            return platform.load_equirect(probe, e);
+        }
+        let why = match assets.cube_levels.iter().map(|l| l.size).min() {
+            Some(smallest) => format!("its smallest cube face ({smallest} px) is over this device's limit ({} px)", self.device_face),
+            None => "the bundle has no panorama for it (run exploremaps render on the bundle)".to_string(),
+        };
+        self.failed.insert(probe);
+        self.message(&format!("probe {probe} cannot be shown: {why}"), platform);
     }
 
     /// The face size that shows a pixel per screen pixel at the current zoom.

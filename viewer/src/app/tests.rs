@@ -135,3 +135,27 @@ fn taking_a_path_plays_its_video_and_a_failed_probe_gives_a_message_without_stop
     }
     assert_ne!(app.nav.probe(), 4, "the viewer keeps working");
 }
+
+#[test]
+fn a_probe_with_only_large_levels_still_shows_and_one_with_none_gives_a_message() {
+    let Some((device, queue)) = crate::panorama::tests::gpu() else { return };
+    let gpu = Gpu { device, queue, format: wgpu::TextureFormat::Rgba8UnormSrgb };
+    let mut g = bundle_graph();
+    // Probe 0 has only a 32² level (over max_face 16); probe 1 has nothing.
+    g.probes[0].assets.cube_levels.retain(|l| l.size == 32);
+    g.probes[1].assets.cube_levels.clear();
+    g.probes[1].assets.equirect = None;
+    let mut script = Script::default();
+    let nav = Navigator::new(g, Some(0), 1).unwrap();
+    let mut app = App::new(gpu, nav, None, Options { budget_bytes: 1 << 30, max_face: 16, show_map: true, tour: false }, &mut script);
+    app.resize(53, 30, 1.0);
+    assert_eq!(script.requests, vec![(0, 32)], "the smallest level the device takes, though over max_face");
+    app.update(0.016, &mut script);
+    assert!(app.panos.contains_key(&0));
+    app.nav.go_to(1).unwrap();
+    for _ in 0..400 {
+        app.update(0.02, &mut script);
+    }
+    assert!(script.messages.iter().any(|m| m.contains("probe 1 cannot be shown") && m.contains("exploremaps render")), "{:?}", script.messages);
+    assert_eq!(app.nav.state, State::AtProbe { probe: 1 }, "arrived all the same");
+}
