@@ -95,7 +95,7 @@ try {
   } else if (mode === 'bench') {
     const { page, ms } = await open(url);
     const s = await status(page);
-    report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend, wasm_ready_ms: s.t_wasm_ready, graph_ms: s.t_graph, device_ms: s.t_device });
+    report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend, wasm_ready_ms: s.t_wasm_ready, graph_ms: s.t_graph, device_ms: s.t_device, faces_ms: s.t_faces, app_ms: s.t_app });
     const heap = () => page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null);
     const frames = (n) => page.evaluate((n) => new Promise((done) => {
       const times = []; let last = performance.now();

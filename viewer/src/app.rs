@@ -142,6 +142,7 @@ pub struct App {
     press: Option<(f32, f32, bool)>,
     message_s: f32,
     thumbs: u32,
+    thumbs_requested: bool,
     frame: u64,
     last_state: State,
     video_failed: bool,
@@ -190,20 +191,22 @@ impl App {
             press: None,
             message_s: 0.0,
             thumbs: 0,
+            thumbs_requested: false,
             frame: 0,
             last_state,
             video_failed: false,
             shown_panorama: false,
             layout: ui::Layout::default(),
         };
-        // The first panorama before the thumbnails, which queue behind it.
         app.request_assets(platform);
-        for p in &app.nav.graph().probes {
-            if let Some(t) = &p.assets.thumbnail {
-                platform.load_thumbnail(p.id, t);
-            }
-        }
         app
+    }
+
+    /// True until the first panorama can be drawn: platforms skip drawing
+    /// frames until then, leaving the CPU or GPU to the loading.
+    pub fn waiting_for_first_panorama(&self) -> bool {
+        let p = self.nav.probe();
+        !self.shown_panorama && !self.panos.contains_key(&p) && !self.failed.contains(&p)
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -276,7 +279,15 @@ impl App {
                 _ => self.request(p, 0, platform),
             }
         }
-        // Neighbours once the current panorama is in, so they do not delay it.
+        // Thumbnails and neighbours once the first panorama is in, so they do not delay it.
+        if !self.thumbs_requested && !self.waiting_for_first_panorama() {
+            self.thumbs_requested = true;
+            for p in &self.nav.graph().probes {
+                if let Some(t) = &p.assets.thumbnail {
+                    platform.load_thumbnail(p.id, t);
+                }
+            }
+        }
         if matches!(self.nav.state, State::AtProbe { .. }) && self.panos.contains_key(&self.nav.probe()) {
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);

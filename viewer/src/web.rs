@@ -95,6 +95,7 @@ struct WebPlatform {
     video_texture: Option<VideoTexture>,
     playing: Option<bool>,
     message: Option<String>,
+    faces_marked: bool,
 }
 
 impl WebPlatform {
@@ -166,6 +167,10 @@ impl Platform for WebPlatform {
             .into_iter()
             .map(|f| match f {
                 Fetched::Cube { probe, size, faces } => {
+                    if !self.faces_marked {
+                        self.faces_marked = true;
+                        mark("faces");
+                    }
                     let cube = Cube::new(&gpu.device, size);
                     for (layer, face) in faces.into_iter().enumerate() {
                         // Not closed here: WebGL copies when the queue is submitted.
@@ -280,6 +285,9 @@ impl State {
         let dt = ((now_ms - self.last_ms) / 1000.0).clamp(0.0, 0.1) as f32;
         self.last_ms = now_ms;
         self.app.update(dt, &mut self.platform);
+        if self.app.waiting_for_first_panorama() {
+            return;
+        }
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
             _ => {
@@ -413,12 +421,13 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None };
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
     let options = Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
     let app = App::new(Gpu { device, queue, format: view_format }, nav, Some(&link), options, &mut platform);
+    mark("app");
     let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false }));
 
     let target: &web_sys::EventTarget = canvas.as_ref();

@@ -13,6 +13,7 @@ struct Script {
     broken: Vec<u32>,
     messages: Vec<String>,
     videos: Vec<(String, bool)>,
+    thumbnails: Vec<u32>,
 }
 
 impl Platform for Script {
@@ -21,7 +22,9 @@ impl Platform for Script {
         self.pending.push((probe, size));
     }
     fn load_equirect(&mut self, _probe: u32, _file: &str) {}
-    fn load_thumbnail(&mut self, _probe: u32, _file: &str) {}
+    fn load_thumbnail(&mut self, probe: u32, _file: &str) {
+        self.thumbnails.push(probe);
+    }
     fn poll(&mut self, gpu: &Gpu, _overlay: &OverlayPass) -> Vec<Loaded> {
         self.pending
             .drain(..)
@@ -54,6 +57,7 @@ impl Platform for Script {
 fn bundle_graph() -> Graph {
     let mut g = graph();
     for p in &mut g.probes {
+        p.assets.thumbnail = Some(format!("probes/{}/thumbnail.jpg", p.id));
         p.assets.cube_levels = [8u32, 16, 32].iter().map(|&size| CubeLevel { size, faces: std::array::from_fn(|f| format!("probes/{}/{size}_{f}.jpg", p.id)) }).collect();
     }
     for p in &mut g.paths {
@@ -75,9 +79,13 @@ fn app(script: &mut Script, budget: u64, height: u32) -> Option<App> {
 fn the_low_resolution_level_comes_first_then_the_sharp_one_and_neighbours_are_prefetched() {
     let mut script = Script::default();
     let Some(mut app) = app(&mut script, 1 << 30, 30) else { return };
-    // At first only the smallest level of the current probe is asked for.
+    // At first only the smallest level of the current probe is asked for, and
+    // nothing is drawn; the thumbnails wait for it too.
     assert_eq!(script.requests, vec![(0, 8)]);
+    assert!(app.waiting_for_first_panorama() && script.thumbnails.is_empty());
     app.update(0.016, &mut script);
+    assert!(!app.waiting_for_first_panorama());
+    assert_eq!(script.thumbnails, vec![0, 1, 2, 3, 4]);
     // Once it is in: the level sharp enough for a 30-pixel-high view at fov 1.2
     // (30 / (2 tan 0.6) ≈ 22 → 32), and the neighbours' smallest levels.
     let asked: Vec<(u32, u32)> = script.requests[1..].to_vec();
