@@ -26,12 +26,16 @@ pub struct Mp4Decoder {
     next_sample: u32,
     samples: u32,
     decoder: openh264::decoder::Decoder,
-    /// Parameter sets, sent before the first sample.
+    /// The stream's parameter sets (Annex B), and what of them is still to
+    /// be sent before the next sample.
+    parameter_sets: Vec<u8>,
     header: Vec<u8>,
     flushed: std::collections::VecDeque<Frame>,
     done: bool,
     /// Frames per second from the track's timing.
     pub fps: f32,
+    /// Frames decoding can start from (0-based, ascending).
+    key_frames: Vec<u32>,
 }
 
 fn frame(yuv: &openh264::decoder::DecodedYUV) -> Frame {
@@ -55,8 +59,32 @@ impl Mp4Decoder {
         }
         let (id, samples) = (track.track_id(), track.sample_count());
         let fps = track.frame_rate() as f32;
+        // No sync-sample table means every sample is one.
+        let key_frames = match &track.trak.mdia.minf.stbl.stss {
+            Some(stss) => stss.entries.iter().filter(|&&s| s >= 1 && s <= samples).map(|s| s - 1).collect(),
+            None => (0..samples).collect(),
+        };
         let decoder = openh264::decoder::Decoder::new().map_err(|e| DecodeError::Codec(e.to_string()))?;
-        Ok(Mp4Decoder { reader, track: id, next_sample: 1, samples, decoder, header, flushed: Default::default(), done: false, fps: if fps.is_finite() && fps > 0.0 { fps } else { 25.0 } })
+        Ok(Mp4Decoder { reader, track: id, next_sample: 1, samples, decoder, parameter_sets: header.clone(), header, flushed: Default::default(), done: false, fps: if fps.is_finite() && fps > 0.0 { fps } else { 25.0 }, key_frames })
+    }
+
+    /// Frames decoding can start from (0-based, ascending): `seek` targets.
+    pub fn key_frames(&self) -> &[u32] {
+        &self.key_frames
+    }
+
+    /// Restarts decoding at key frame `frame`, so a video can be played
+    /// backwards a key-frame interval at a time.
+    pub fn seek(&mut self, frame: u32) -> Result<(), DecodeError> {
+        if self.key_frames.binary_search(&frame).is_err() {
+            return Err(DecodeError::Container(format!("frame {frame} is not a key frame")));
+        }
+        self.decoder = openh264::decoder::Decoder::new().map_err(|e| DecodeError::Codec(e.to_string()))?;
+        self.header = self.parameter_sets.clone();
+        self.next_sample = frame + 1;
+        self.flushed.clear();
+        self.done = false;
+        Ok(())
     }
 
     /// The number of frames the track holds.

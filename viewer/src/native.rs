@@ -117,33 +117,48 @@ fn rgba(rgb: &[u8]) -> Vec<u8> {
     rgb.chunks_exact(3).flat_map(|p| [p[0], p[1], p[2], 255]).collect()
 }
 
-/// Decodes a video on its own thread; reversed playback decodes it whole
-/// first (H.264 only decodes forward).
+/// Decodes a video on its own thread. Reversed playback decodes a key-frame
+/// interval at a time, last first (H.264 only decodes forward), so at most
+/// one interval of frames is held.
 fn start_playback(path: PathBuf, reversed: bool) -> Playback {
     let (tx, rx) = sync_channel(3);
     let count = Arc::new(Mutex::new(None));
     let counted = count.clone();
     std::thread::spawn(move || {
         let run = || -> Result<(), String> {
+            let failed = |e: exploremaps_format::video::DecodeError| format!("{}: {e}", path.display());
             let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-            let mut decoder = exploremaps_format::video::Mp4Decoder::new(bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            let mut decoder = exploremaps_format::video::Mp4Decoder::new(bytes).map_err(failed)?;
             let n = decoder.frame_count();
             *counted.lock().expect("count lock") = Some(n);
-            let mut all = Vec::new();
-            let mut i = 0;
-            while let Some(f) = decoder.next_frame().map_err(|e| format!("{}: {e}", path.display()))? {
-                let frame = (i, rgba(&f.rgb), f.width, f.height);
+            // Forward: one interval from frame 0 to the end.
+            let starts: Vec<u32> = if reversed { decoder.key_frames().iter().rev().copied().collect() } else { vec![0] };
+            let mut sent = 0;
+            let mut end = n;
+            for start in starts {
                 if reversed {
-                    all.push(frame);
-                } else if tx.send(Ok(frame)).is_err() {
-                    return Ok(());
+                    decoder.seek(start).map_err(failed)?;
                 }
-                i += 1;
-            }
-            for (k, (_, px, w, h)) in all.into_iter().rev().enumerate() {
-                if tx.send(Ok((k as u32, px, w, h))).is_err() {
-                    return Ok(());
+                let mut interval = Vec::new();
+                for _ in start..end {
+                    let Some(f) = decoder.next_frame().map_err(failed)? else { break };
+                    let frame = (rgba(&f.rgb), f.width, f.height);
+                    if reversed {
+                        interval.push(frame);
+                        continue;
+                    }
+                    if tx.send(Ok((sent, frame.0, frame.1, frame.2))).is_err() {
+                        return Ok(());
+                    }
+                    sent += 1;
                 }
+                for (px, w, h) in interval.into_iter().rev() {
+                    if tx.send(Ok((sent, px, w, h))).is_err() {
+                        return Ok(());
+                    }
+                    sent += 1;
+                }
+                end = start;
             }
             Ok(())
         };
@@ -526,5 +541,41 @@ pub fn run(bundle: &Path, options: ViewOptions) -> Result<(), ViewError> {
     match runner.error {
         Some(e) => Err(e),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every frame of a playback, in the order it arrives.
+    fn all_frames(path: &Path, reversed: bool) -> Vec<Vec<u8>> {
+        let playback = start_playback(path.to_path_buf(), reversed);
+        playback.frames.iter().enumerate().map(|(k, f)| {
+            let (i, px, _, _) = f.expect("a frame");
+            assert_eq!(i as usize, k, "frames arrive numbered in travel order");
+            px
+        }).collect()
+    }
+
+    #[test]
+    fn reversed_playback_gives_every_frame_backwards_a_key_frame_interval_at_a_time() {
+        // 12 numbered frames with a key frame every 5, no B-frames (as the builder writes).
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("clip.mp4");
+        let made = std::process::Command::new("ffmpeg")
+            .args(["-v", "error", "-f", "lavfi", "-i", "testsrc=size=64x32:rate=5", "-frames:v", "12"])
+            .args(["-c:v", "libx264", "-bf", "0", "-g", "5", "-keyint_min", "5", "-sc_threshold", "0", "-pix_fmt", "yuv420p"])
+            .arg(&path)
+            .status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("SKIPPED: no ffmpeg with libx264 to make a clip");
+            return;
+        }
+        let forward = all_frames(&path, false);
+        assert_eq!(forward.len(), 12);
+        let mut backward = all_frames(&path, true);
+        backward.reverse();
+        assert!(backward == forward, "reversed playback shows the same frames in the opposite order");
     }
 }
