@@ -183,7 +183,7 @@ fn near(a: [u8; 3], b: [u8; 3], tolerance: i32) -> bool {
     a.iter().zip(b).all(|(&x, y)| (x as i32 - y as i32).abs() <= tolerance)
 }
 
-/// Loads the synthetic bundle, drags, takes the path, then opens a probe with
+/// Loads the synthetic bundle, drags, takes the path and back, then opens a probe with
 /// a corrupt face: checks each step on screen and in the deep link.
 fn tour(webgpu: bool) {
     let dir = tempfile::tempdir().unwrap();
@@ -210,6 +210,9 @@ fn tour(webgpu: bool) {
     assert!((yaw.abs() - 180.0).abs() < 1.0, "{backend}: arrival faces probe 1's preferred direction (+Z): {yaw}");
     let there = colour_at(&shot("arrived"), x, y);
     assert!(near(there, FACES[1][4], 24), "{backend}: probe 1's +Z face: {there:?}");
+    let back = colour_at(&shot("back_travel"), x, y);
+    assert!(near(back, VIDEO, 40), "{backend}: the video plays backwards on the way back: {back:?}");
+    assert_eq!(step(&lines, "back")["probe"], 0, "{backend}: back at probe 0");
     // The corrupt face is named in a message, and the viewer goes on to probe 0.
     let message = step(&lines, "corrupt")["message"].as_str().unwrap_or_default().to_string();
     assert!(message.contains("probes/2/") && message.contains("_px.jpg"), "{backend}: {message}");

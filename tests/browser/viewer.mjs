@@ -1,6 +1,6 @@
 // Drives the web viewer in headless Chromium for tests/viewer.rs.
 // usage: node viewer.mjs MODE URL OUT_DIR   (PLAYWRIGHT_CORE: path to playwright-core's index.mjs)
-// MODE tour: load, drag, take the path, screenshot each step; then a deep link
+// MODE tour: load, drag, take the path and back, screenshot each step; then a deep link
 // to a probe with a corrupt face, and on to the next probe.
 // MODE message: load and report the message the page shows.
 // MODE bench: time to first panorama and frame times in a probe and along a path.
@@ -52,6 +52,14 @@ try {
     await page.waitForTimeout(300);
     await page.screenshot({ path: `${out}/arrived.png` });
     report('arrived', await status(page));
+    // The same path back: its video plays backwards, seeked frame by frame.
+    await page.mouse.click(640, 581);
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+    await page.waitForTimeout(700);
+    await page.screenshot({ path: `${out}/back_travel.png` });
+    report('back_travel', await status(page));
+    await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 0, null, { timeout: 30000 });
+    report('back', await status(page));
     await page.close();
     // A probe whose cube has a corrupt face: a message, then the viewer goes on.
     const bad = await open(`${url}#probe=2`);
