@@ -36,7 +36,8 @@ for webgpu in 0 1; do
   for (const l of lines) {
     if (l.step === "first") console.log(`first panorama: ${Math.round(l.first_panorama_ms)} ms after navigation start (${l.backend}): wasm running at ${Math.round(l.wasm_ready_ms)}, graph at ${Math.round(l.graph_ms)}, GPU device at ${Math.round(l.device_ms)}, pipelines made at ${Math.round(l.app_ms)}, first cube decoded at ${Math.round(l.faces_ms)} ms`);
     else if (l.step === "probe") console.log(`frame time in a probe at 1280x720: ${stats(l.frames_ms)}`);
-    else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)}`);
+    else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)}; ${l.video_frames_per_s.toFixed(1)} video frames shown a second`);
+    else if (l.step === "backward") console.log(`frame time travelling a path backwards: ${stats(l.frames_ms)}; ${l.video_frames_per_s.toFixed(1)} video frames shown a second`);
     else if (l.step === "memory") console.log(`JS heap: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
     else console.log(JSON.stringify(l));
   }'

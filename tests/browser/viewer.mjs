@@ -101,7 +101,7 @@ try {
     const { page } = await open(url);
     report('message', await status(page));
   } else if (mode === 'bench') {
-    const { page, ms } = await open(url);
+    let { page, ms } = await open(url);
     const s = await status(page);
     report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend, wasm_ready_ms: s.t_wasm_ready, graph_ms: s.t_graph, device_ms: s.t_device, faces_ms: s.t_faces, app_ms: s.t_app });
     const heap = () => page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null);
@@ -113,11 +113,29 @@ try {
     await page.keyboard.down('ArrowRight');
     report('probe', { frames_ms: await frames(60) });
     await page.keyboard.up('ArrowRight');
-    await page.keyboard.press('Enter');
-    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
-    report('transition', { frames_ms: await frames(30) });
+    // Frame times along a path, and how many distinct video frames reach the screen a second.
+    const travel = async (step) => {
+      await page.keyboard.press('Enter');
+      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+      const before = (await status(page)).video_frames || 0;
+      const t0 = Date.now();
+      const frames_ms = await frames(30);
+      const shown = ((await status(page)).video_frames || 0) - before;
+      report(step, { frames_ms, video_frames_per_s: shown / ((Date.now() - t0) / 1000) });
+    };
+    await travel('transition');
     const metrics = await (await page.context().newCDPSession(page)).send('Performance.getMetrics').catch(() => ({ metrics: [] }));
     report('memory', { js_heap_bytes: await heap(), metrics: Object.fromEntries((metrics.metrics || []).map((m) => [m.name, m.value])) });
+    await page.close();
+    // Backwards: path 0 from its far end, facing along it, so Enter takes it.
+    const graph = await (await fetch(new URL('graph.json', url))).json();
+    const p = graph.paths[0];
+    const [a, b] = [p.polyline[p.polyline.length - 1], p.polyline[p.polyline.length - 2]];
+    const yaw = Math.atan2(b[0] - a[0], -(b[2] - a[2])) * 180 / Math.PI;
+    const back = await open(`${url}#probe=${p.to}&yaw=${yaw.toFixed(1)}`);
+    page = back.page;
+    await page.waitForTimeout(500);
+    await travel('backward');
   }
 } catch (e) {
   report('error', { error: String(e) });

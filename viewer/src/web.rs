@@ -96,6 +96,9 @@ struct WebPlatform {
     playing: Option<bool>,
     message: Option<String>,
     faces_marked: bool,
+    /// The video time last copied, and how many distinct ones were (for the benchmark).
+    video_time: f64,
+    video_frames: u32,
 }
 
 impl WebPlatform {
@@ -211,34 +214,36 @@ impl Platform for WebPlatform {
 
     fn video_frame(&mut self, gpu: &Gpu, t: f32) -> Result<Option<&VideoTexture>, String> {
         let Some(reversed) = self.playing else { return Ok(None) };
-        let v = &self.video;
+        let v = self.video.clone();
         if let Some(e) = v.error() {
             self.playing = None;
             return Err(format!("{} (code {})", e.message(), e.code()));
         }
+        // The frame the element has now (HAVE_CURRENT_DATA: one can be copied)…
+        let (w, h) = (v.video_width(), v.video_height());
+        if v.ready_state() >= 2 && w > 0 && h > 0 {
+            if self.video_texture.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
+                self.video_texture = Some(VideoTexture::new(&gpu.device, w, h));
+            }
+            let texture = self.video_texture.as_ref().expect("made above");
+            copy_image(gpu, wgpu::ExternalImageSource::HTMLVideoElement(v.clone()), &texture.texture, 0, w, h);
+            if !v.seeking() && v.current_time() != self.video_time {
+                self.video_time = v.current_time();
+                self.video_frames += 1;
+                set_status("video_frames", &self.video_frames.into());
+            }
+        }
+        // …then the next one asked for: forward playback runs by itself;
+        // reversed is seeked frame by frame, and either is pulled back in
+        // step with the travel when it drifts.
         let duration = v.duration();
-        if duration.is_finite() && duration > 0.0 {
+        if duration.is_finite() && duration > 0.0 && !v.seeking() {
             let wanted = if reversed { (1.0 - f64::from(t)) * duration } else { f64::from(t) * duration };
-            // Forward playback runs by itself; reversed is seeked frame by frame,
-            // and either is pulled back in step with the travel when it drifts.
-            if (reversed || (v.current_time() - wanted).abs() > 0.25) && !v.seeking() {
+            if reversed || (v.current_time() - wanted).abs() > 0.25 {
                 v.set_current_time(wanted.min(duration - 0.001));
             }
         }
-        // HAVE_CURRENT_DATA: a frame can be copied.
-        if v.ready_state() < 2 {
-            return Ok(self.video_texture.as_ref());
-        }
-        let (w, h) = (v.video_width(), v.video_height());
-        if w == 0 || h == 0 {
-            return Ok(self.video_texture.as_ref());
-        }
-        if self.video_texture.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
-            self.video_texture = Some(VideoTexture::new(&gpu.device, w, h));
-        }
-        let texture = self.video_texture.as_ref().expect("made above");
-        copy_image(gpu, wgpu::ExternalImageSource::HTMLVideoElement(v.clone()), &texture.texture, 0, w, h);
-        Ok(Some(texture))
+        Ok(self.video_texture.as_ref())
     }
 
     fn show_message(&mut self, text: &str) {
@@ -421,7 +426,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false };
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0 };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
