@@ -298,6 +298,8 @@ impl Platform for NativePlatform {
 struct Bench {
     phase: u8,
     frames: Vec<f64>,
+    /// The path travelled forward, to travel back.
+    path: Option<u32>,
 }
 
 struct Running {
@@ -433,8 +435,23 @@ impl Runner {
             }
             2 => {
                 b.frames.push(ms);
+                if let crate::navigation::State::Travelling { path, .. } = r.app.nav.state {
+                    b.path = Some(path);
+                }
                 if r.app.nav.progress().is_none() {
                     print_frames("during a transition", &b.frames, r.config.width, r.config.height);
+                    b.frames.clear();
+                    // The same path back: its video decoded backwards.
+                    match b.path.map(|p| r.app.nav.take_path(p)) {
+                        Some(Ok(())) => b.phase = 3,
+                        _ => event_loop.exit(),
+                    }
+                }
+            }
+            3 => {
+                b.frames.push(ms);
+                if r.app.nav.progress().is_none() {
+                    print_frames("travelling the path backwards", &b.frames, r.config.width, r.config.height);
                     event_loop.exit();
                 }
             }
