@@ -8,6 +8,9 @@
 //! openh264|ffmpeg` forces one.
 
 use image::RgbImage;
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
 
 /// Seconds between key frames: players seek, and play backwards, a key-frame
 /// interval at a time (a path's only key frame at its start made each
@@ -18,9 +21,6 @@ pub const KEY_FRAME_INTERVAL_S: f32 = 1.0;
 fn key_frame_interval(fps: f32) -> u32 {
     (fps * KEY_FRAME_INTERVAL_S).round().max(1.0) as u32
 }
-use std::io::Write;
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
 
 #[derive(Debug, thiserror::Error)]
 pub enum VideoError {

@@ -42,22 +42,21 @@ try {
     await page.waitForTimeout(300);
     await page.screenshot({ path: `${out}/turned.png` });
     report('turned', await status(page));
-    // The path bar's only tile, centred above the probe bar.
-    await page.mouse.click(640, 581);
-    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
-    await page.waitForTimeout(700);
-    await page.screenshot({ path: `${out}/travel.png` });
-    report('travel', await status(page));
+    // Clicks the path bar's only tile, centred above the probe bar, and shows the travel under way.
+    const takePath = async (step) => {
+      await page.mouse.click(640, 581);
+      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+      await page.waitForTimeout(700);
+      await page.screenshot({ path: `${out}/${step}.png` });
+      report(step, await status(page));
+    };
+    await takePath('travel');
     await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
     await page.waitForTimeout(300);
     await page.screenshot({ path: `${out}/arrived.png` });
     report('arrived', await status(page));
     // The same path back: its video plays backwards, seeked frame by frame.
-    await page.mouse.click(640, 581);
-    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
-    await page.waitForTimeout(700);
-    await page.screenshot({ path: `${out}/back_travel.png` });
-    report('back_travel', await status(page));
+    await takePath('back_travel');
     await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 0, null, { timeout: 30000 });
     report('back', await status(page));
     await page.close();

@@ -131,32 +131,32 @@ fn start_playback(path: PathBuf, reversed: bool) -> Playback {
             let mut decoder = exploremaps_format::video::Mp4Decoder::new(bytes).map_err(failed)?;
             let n = decoder.frame_count();
             *counted.lock().expect("count lock") = Some(n);
-            // Forward: one interval from frame 0 to the end.
-            let starts: Vec<u32> = if reversed { decoder.key_frames().iter().rev().copied().collect() } else { vec![0] };
             let mut sent = 0;
-            let mut end = n;
-            for start in starts {
-                if reversed {
-                    decoder.seek(start).map_err(failed)?;
+            let mut send = |px: Vec<u8>, w: u32, h: u32| {
+                sent += 1;
+                tx.send(Ok((sent - 1, px, w, h))).is_ok()
+            };
+            if !reversed {
+                while let Some(f) = decoder.next_frame().map_err(failed)? {
+                    if !send(rgba(&f.rgb), f.width, f.height) {
+                        return Ok(());
+                    }
                 }
+                return Ok(());
+            }
+            let starts: Vec<u32> = decoder.key_frames().to_vec();
+            let mut end = n;
+            for &start in starts.iter().rev() {
+                decoder.seek(start).map_err(failed)?;
                 let mut interval = Vec::new();
                 for _ in start..end {
                     let Some(f) = decoder.next_frame().map_err(failed)? else { break };
-                    let frame = (rgba(&f.rgb), f.width, f.height);
-                    if reversed {
-                        interval.push(frame);
-                        continue;
-                    }
-                    if tx.send(Ok((sent, frame.0, frame.1, frame.2))).is_err() {
-                        return Ok(());
-                    }
-                    sent += 1;
+                    interval.push((rgba(&f.rgb), f.width, f.height));
                 }
                 for (px, w, h) in interval.into_iter().rev() {
-                    if tx.send(Ok((sent, px, w, h))).is_err() {
+                    if !send(px, w, h) {
                         return Ok(());
                     }
-                    sent += 1;
                 }
                 end = start;
             }
@@ -568,11 +568,12 @@ mod tests {
     /// Every frame of a playback, in the order it arrives.
     fn all_frames(path: &Path, reversed: bool) -> Vec<Vec<u8>> {
         let playback = start_playback(path.to_path_buf(), reversed);
-        playback.frames.iter().enumerate().map(|(k, f)| {
+        let numbered = |(k, f): (usize, Result<VideoFrame, String>)| {
             let (i, px, _, _) = f.expect("a frame");
             assert_eq!(i as usize, k, "frames arrive numbered in travel order");
             px
-        }).collect()
+        };
+        playback.frames.iter().enumerate().map(numbered).collect()
     }
 
     #[test]
