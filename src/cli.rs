@@ -137,11 +137,12 @@ pub struct SceneArgs {
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Space {
-    /// Decide from how enclosed the scene is, and say which was chosen.
+    /// Decide from which way the scene's surface faces, and say which was chosen.
     Auto,
-    /// Architecture and interiors: enclosed space above a floor.
+    /// Scenes one is in (interiors, architecture, landscapes): the open space inside
+    /// the scene's bounding box, never inside closed solids or under the ground.
     Inside,
-    /// Objects and exteriors: the space around the scene.
+    /// Objects: the space around the scene.
     Outside,
 }
 
@@ -181,12 +182,16 @@ pub struct PlanArgs {
     /// surface into one synthesized probe per cluster.
     #[arg(long)]
     pub no_cluster: bool,
-    /// Walk mode: probes stand at eye height above walkable floors, with a person's
-    /// head room, as a visitor would see the place (uses the scene's unit scale).
-    #[arg(long)]
+    /// Walk: probes stand at eye height above walkable floors (slopes, steps and head
+    /// room as people move; stairs join floors), as a visitor sees the place. The
+    /// default for scenes with floors whose scale is stated or plausibly guessed.
+    #[arg(long, conflicts_with = "fly")]
     pub walk: bool,
-    /// Eye height in metres for --walk.
-    #[arg(long, default_value_t = 1.6, requires = "walk")]
+    /// Fly: probes anywhere in the navigable space (objects, coverage research).
+    #[arg(long)]
+    pub fly: bool,
+    /// Eye height above the floor in metres when walking.
+    #[arg(long, default_value_t = 1.6)]
     pub eye_height_m: f32,
     /// Voxels on the longest side of the free-space grid. Memory stays at most about
     /// 0.5 GiB for any scene: the grid never exceeds 40 million cells of 13 bytes.

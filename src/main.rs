@@ -10,7 +10,7 @@ use clap::Parser;
 use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs};
 use exploremaps_builder::render::{Quality, Settings};
 use exploremaps_builder::explore::{ExploreParams, Strategy};
-use exploremaps_builder::freespace::{FreeSpaceParams, SpaceMode};
+use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
 use exploremaps_builder::pipeline::{self, PlanParams};
 use exploremaps_builder::cluster::SynthesisParams;
 use exploremaps_builder::coverage::CoverageParams;
@@ -155,7 +155,7 @@ fn check_planning(planning: &PlanArgs) -> Result<()> {
 }
 
 /// The pipeline's parameters from checked options and the loaded scene's scale.
-fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> PlanParams {
+fn plan_params(planning: &PlanArgs, seed: u64) -> PlanParams {
     PlanParams {
         free_space: FreeSpaceParams {
             space: match planning.space {
@@ -163,9 +163,16 @@ fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> PlanPara
                 cli::Space::Inside => SpaceMode::Inside,
                 cli::Space::Outside => SpaceMode::Outside,
             },
+            height: match (planning.walk, planning.fly) {
+                (true, _) => HeightMode::Walk,
+                (_, true) => HeightMode::Fly,
+                _ => HeightMode::Auto,
+            },
+            eye_height_m: planning.eye_height_m,
             max_cells: planning.max_cells,
             near_m: planning.near_m,
             start: planning.start.map(Vec3::from),
+            seed,
             ..Default::default()
         },
         explore: ExploreParams {
@@ -175,12 +182,10 @@ fn plan_params(planning: &PlanArgs, seed: u64, metres_per_unit: f32) -> PlanPara
             },
             coverage_target: planning.coverage,
             user_probes: planning.probes.iter().map(|&p| Vec3::from(p)).collect(),
-            eye_height: planning.walk.then(|| planning.eye_height_m / metres_per_unit),
             seed,
             ..Default::default()
         },
         synthesis: (!planning.no_cluster).then(|| SynthesisParams {
-            eye_height: planning.walk.then(|| planning.eye_height_m / metres_per_unit),
             seed,
             ..Default::default()
         }),
@@ -193,7 +198,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
     let (scene_args, output, planning) = (&job.scene, job.output.as_path(), &job.planning);
     check_planning(planning)?;
     let (scene, source) = load_scene(scene_args, seed)?;
-    let params = plan_params(planning, seed, scene.metres_per_unit);
+    let params = plan_params(planning, seed);
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
     let result = pipeline::plan(&scene, &source, &params);
     spinner.finish_and_clear();
@@ -214,7 +219,8 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
             "near_m": planning.near_m,
             "max_cells": planning.max_cells,
             "cluster": !planning.no_cluster,
-            "walk_eye_height_m": planning.walk.then_some(planning.eye_height_m),
+            "height": if planning.walk { "walk" } else if planning.fly { "fly" } else { "auto" },
+            "eye_height_m": planning.eye_height_m,
             "seconds": plan.seconds,
         }),
     );
@@ -321,8 +327,13 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     };
     let near_m = graph.scene.near_distance.map(|r| r * scene.metres_per_unit);
     let max_cells = recorded["max_cells"].as_u64().unwrap_or(256) as usize;
+    let height = match graph.scene.eye_height_m {
+        Some(_) => HeightMode::Walk,
+        None => HeightMode::Fly,
+    };
+    let eye_height_m = graph.scene.eye_height_m.unwrap_or(1.6);
     let params = PlanParams {
-        free_space: FreeSpaceParams { space, near_m, max_cells, ..Default::default() },
+        free_space: FreeSpaceParams { space, height, eye_height_m, near_m, max_cells, seed, ..Default::default() },
         explore: ExploreParams { seed, ..Default::default() },
         synthesis: None,
         coverage: CoverageParams { samples: samples.clamp(1, 10_000_000), seed, ..Default::default() },
@@ -350,7 +361,11 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     let c = &plan.coverage;
     let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
-    println!("  free space  {} ({}), voxel {}, near {} units, {} navigable voxels ({:.2} s)", f.space, f.space_reason, num(f.voxel as f64), num(f.near as f64), f.navigable, f.seconds);
+    println!("  space       {} ({}); {} ({})", f.space, f.space_reason, f.height, f.height_reason);
+    println!("  free space  voxel {}, near {} units, {} navigable voxels of {} open ({:.2} s)", num(f.voxel as f64), num(f.near as f64), f.navigable, f.open, f.seconds);
+    if let Some(w) = &f.walk {
+        println!("  walk        eye {} m above {} m² of floor in {} region(s) ({} roof(s) left out)", num(w.eye_height_m as f64), num(w.floor_area_m2), w.regions_kept, w.roofs);
+    }
     if plan.explore.probes > 0 {
         println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", plan.explore.probes, plan.explore.rays as f64 / 1e6, plan.explore.seconds);
     }
@@ -384,6 +399,16 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
         need(0.99),
         c.seconds
     );
+    let ceiling = c.ceiling();
+    if ceiling.area > 0.0 {
+        println!(
+            "  ceiling     {} units² seen from the free space in the box: {:.1} % seen from the {} space, {:.1} % by the probes",
+            num(ceiling.area),
+            100.0 * ceiling.seen_from_space / ceiling.area,
+            if f.height == "walk" { "walk (eye-height)" } else { "navigable" },
+            100.0 * ceiling.covered / ceiling.area
+        );
+    }
     for b in &plan.baselines {
         println!("  baseline    {} placement, same {} probes: {:.2} %", b.name, b.probes.len(), 100.0 * b.report.fraction());
     }

@@ -41,6 +41,7 @@ pub fn synthetic_bundle(dir: &Path) {
         scale_source: "file".into(),
         space: None,
         near_distance: None,
+        eye_height_m: None,
         credits: vec![],
     };
     let mut graph = Graph::new(scene);

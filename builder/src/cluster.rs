@@ -35,14 +35,12 @@ pub struct SynthesisParams {
     pub goodness_weight: f32,
     /// Probes are added back until the final set's coverage is within this of the candidates'.
     pub tolerance: f64,
-    /// Walk mode: keep synthesized probes at this eye height above floors.
-    pub eye_height: Option<f32>,
     pub seed: u64,
 }
 
 impl Default for SynthesisParams {
     fn default() -> Self {
-        SynthesisParams { selection_samples: 20_000, anneal_steps: 40, goodness_weight: 0.25, tolerance: 0.01, eye_height: None, seed: 1 }
+        SynthesisParams { selection_samples: 20_000, anneal_steps: 40, goodness_weight: 0.25, tolerance: 0.01, seed: 1 }
     }
 }
 
@@ -201,16 +199,7 @@ fn anneal(
         let temperature = 0.05 * (0.02f32).powf(progress);
         let radius = spread * (1.0 - progress) + space.grid.voxel;
         let offset = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * radius;
-        let proposal = match params.eye_height {
-            Some(eye) => match eye_level(rays, space, current + offset, eye) {
-                Some(p) => p,
-                None => continue,
-            },
-            None => current + offset,
-        };
-        if !space.is_navigable(proposal) {
-            continue;
-        }
+        let Some(proposal) = space.stand(rays, current + offset) else { continue };
         let s = score(proposal);
         if s >= current_score || rng.random::<f32>() < ((s - current_score) / temperature).exp() {
             current = proposal;
@@ -225,7 +214,7 @@ fn anneal(
 }
 
 use crate::coverage::{count_bits, Targets};
-use crate::explore::{eye_level, Candidate};
+use crate::explore::Candidate;
 use crate::freespace::FreeSpace;
 use crate::orient;
 use crate::raycast::RayScene;
@@ -432,7 +421,7 @@ mod tests {
             Vec3::new(18.0, 1.8, 3.0),
         ];
         let samples = surface_samples(&scene, 4000, 3);
-        let (side, _) = reachability(&rays, &space, &samples, 8, 3);
+        let (side, _, _) = reachability(&rays, &space, &samples, 8, 3);
         let seen: Vec<Vec<u64>> = probes
             .iter()
             .map(|&p| {

@@ -26,8 +26,8 @@
 //!   random one and relaxes toward the area-weighted barycentre of the surface
 //!   it newly sees, halfway to any obstruction.
 //!
-//! Walk mode (`eye_height`, the paper's future work) stands every probe at eye
-//! height above a walkable floor with a person's room above the floor.
+//! When the free space is walked ([`crate::walk`]), every probe stands at eye
+//! height above a walkable floor ([`FreeSpace::stand`]).
 //!
 //! Parameters (defaults): greedy: 2,000 candidates, 20,000 samples, target
 //! 99.5 %; occluded: `face_res` 64, τ = 2r plus two pixel footprints, 3 samples
@@ -73,9 +73,6 @@ pub struct ExploreParams {
     pub max_probes: usize,
     /// Placed first, never moved.
     pub user_probes: Vec<Vec3>,
-    /// Walk mode: probes stand at this eye height (scene units) above walkable
-    /// floors, with head room above; `None` lets them float anywhere navigable.
-    pub eye_height: Option<f32>,
     pub seed: u64,
 }
 
@@ -91,7 +88,6 @@ impl Default for ExploreParams {
             relax_steps: 6,
             max_probes: 256,
             user_probes: Vec::new(),
-            eye_height: None,
             seed: 1,
         }
     }
@@ -263,10 +259,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
                 c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
             })
             .collect();
-        positions.extend(drawn.into_iter().filter_map(|c| match params.eye_height {
-            Some(eye) => eye_level(rays, space, c, eye),
-            None => Some(c),
-        }).map(|c| (c, false)));
+        positions.extend(drawn.into_iter().filter_map(|c| space.stand(rays, c)).map(|c| (c, false)));
     }
     let t = Instant::now();
     let words = targets.words();
@@ -359,16 +352,13 @@ fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) 
             start
         } else {
             let relaxed = relax(rays, space, start, &seen_triangles, params, &mut stats);
-            match params.eye_height {
-                // Stand the probe up at eye level, or drop it if there is no floor below.
-                Some(eye) => match eye_level(rays, space, relaxed, eye).or_else(|| eye_level(rays, space, start, eye)) {
-                    Some(p) => p,
-                    None => {
-                        pending.retain(|&q| q != start);
-                        continue;
-                    }
-                },
-                None => relaxed,
+            // Stand the probe up (at eye level when walking), or drop the sample.
+            match space.stand(rays, relaxed).or_else(|| space.stand(rays, start)) {
+                Some(p) => p,
+                None => {
+                    pending.retain(|&q| q != start);
+                    continue;
+                }
             }
         };
         stats.seconds_relax += t.elapsed().as_secs_f64();
@@ -402,20 +392,6 @@ fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) 
     stats.samples_left = pending.len();
     stats.seconds = started.elapsed().as_secs_f64();
     (probes, stats)
-}
-
-/// Walk mode: the point `eye` units above the walkable floor under `p` (a
-/// surface facing up within 45°), if it is navigable and a standing person fits:
-/// nothing between the floor and the eye plus a fifth of the eye height.
-pub fn eye_level(rays: &RayScene, space: &FreeSpace, p: Vec3, eye: f32) -> Option<Vec3> {
-    let hit = rays.intersect(&Ray::new(p, Vec3::NEG_Y))?;
-    if hit.normal.y.abs() < 0.7 {
-        return None;
-    }
-    let floor = p - Vec3::Y * hit.t;
-    let standing = floor + Vec3::Y * eye;
-    let clear = !rays.occluded(&Ray { t_min: 1e-3, t_max: 1.2, ..Ray::new(floor, Vec3::Y * eye) });
-    (clear && space.is_navigable(standing)).then_some(standing)
 }
 
 /// Whether `eye` sees each point (nothing in between).
@@ -492,14 +468,18 @@ fn relax(rays: &RayScene, space: &FreeSpace, start: Vec3, seen: &[bool], params:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
     use exploremaps_scenes::BuiltIn;
 
     fn plan(scene: &Scene, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
+        plan_at(scene, params, HeightMode::Fly)
+    }
+
+    fn plan_at(scene: &Scene, params: &ExploreParams, height: HeightMode) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height, ..Default::default() }).unwrap();
         let (c, s) = explore(scene, &rays, &space, params);
         (c, s, space)
     }
@@ -619,10 +599,13 @@ mod tests {
     fn walk_mode_puts_every_probe_at_eye_height_above_a_floor() {
         let scene = BuiltIn::Gallery.generate(1);
         for strategy in STRATEGIES {
-            let (probes, stats, space) = plan(&scene, &ExploreParams { eye_height: Some(1.6), ..with(strategy) });
+            let (probes, stats, space) = plan_at(&scene, &with(strategy), HeightMode::Walk);
             assert!(probes.len() >= 5, "{strategy:?}: {stats:?}");
+            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             for p in &probes {
-                assert!((p.position.y - 1.6).abs() < 1e-3, "{strategy:?}: probe at {} is not at eye height above the ground floor", p.position);
+                // An independent look down: the floor is 1.6 below, within 5 cm, and faces up.
+                let hit = rays.intersect(&Ray::new(p.position, Vec3::NEG_Y)).expect("a floor below");
+                assert!((hit.t - 1.6).abs() < 0.05 && hit.normal.y > 0.75, "{strategy:?}: probe at {} stands {} above {:?}", p.position, hit.t, hit.normal);
             }
             let c = covered(&scene, &space, &probes);
             assert!(c > MIN_COVERAGE[strategy as usize] - 0.05, "{strategy:?}: {c}");

@@ -1,31 +1,58 @@
-//! Free space: which points a probe or a path may occupy (DESIGN.md section 3.2).
+//! Free space: which points a probe or a path may occupy (DESIGN.md section 3.2,
+//! as revised by the navigable-space issue).
 //!
 //! Inputs: the scene, its ray-casting structure, [`FreeSpaceParams`].
-//! Outputs: [`FreeSpace`] (a voxel grid with occupancy, clearance and the chosen
-//! navigable component) and [`FreeSpaceStats`].
+//! Outputs: [`FreeSpace`] (a voxel grid with occupancy, clearance, the open
+//! space inside the scene's box and the navigable voxels) and [`FreeSpaceStats`].
 //!
 //! Steps: (1) voxelize: a voxel is occupied when a triangle overlaps it (exact
 //! triangle/box separating-axis test); (2) clearance: exact Euclidean distance
-//! transform (Felzenszwalb and Huttenlocher 2012, separable 1D lower envelopes)
-//! from each voxel centre to the nearest occupied centre; (3) classify blocks of
-//! voxels with a few ray casts from their most open voxel: *solid* (inside a
-//! closed object: most hits are back faces), *inside* (a floor below and walls
-//! around: the downward ray and most horizontal rays hit front faces, the
-//! horizontal ones steep faces), or *open*;
-//! (4) navigable voxels are free, have clearance ≥ r, and are *inside* blocks
-//! (`inside`) or non-solid blocks reachable from the grid border (`outside`);
-//! (5) 6-connected components; `--start` picks one, else the one the scene's
-//! surfaces face into most (`inside`) or the one around the scene (`outside`).
+//! transform (Felzenszwalb and Huttenlocher 2012) from each voxel centre to the
+//! nearest occupied centre; (3) *solids*: the free voxels inside the scene's
+//! bounding box fall into 6-connected pockets; rays cast from each pocket's most
+//! open voxel in each block of 4³ voxels decide whether that part is enclosed by
+//! back faces (the inside of a wall, a slab, a closed object, the ground seen
+//! from below) or not. The *open space*
+//! is every free voxel in the box outside such solids: the surface it sees is
+//! the ceiling of any placement ([`crate::coverage`] reports it); (4) which kind
+//! of scene: `outside` (an object: most of its surface faces out of its box,
+//! toward the sides or below) or `inside` (everything else: interiors,
+//! semi-open architecture, landscapes); (5) navigable voxels, by height mode:
+//!
+//! * *fly*: `inside`: open space with clearance ≥ r, in the 6-connected parts the
+//!   scene's surfaces face (each triangle votes for the part in front of it; a
+//!   part needs a tenth of the votes of the most-faced one, or any vote if it
+//!   reaches the box's boundary: sealed voids and slivers drop out, while the
+//!   outside of a building with glazed windows and the ground around it stay);
+//!   `outside`: free space with clearance ≥ r around the scene, in the padding
+//!   and in the open space connected to it;
+//! * *walk* ([`crate::walk`]): voxels within a band around eye height above the
+//!   walkable floors of the fly space (slope, steps and head room as people
+//!   move; roofs and small surfaces such as table tops left out). Probes stand at
+//!   exactly eye height above a floor ([`FreeSpace::stand`]).
+//!
+//! What it guarantees: a navigable point is in no voxel a triangle touches, has
+//! clearance ≥ r (the voxel-quantized distance transform), is never in a pocket
+//! enclosed by back faces (so never under the ground or inside a closed solid),
+//! and in `inside` mode lies inside the scene's bounding box (never above the
+//! highest roof or beyond the terrain's edge). `auto` never looks at how a
+//! particular scene is shaped beyond these measures: which way the surface faces
+//! (out of the box or into it), and whether floors and a trustworthy scale exist.
 //!
 //! Parameters (defaults): at most 256 cells on the long axis (`max_cells`);
-//! r = 0.5 % of the bounding-box diagonal L (`near_rel`) unless given in metres;
-//! the grid is padded by 5 % of the longest extent so `outside` space surrounds
-//! the scene. Memory is about 13 bytes a cell: at most 40M cells (≈ 0.5 GiB).
-//! Everything is deterministic: ray casts and sums run in fixed order.
+//! r = 0.5 % of the bounding-box diagonal L (`near_rel`) unless given in metres,
+//! and at most 0.3 m when walking (a person passes where a probe may stand); the
+//! grid is padded by 5 % of the longest extent. Memory is about 14 bytes a cell:
+//! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
+//! order.
 
-use crate::raycast::{Packing, Ray, RayScene};
-use exploremaps_scenes::{Aabb, Scene};
+use crate::coverage::surface_samples;
+use crate::raycast::{Hit, Packing, Ray, RayScene};
+use crate::walk::{self, Walk, WalkStats};
+use exploremaps_scenes::{Aabb, ScaleSource, Scene};
 use glam::Vec3;
+use rand::SeedableRng;
+use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -34,11 +61,12 @@ use std::time::Instant;
 /// Which free space is navigable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SpaceMode {
-    /// Architecture and interiors: enclosed space above a floor.
+    /// Scenes one is in (interiors, architecture, landscapes): the open space
+    /// inside the scene's bounding box.
     Inside,
-    /// Objects and exteriors: the space around the scene (the paper's behaviour).
+    /// Objects: the space around the scene (the paper's behaviour).
     Outside,
-    /// Chooses from how enclosed the scene is, and reports the choice.
+    /// Chooses from which way the scene's surface faces, and reports the choice.
     Auto,
 }
 
@@ -52,28 +80,59 @@ impl SpaceMode {
     }
 }
 
+/// At which heights probes and paths may be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeightMode {
+    /// Walk for architecture and landscapes with floors and a trustworthy
+    /// scale, fly otherwise; the choice is reported.
+    Auto,
+    /// At eye height above walkable floors (human scale).
+    Walk,
+    /// Anywhere in the navigable space (objects, coverage research).
+    Fly,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct FreeSpaceParams {
     pub space: SpaceMode,
+    pub height: HeightMode,
+    /// Eye height above the floor when walking, metres.
+    pub eye_height_m: f32,
     /// Cells on the longest axis of the (padded) bounding box.
     pub max_cells: usize,
     /// Near distance r as a fraction of the bounding-box diagonal.
     pub near_rel: f32,
     /// Near distance in metres; overrides `near_rel` when given.
     pub near_m: Option<f32>,
-    /// Picks the navigable component containing this point.
+    /// Picks the navigable part containing this point.
     pub start: Option<Vec3>,
+    pub seed: u64,
 }
 
 impl Default for FreeSpaceParams {
     fn default() -> Self {
-        FreeSpaceParams { space: SpaceMode::Auto, max_cells: 256, near_rel: 0.005, near_m: None, start: None }
+        FreeSpaceParams {
+            space: SpaceMode::Auto,
+            height: HeightMode::Auto,
+            eye_height_m: 1.6,
+            max_cells: 256,
+            near_rel: 0.005,
+            near_m: None,
+            start: None,
+            seed: 1,
+        }
     }
 }
 
-/// Scenes whose free space hits front faces at least this often are interiors.
-const ENCLOSURE_INSIDE: f32 = 0.6;
-/// Voxels per block edge for the ray classification.
+/// `auto` takes a scene for an object when more than this share of the rays
+/// leaving its surface leave its box sideways or downward.
+const FACING_OUT_OBJECT: f32 = 0.5;
+/// A part of the open space is navigable when the scene faces it with at least
+/// this share of the votes of the most-faced part.
+const FACED_SHARE: f32 = 0.1;
+/// Largest near distance when walking: about a person's half width.
+const WALK_NEAR_M: f32 = 0.3;
+/// Voxels per block edge for the solid test's ray origins.
 const BLOCK: usize = 4;
 const MAX_TOTAL_CELLS: usize = 40_000_000;
 
@@ -85,9 +144,9 @@ pub enum FreeSpaceError {
     StartInGeometry(Vec3),
     #[error("the start point {point} has {clearance:.3} units of clearance, less than the near distance {near:.3}; move it away from surfaces or lower the near distance")]
     StartTooNarrow { point: Vec3, clearance: f32, near: f32 },
-    #[error("the start point {0} is not in {1} space (below the floor, inside an object, or outside the building); pick another or change --space")]
+    #[error("the start point {0} is not in {1} space (below the floor, inside an object, outside the building, or not at eye height above a floor when walking); pick another, or change --space or --walk/--fly")]
     StartNotNavigable(Vec3, &'static str),
-    #[error("no navigable {0} space with clearance {1:.3} units was found; try --space {2} or a smaller near distance")]
+    #[error("no navigable {0} space with clearance {1:.3} units was found; {2}")]
     Nothing(&'static str, f32, &'static str),
     #[error("--max-cells {0} is out of range (8 to 2048)")]
     BadResolution(usize),
@@ -151,12 +210,17 @@ pub struct FreeSpace {
     /// Distance from each voxel centre to the nearest occupied voxel centre,
     /// scene units (0 for occupied voxels).
     pub clearance: Vec<f32>,
-    /// Voxels of the chosen navigable component.
+    /// Free voxels inside the scene's bounding box and outside closed solids:
+    /// the surface they see is the most any placement could see.
+    pub open: Vec<bool>,
+    /// Voxels where probes and paths may be.
     pub navigable: Vec<bool>,
     /// Near distance r, scene units.
     pub near: f32,
     /// `Inside` or `Outside` (never `Auto`).
     pub space: SpaceMode,
+    /// Eye height and floors when walking; `None` when flying.
+    pub walk: Option<Walk>,
     /// Scene bounds (unpadded).
     pub bounds: Aabb,
 }
@@ -167,15 +231,25 @@ pub struct FreeSpaceStats {
     pub voxel: f32,
     pub near: f32,
     pub occupied: usize,
-    /// Free voxels that passed clearance and classification, in all components.
-    pub candidates: usize,
+    /// Free voxels in the box outside closed solids.
+    pub open: usize,
+    /// Free voxels inside closed solids (walls, slabs, under the ground).
+    pub solid: usize,
+    /// Parts of the open space with clearance ≥ r, and how many were kept.
     pub components: usize,
+    pub components_kept: usize,
     pub navigable: usize,
-    /// Fraction of rays from free space that hit front faces (1 = closed interior).
+    /// Fraction of rays from open space that hit front faces (1 = closed interior).
     pub enclosure: f32,
+    /// Fraction of rays leaving the surface that leave the box sideways or downward.
+    pub facing_out: f32,
     pub space: &'static str,
-    /// Why this space was chosen: "given" or "auto (enclosure …)".
+    /// Why this space was chosen: "given" or "auto (…)".
     pub space_reason: String,
+    /// "walk" or "fly".
+    pub height: &'static str,
+    pub height_reason: String,
+    pub walk: Option<WalkStats>,
     pub rays: usize,
     pub seconds: f64,
 }
@@ -183,6 +257,11 @@ pub struct FreeSpaceStats {
 impl FreeSpace {
     pub fn is_navigable(&self, p: Vec3) -> bool {
         self.grid.cell(p).is_some_and(|c| self.navigable[self.grid.index(c)])
+    }
+
+    /// Whether `p` lies in the open space (free, in the box, outside solids).
+    pub fn is_open(&self, p: Vec3) -> bool {
+        self.grid.cell(p).is_some_and(|c| self.open[self.grid.index(c)])
     }
 
     /// Clearance at the voxel holding `p` (0 outside the grid). A lower bound on the
@@ -203,6 +282,17 @@ impl FreeSpace {
             .max_by(|&a, &b| self.clearance[a].total_cmp(&self.clearance[b]).then(b.cmp(&a)))
             .map(|i| self.grid.center(self.grid.coords(i)))
     }
+
+    /// Where a probe near `p` stands: `p` itself when flying (if navigable); when
+    /// walking, exactly eye height above the floor under `p`, if a person can
+    /// stand there. `None` when there is no such place.
+    pub fn stand(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
+        let standing = match &self.walk {
+            None => p,
+            Some(w) => w.stand(rays, p)?,
+        };
+        self.is_navigable(standing).then_some(standing)
+    }
 }
 
 /// Computes the navigable free space of a scene.
@@ -212,7 +302,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         return Err(FreeSpaceError::BadResolution(params.max_cells));
     }
     let bounds = scene.bounds();
-    let near = match params.near_m {
+    let mut near = match params.near_m {
         Some(m) => m / scene.metres_per_unit,
         None => params.near_rel * bounds.diagonal(),
     };
@@ -220,29 +310,72 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let occupied = voxelize(scene, &grid);
     let clearance: Vec<f32> = distance_transform(&grid, &occupied).into_iter().map(|d2| d2.sqrt() * grid.voxel).collect();
 
-    let (classes, enclosure, ray_count) = classify_blocks(&grid, &occupied, &clearance, rays);
+    // Open space: free voxels in the box, minus the pockets enclosed by back faces.
+    let in_box: Vec<bool> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            let p = grid.center(grid.coords(i));
+            p.cmpge(bounds.min).all() && p.cmple(bounds.max).all()
+        })
+        .collect();
+    let free_in_box: Vec<bool> = (0..grid.len()).map(|i| in_box[i] && !occupied[i]).collect();
+    let solids = classify_solids(&grid, &free_in_box, &clearance, &bounds, rays);
+    let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
+    let mut ray_count = solids.rays;
+
+    let facing_out = facing_out(scene, rays, &bounds, params.seed);
+    ray_count += FACING_SAMPLES;
     let (space, space_reason) = match params.space {
-        SpaceMode::Auto if enclosure >= ENCLOSURE_INSIDE => (SpaceMode::Inside, format!("auto: enclosure {enclosure:.2} ≥ {ENCLOSURE_INSIDE}")),
-        SpaceMode::Auto => (SpaceMode::Outside, format!("auto: enclosure {enclosure:.2} < {ENCLOSURE_INSIDE}")),
+        SpaceMode::Auto if facing_out > FACING_OUT_OBJECT => {
+            (SpaceMode::Outside, format!("auto: an object, {:.0} % of its surface faces out of its box", 100.0 * facing_out))
+        }
+        SpaceMode::Auto => (
+            SpaceMode::Inside,
+            format!("auto: a scene to be in, {:.0} % of its surface faces out of its box, enclosure {:.2}", 100.0 * facing_out, solids.enclosure),
+        ),
         given => (given, "given".to_string()),
     };
-    let block_dims = grid.dims.map(|d| d.div_ceil(BLOCK));
-    let class_of = |c: [usize; 3]| classes[c[0] / BLOCK + block_dims[0] * (c[1] / BLOCK + block_dims[1] * (c[2] / BLOCK))];
+
+    // Walk or fly: walking needs a scene to be in, floors, and a scale to trust.
+    let scale_known = matches!(scene.scale_source, ScaleSource::File | ScaleSource::User);
+    let eye = params.eye_height_m / scene.metres_per_unit;
+    let walk_near = (WALK_NEAR_M / scene.metres_per_unit).min(near);
+    let probe_floors = || walk::floor_cells(&grid, &occupied, &open, rays);
+    let (walking, height_reason) = match params.height {
+        HeightMode::Fly => (false, "given".to_string()),
+        HeightMode::Walk => (true, "given".to_string()),
+        HeightMode::Auto if space == SpaceMode::Outside => (false, "auto: objects are seen in free flight".to_string()),
+        HeightMode::Auto => {
+            let floors = probe_floors();
+            match walk::judge_scale(&floors, scene.metres_per_unit) {
+                _ if floors.cells.is_empty() => (false, "auto: no floor a person can stand on".to_string()),
+                _ if scale_known => (true, format!("auto: floors, and the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
+                Ok(why) => (true, format!("auto: floors, and the guessed scale is plausible ({why})")),
+                Err(why) => (false, format!("auto: the scale is only guessed and {why}; pass --metres-per-unit to walk")),
+            }
+        }
+    };
+    if walking {
+        near = walk_near;
+    }
+
     let candidate: Vec<bool> = (0..grid.len())
         .into_par_iter()
         .map(|i| {
-            let class = class_of(grid.coords(i));
-            !occupied[i] && clearance[i] >= near && if space == SpaceMode::Inside { class == Class::Inside } else { class != Class::Solid }
+            let allowed = match space {
+                SpaceMode::Outside => !occupied[i] && (!in_box[i] || open[i]),
+                _ => open[i],
+            };
+            allowed && clearance[i] >= near
         })
         .collect();
     let (labels, sizes) = components(&grid, &candidate);
-
-    let chosen = match params.start {
+    let mut kept = vec![false; sizes.len()];
+    match params.start {
         Some(p) => {
             let c = grid.cell(p).ok_or(FreeSpaceError::StartOutside(p))?;
             let i = grid.index(c);
-            let hits = rays.intersect_batch(&probe_directions().map(|d| Ray::new(p, d)), Packing::Single);
-            if occupied[i] || classify(&hits) == Class::Solid {
+            if occupied[i] || (free_in_box[i] && !open[i]) {
                 return Err(FreeSpaceError::StartInGeometry(p));
             }
             if clearance[i] < near {
@@ -251,35 +384,101 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             if labels[i] == NONE {
                 return Err(FreeSpaceError::StartNotNavigable(p, space.name()));
             }
-            labels[i]
+            kept[labels[i] as usize] = true;
         }
-        None if space == SpaceMode::Outside => {
-            // The padding guarantees free space at the grid's corner, around the scene.
-            let corner = labels[0];
-            if corner == NONE {
-                return Err(FreeSpaceError::Nothing("outside", near, "inside"));
+        // The padding guarantees free space at the grid's corner, around the scene.
+        None if space == SpaceMode::Outside => match labels[0] {
+            NONE => return Err(FreeSpaceError::Nothing("outside", near, "try --space inside or a smaller near distance")),
+            corner => kept[corner as usize] = true,
+        },
+        None => {
+            let votes = faced_votes(scene, &grid, &labels, sizes.len(), near);
+            let most = votes.iter().copied().max().unwrap_or(0);
+            if most == 0 {
+                return Err(FreeSpaceError::Nothing("inside", near, "try --space outside or a smaller near distance"));
             }
-            corner
+            let exterior = touches_boundary(&grid, &labels, sizes.len(), &in_box);
+            for (k, &v) in votes.iter().enumerate() {
+                kept[k] = v as f32 >= FACED_SHARE * most as f32 || (v > 0 && exterior[k]);
+            }
         }
-        None => most_faced_component(scene, &grid, &labels, sizes.len(), near)
-            .ok_or(FreeSpaceError::Nothing("inside", near, "outside"))?,
+    }
+    let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
+
+    let mut walk_stats = None;
+    let walk = if walking {
+        let floors = probe_floors();
+        let (w, band, stats) = walk::walk_space(&grid, &navigable, &floors, rays, eye, scene.metres_per_unit);
+        ray_count += stats.rays;
+        if band.iter().all(|&b| !b) {
+            return Err(FreeSpaceError::Nothing("walkable", near, "no floor a person can reach and stand on at eye height; try --fly"));
+        }
+        if let Some(p) = params.start {
+            if !band[grid.index(grid.cell(p).expect("checked above"))] {
+                return Err(FreeSpaceError::StartNotNavigable(p, "walkable"));
+            }
+        }
+        navigable = band;
+        walk_stats = Some(stats);
+        Some(w)
+    } else {
+        None
     };
-    let navigable: Vec<bool> = labels.iter().map(|&l| l == chosen).collect();
+
     let stats = FreeSpaceStats {
         dims: grid.dims,
         voxel: grid.voxel,
         near,
         occupied: occupied.iter().filter(|&&o| o).count(),
-        candidates: candidate.iter().filter(|&&c| c).count(),
+        open: open.iter().filter(|&&o| o).count(),
+        solid: (0..grid.len()).filter(|&i| free_in_box[i] && !open[i]).count(),
         components: sizes.len(),
-        navigable: sizes[chosen as usize],
-        enclosure,
+        components_kept: kept.iter().filter(|&&k| k).count(),
+        navigable: navigable.iter().filter(|&&n| n).count(),
+        enclosure: solids.enclosure,
+        facing_out,
         space: space.name(),
         space_reason,
+        height: if walking { "walk" } else { "fly" },
+        height_reason,
+        walk: walk_stats,
         rays: ray_count,
         seconds: started.elapsed().as_secs_f64(),
     };
-    Ok((FreeSpace { grid, occupied, clearance, navigable, near, space, bounds }, stats))
+    Ok((FreeSpace { grid, occupied, clearance, open, navigable, near, space, walk, bounds }, stats))
+}
+
+fn scale_word(source: ScaleSource) -> &'static str {
+    match source {
+        ScaleSource::File => "stated by the file",
+        ScaleSource::User => "given",
+        ScaleSource::Guessed => "guessed",
+    }
+}
+
+/// Surface samples of the facing test.
+const FACING_SAMPLES: usize = 4096;
+
+/// Share of cosine-distributed rays leaving the surface's front that leave the
+/// bounding box sideways or downward without hitting anything: high for an
+/// object seen from around it, low for interiors (rays hit walls) and for
+/// landscapes (rays that escape go up, to the sky).
+fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
+    let samples = surface_samples(scene, FACING_SAMPLES, seed ^ 0x6661_6365);
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6f75_7473);
+    let eps = 1e-4 * bounds.diagonal().max(1e-6);
+    let list: Vec<Ray> = samples
+        .points
+        .iter()
+        .zip(&samples.normals)
+        .map(|(&p, &n)| Ray::new(p + n * eps, crate::coverage::cosine_dir(n, &mut rng)))
+        .collect();
+    if list.is_empty() {
+        return 0.0;
+    }
+    let hits = rays.intersect_batch(&list, Packing::Single);
+    let out = list.iter().zip(&hits).filter(|(r, h)| h.is_none() && r.dir.y < 0.5).count();
+    out as f32 / list.len() as f32
 }
 
 fn make_grid(bounds: &Aabb, max_cells: usize) -> Grid {
@@ -434,18 +633,7 @@ fn lower_envelope(f: &[f32]) -> Vec<f32> {
     out
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Class {
-    /// No free voxel, or never classified.
-    Unknown,
-    /// Inside a closed object: rays from it mostly see back faces.
-    Solid,
-    /// A floor below and walls around.
-    Inside,
-    Open,
-}
-
-/// Ray directions of the classification: 8 horizontal, then up, then down.
+/// Ray directions of the solid test: 8 horizontal, then up, then down.
 fn probe_directions() -> [Vec3; 10] {
     let mut d = [Vec3::ZERO; 10];
     for (k, item) in d.iter_mut().enumerate().take(8) {
@@ -457,69 +645,127 @@ fn probe_directions() -> [Vec3; 10] {
     d
 }
 
-/// Whether ray `i` of [`probe_directions`] hit a surface's front.
-fn front_hit(hits: &[Option<crate::raycast::Hit>], i: usize) -> bool {
-    hits[i].is_some_and(|hit| hit.normal.dot(probe_directions()[i]) < 0.0)
+/// Which free voxels of the box lie inside closed solids.
+struct Solids {
+    /// Per voxel: free, in the box, and enclosed by back faces.
+    solid: Vec<bool>,
+    /// Fraction of rays from open space in the middle 60 % of the box that hit front faces.
+    enclosure: f32,
+    rays: usize,
 }
 
-/// Classifies a point from the hits of the [`probe_directions`] rays cast from it.
-/// Walls must be steep: above the eaves of a courtyard, horizontal rays meet
-/// roof slopes, and that space is above the roof, not inside.
-fn classify(hits: &[Option<crate::raycast::Hit>]) -> Class {
-    let fronts = (0..hits.len()).filter(|&i| front_hit(hits, i)).count();
-    let backs = hits.iter().filter(|h| h.is_some()).count() - fronts;
-    let walls = (0..8).filter(|&i| front_hit(hits, i) && hits[i].is_some_and(|h| h.normal.y.abs() < 0.7)).count();
-    if backs > fronts {
-        Class::Solid
-    } else if front_hit(hits, 9) && walls >= 6 {
-        Class::Inside
-    } else {
-        Class::Open
-    }
-}
-
-/// Classifies each block of BLOCK³ voxels from its most open free voxel, and
-/// measures enclosure over blocks in the middle 60 % of the scene.
-fn classify_blocks(grid: &Grid, occupied: &[bool], clearance: &[f32], rays: &RayScene) -> (Vec<Class>, f32, usize) {
+/// Splits the free voxels of the box into 6-connected pockets, and each block of
+/// BLOCK³ voxels by pocket; casts the [`probe_directions`] rays from the most
+/// open voxel of each (block, pocket) pair. The pair is solid when most of its
+/// rays that cross surfaces have a positive winding number. Both
+/// sides of a thin wall thus get their own rays, and a closed object whose
+/// inside leaks out through a small hole (the Stanford bunny's base) is still
+/// solid inside and open outside.
+fn classify_solids(grid: &Grid, free: &[bool], clearance: &[f32], bounds: &Aabb, rays: &RayScene) -> Solids {
+    let (labels, _) = components(grid, free);
     let bd = grid.dims.map(|d| d.div_ceil(BLOCK));
-    let blocks = bd[0] * bd[1] * bd[2];
-    // The sample point of each block: its free voxel with the most clearance.
-    let samples: Vec<Option<[usize; 3]>> = (0..blocks)
+    let block_of = |c: [usize; 3]| c[0] / BLOCK + bd[0] * (c[1] / BLOCK + bd[1] * (c[2] / BLOCK));
+    // Per block: (pocket, most open voxel) pairs, in pocket order.
+    let origins: Vec<Vec<(u32, usize)>> = (0..bd[0] * bd[1] * bd[2])
         .into_par_iter()
         .map(|b| {
             let bc = [b % bd[0], (b / bd[0]) % bd[1], b / (bd[0] * bd[1])];
-            let mut best: Option<([usize; 3], f32)> = None;
+            let mut best: Vec<(u32, usize)> = Vec::new();
             for z in bc[2] * BLOCK..((bc[2] + 1) * BLOCK).min(grid.dims[2]) {
                 for y in bc[1] * BLOCK..((bc[1] + 1) * BLOCK).min(grid.dims[1]) {
                     for x in bc[0] * BLOCK..((bc[0] + 1) * BLOCK).min(grid.dims[0]) {
                         let i = grid.index([x, y, z]);
-                        if !occupied[i] && best.is_none_or(|(_, c)| clearance[i] > c) {
-                            best = Some(([x, y, z], clearance[i]));
+                        if !free[i] {
+                            continue;
+                        }
+                        match best.iter_mut().find(|(l, _)| *l == labels[i]) {
+                            Some(slot) if clearance[i] > clearance[slot.1] => slot.1 = i,
+                            Some(_) => {}
+                            None => best.push((labels[i], i)),
                         }
                     }
                 }
             }
-            best.map(|(c, _)| c)
+            best.sort_unstable();
+            best
         })
         .collect();
+    let flat: Vec<usize> = origins.iter().flat_map(|o| o.iter().map(|&(_, i)| i)).collect();
     let dirs = probe_directions();
-    let origins: Vec<(usize, Vec3)> = samples.iter().enumerate().filter_map(|(b, s)| s.map(|c| (b, grid.center(c)))).collect();
-    let ray_list: Vec<Ray> = origins.iter().flat_map(|&(_, o)| dirs.iter().map(move |&d| Ray::new(o, d))).collect();
-    let hits = rays.intersect_batch(&ray_list, Packing::Single);
-    let mut classes = vec![Class::Unknown; blocks];
-    let middle_lo = grid.origin + Vec3::from(grid.dims.map(|d| d as f32)) * grid.voxel * 0.2;
-    let middle_hi = grid.origin + Vec3::from(grid.dims.map(|d| d as f32)) * grid.voxel * 0.8;
-    let (mut front_in_middle, mut rays_in_middle) = (0usize, 0usize);
-    for (k, &(b, origin)) in origins.iter().enumerate() {
-        let h = &hits[k * dirs.len()..(k + 1) * dirs.len()];
-        classes[b] = classify(h);
-        if classes[b] != Class::Solid && origin.cmpge(middle_lo).all() && origin.cmple(middle_hi).all() {
-            front_in_middle += (0..dirs.len()).filter(|&i| front_hit(h, i)).count();
-            rays_in_middle += dirs.len();
+    let list: Vec<Ray> = flat.iter().flat_map(|&i| dirs.iter().map(move |&d| Ray::new(grid.center(grid.coords(i)), d))).collect();
+    let (hits, winding, cast) = crossings(rays, &list, grid.voxel);
+    let front = |h: &Option<Hit>, d: Vec3| h.is_some_and(|h| h.normal.dot(d) < 0.0);
+    // Inside when the first hits are mostly back faces, or when most rays that
+    // cross any surface leave more surfaces than they enter (the winding number:
+    // it holds inside overlapping closed solids, a slab meeting the walls, where
+    // the first hit alone is fooled; the first hit holds where coplanar faces,
+    // a wall's top flush with a slab's underside, hide a crossing).
+    let pair_solid: Vec<bool> = (0..flat.len())
+        .map(|k| {
+            let (h, w) = (&hits[k * dirs.len()..(k + 1) * dirs.len()], &winding[k * dirs.len()..(k + 1) * dirs.len()]);
+            let fronts = h.iter().zip(&dirs).filter(|(h, &d)| front(h, d)).count();
+            let backs = h.iter().filter(|h| h.is_some()).count() - fronts;
+            let crossing = w.iter().filter(|w| w.is_some()).count();
+            let inside = w.iter().filter(|w| w.is_some_and(|w| w > 0)).count();
+            backs > fronts || 2 * inside > crossing
+        })
+        .collect();
+    // Each voxel takes the verdict of its (block, pocket) pair.
+    let starts: Vec<usize> = origins.iter().scan(0, |n, o| { let s = *n; *n += o.len(); Some(s) }).collect();
+    let solid: Vec<bool> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            if !free[i] {
+                return false;
+            }
+            let b = block_of(grid.coords(i));
+            let k = origins[b].binary_search_by_key(&labels[i], |&(l, _)| l).expect("every free voxel's pocket has an origin in its block");
+            pair_solid[starts[b] + k]
+        })
+        .collect();
+    // Enclosure over the middle of the box, for the log and the report.
+    let (lo, hi) = (bounds.min + bounds.extent() * 0.2, bounds.max - bounds.extent() * 0.2);
+    let (mut front_mid, mut rays_mid) = (0usize, 0usize);
+    for (k, &i) in flat.iter().enumerate() {
+        let p = grid.center(grid.coords(i));
+        if !pair_solid[k] && p.cmpge(lo).all() && p.cmple(hi).all() {
+            front_mid += hits[k * dirs.len()..(k + 1) * dirs.len()].iter().zip(&dirs).filter(|(h, &d)| front(h, d)).count();
+            rays_mid += dirs.len();
         }
     }
-    let enclosure = if rays_in_middle > 0 { front_in_middle as f32 / rays_in_middle as f32 } else { 0.0 };
-    (classes, enclosure, ray_list.len())
+    let enclosure = if rays_mid > 0 { front_mid as f32 / rays_mid as f32 } else { 0.0 };
+    Solids { solid, enclosure, rays: cast }
+}
+
+/// Most surfaces a ray of the solid test crosses before its winding number is taken as is.
+const MAX_CROSSINGS: usize = 16;
+
+/// For each ray: its first hit, and its winding number (surfaces left through
+/// their back minus surfaces entered through their front, up to
+/// MAX_CROSSINGS), `None` when it crosses nothing. Returns the rays cast too.
+fn crossings(rays: &RayScene, list: &[Ray], voxel: f32) -> (Vec<Option<Hit>>, Vec<Option<i32>>, usize) {
+    let mut first = vec![None; list.len()];
+    let mut winding: Vec<Option<i32>> = vec![None; list.len()];
+    let mut active: Vec<(usize, Ray)> = list.iter().copied().enumerate().collect();
+    let mut cast = 0;
+    for round in 0..MAX_CROSSINGS {
+        if active.is_empty() {
+            break;
+        }
+        let hits = rays.intersect_batch(&active.iter().map(|a| a.1).collect::<Vec<_>>(), Packing::Single);
+        cast += active.len();
+        let mut next = Vec::with_capacity(active.len());
+        for ((k, ray), hit) in active.into_iter().zip(hits) {
+            let Some(h) = hit else { continue };
+            if round == 0 {
+                first[k] = Some(h);
+            }
+            *winding[k].get_or_insert(0) += if h.normal.dot(ray.dir) > 0.0 { 1 } else { -1 };
+            next.push((k, Ray { t_min: h.t + 1e-3 * voxel, ..ray }));
+        }
+        active = next;
+    }
+    (first, winding, cast)
 }
 
 const NONE: u32 = u32::MAX;
@@ -557,8 +803,25 @@ fn components(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
 /// voxel, doubling up to eight times that). Votes count triangles, not area:
 /// the detail of a scene (columns, arches, statues) faces its main space, while
 /// a few huge panels (a backdrop, the outside of the outer walls) face the space
-/// around it.
-fn most_faced_component(scene: &Scene, grid: &Grid, labels: &[u32], count: usize, near: f32) -> Option<u32> {
+
+/// Per component: whether it reaches the box's boundary (open to the world
+/// outside the box, like a courtyard or the ground around a building).
+fn touches_boundary(grid: &Grid, labels: &[u32], count: usize, in_box: &[bool]) -> Vec<bool> {
+    let mut touches = vec![false; count];
+    for i in 0..grid.len() {
+        if labels[i] != NONE && !touches[labels[i] as usize] && grid.neighbours(grid.coords(i)).any(|n| !in_box[grid.index(n)]) {
+            touches[labels[i] as usize] = true;
+        }
+    }
+    touches
+}
+
+/// Per component: how many triangles face it. Each triangle votes for the first
+/// component found stepping out along its normal (r plus one voxel, doubling up
+/// to eight times that). Votes count triangles, not area: the detail of a scene
+/// (columns, arches, statues, furniture) faces the space it is seen from, while
+/// a few huge panels (a backdrop, the walls of a sealed void) count little.
+fn faced_votes(scene: &Scene, grid: &Grid, labels: &[u32], count: usize, near: f32) -> Vec<usize> {
     let votes: Vec<u32> = (0..scene.triangles.len())
         .into_par_iter()
         .map(|t| {
@@ -577,7 +840,7 @@ fn most_faced_component(scene: &Scene, grid: &Grid, labels: &[u32], count: usize
     for v in votes.into_iter().filter(|&v| v != NONE) {
         tally[v as usize] += 1;
     }
-    (0..count).filter(|&i| tally[i] > 0).max_by(|&x, &y| tally[x].cmp(&tally[y]).then(y.cmp(&x))).map(|i| i as u32)
+    tally
 }
 
 #[cfg(test)]
@@ -592,6 +855,9 @@ mod tests {
         free_space(scene, &rays, params)
     }
 
+    fn fly(space: SpaceMode) -> FreeSpaceParams {
+        FreeSpaceParams { space, height: HeightMode::Fly, ..Default::default() }
+    }
 
     #[test]
     fn triangle_box_overlap_exact_cases() {
@@ -623,33 +889,45 @@ mod tests {
     }
 
     #[test]
-    fn closed_box_is_one_inside_component() {
-        let (space, stats) = run(&rooms(1, 6.0, 3.0, 4.0, &[]), &FreeSpaceParams::default()).unwrap();
+    fn closed_box_is_one_inside_component_and_its_thick_walls_are_solid() {
+        let (space, stats) = run(&rooms(1, 6.0, 3.0, 4.0, &[]), &FreeSpaceParams { height: HeightMode::Fly, ..Default::default() }).unwrap();
         assert_eq!(stats.space, "inside", "{stats:?}");
         assert!(stats.enclosure > 0.9);
-        assert_eq!(stats.components, 1, "{stats:?}");
+        // The room, and the 0.1-wide ledge outside its walls under the overhanging
+        // slabs: open space inside the box that the walls' outer faces look into.
+        assert_eq!(stats.components_kept, 2, "{stats:?}");
         assert!(space.is_navigable(Vec3::new(3.0, 1.5, 2.0)));
+        assert!(space.is_navigable(Vec3::new(-0.15, 1.5, 2.0)));
         assert!(!space.is_navigable(Vec3::new(3.0, -1.0, 2.0)), "below the floor");
         assert!(!space.is_navigable(Vec3::new(3.0, 4.0, 2.0)), "above the roof");
         assert!(!space.is_navigable(Vec3::new(-1.0, 1.5, 2.0)), "outside the walls");
+        // The 0.2-thick walls and slabs are closed boxes: free voxels inside them are solid.
+        assert!(stats.solid > 0, "{stats:?}");
+        assert!(!space.is_open(Vec3::new(3.0, -0.1, 2.0)), "inside the floor slab");
+        assert!(space.is_open(Vec3::new(3.0, 0.1, 2.0)), "just above the floor");
         // Half the height is the most clearance there is (up to a voxel).
         let open = space.most_open_point().unwrap();
         assert!((space.clearance_at(open) - 1.5).abs() < 2.0 * space.grid.voxel, "{open}");
     }
 
     #[test]
-    fn rooms_joined_by_a_door_are_one_component_and_sealed_rooms_two() {
-        for (doors, expected) in [(vec![1], 2), (vec![], 3), (vec![1, 2], 1)] {
+    fn rooms_joined_by_a_door_are_one_space_and_sealed_rooms_are_kept_apart() {
+        let centre = |k: usize| Vec3::new(2.5 + 5.0 * k as f32, 1.5, 2.0);
+        for doors in [vec![1], vec![], vec![1, 2]] {
             let scene = rooms(3, 5.0, 3.0, 4.0, &doors);
-            let (_, stats) = run(&scene, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
-            assert_eq!(stats.components, expected, "doors {doors:?}: {stats:?}");
+            let params = FreeSpaceParams { start: Some(centre(0)), ..fly(SpaceMode::Inside) };
+            let (space, stats) = run(&scene, &params).unwrap();
+            for k in 1..3 {
+                let joined = (1..=k).all(|d| doors.contains(&d));
+                assert_eq!(space.is_navigable(centre(k)), joined, "doors {doors:?}, room {k}: {stats:?}");
+            }
         }
     }
 
     #[test]
     fn start_point_picks_the_component_and_bad_starts_are_errors() {
         let scene = rooms(2, 5.0, 3.0, 4.0, &[]);
-        let inside = FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() };
+        let inside = fly(SpaceMode::Inside);
         let (space, _) = run(&scene, &FreeSpaceParams { start: Some(Vec3::new(7.5, 1.5, 2.0)), ..inside.clone() }).unwrap();
         assert!(space.is_navigable(Vec3::new(7.5, 1.5, 2.0)) && !space.is_navigable(Vec3::new(2.5, 1.5, 2.0)));
         let err = |p: Vec3| run(&scene, &FreeSpaceParams { start: Some(p), ..inside.clone() }).unwrap_err();
@@ -657,14 +935,17 @@ mod tests {
         assert!(matches!(err(Vec3::new(0.14, 1.5, 2.0)), FreeSpaceError::StartTooNarrow { .. }));
         assert!(matches!(err(Vec3::new(50.0, 1.5, 2.0)), FreeSpaceError::StartOutside(_)));
         assert!(matches!(err(Vec3::new(2.5, -0.5, 2.0)), FreeSpaceError::StartNotNavigable(..)));
-        // A closed box with the start outside it and no opening: a clear error, not a hang.
-        assert!(matches!(err(Vec3::new(-0.4, 1.5, 2.0)), FreeSpaceError::StartNotNavigable(..)));
+        // Outside the closed box in inside mode: not navigable, a clear error, not a hang.
+        assert!(matches!(err(Vec3::new(-0.4, 1.5, 2.0)), FreeSpaceError::StartNotNavigable(..) | FreeSpaceError::StartOutside(_)));
+        // Walking: a start above a floor but not at eye height is refused.
+        let walk = FreeSpaceParams { height: HeightMode::Walk, start: Some(Vec3::new(2.5, 0.4, 2.0)), ..inside.clone() };
+        assert!(matches!(run(&scene, &walk).unwrap_err(), FreeSpaceError::StartNotNavigable(..)));
     }
 
     #[test]
     fn a_closed_box_has_no_outside_start_inside_it_and_outside_surrounds_it() {
         let scene = rooms(1, 6.0, 3.0, 4.0, &[]);
-        let outside = FreeSpaceParams { space: SpaceMode::Outside, ..Default::default() };
+        let outside = fly(SpaceMode::Outside);
         let (space, stats) = run(&scene, &outside).unwrap();
         assert!(stats.navigable > 0);
         assert!(space.is_navigable(Vec3::new(-0.4, 1.5, 2.0)) && !space.is_navigable(Vec3::new(3.0, 1.5, 2.0)));
@@ -674,16 +955,34 @@ mod tests {
     }
 
     #[test]
-    fn auto_chooses_inside_for_the_gallery_and_outside_for_an_object() {
-        let (space, stats) = run(&BuiltIn::Gallery.generate(1), &FreeSpaceParams::default()).unwrap();
+    fn auto_chooses_inside_and_walking_for_the_gallery_and_outside_flight_for_an_object() {
+        let (space, stats) = run(&BuiltIn::Gallery.generate(1), &FreeSpaceParams { height: HeightMode::Fly, ..Default::default() }).unwrap();
         assert_eq!(stats.space, "inside", "{stats:?}");
         assert!(space.is_navigable(Vec3::new(30.0, 1.6, 8.5)), "the pillared hall");
         assert!(space.is_navigable(Vec3::new(6.0, 1.6, -8.0)), "the open courtyard");
-        assert!(!space.is_navigable(Vec3::new(20.0, 6.0, 10.0)), "above the roof");
+        assert!(space.is_navigable(Vec3::new(6.0, 3.6, -8.0)), "high in the courtyard: flying");
+        assert!(!space.is_navigable(Vec3::new(20.0, 6.0, 10.0)), "above the roof, outside the box");
+        let (space, stats) = run(&BuiltIn::Gallery.generate(1), &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        assert!(space.is_navigable(Vec3::new(30.0, 1.6, 8.5)) && !space.is_navigable(Vec3::new(30.0, 3.3, 8.5)), "walking: eye height only");
+        assert!(!space.is_navigable(Vec3::new(6.0, 0.4, -8.0)));
         let mut m = MeshBuilder::new("blob");
         m.blob(Vec3::ZERO, Vec3::ONE, 3, |_| 1.0);
         let (_, stats) = run(&m.finish(), &FreeSpaceParams::default()).unwrap();
         assert_eq!(stats.space, "outside", "{stats:?}");
+        assert_eq!(stats.height, "fly", "{stats:?}");
+    }
+
+    #[test]
+    fn walking_needs_a_scale_it_can_trust() {
+        // The same box with its scale only guessed: rooms 3 m high are plausible,
+        // rooms 30 units high under a guess of metres are not.
+        for (height, walks) in [(3.0, true), (30.0, false)] {
+            let mut scene = rooms(1, 2.0 * height, height, 1.5 * height, &[]);
+            scene.scale_source = ScaleSource::Guessed;
+            let (_, stats) = run(&scene, &FreeSpaceParams::default()).unwrap();
+            assert_eq!(stats.height == "walk", walks, "{height}: {stats:?}");
+        }
     }
 
     #[test]
@@ -693,6 +992,7 @@ mod tests {
         let a = one.install(|| run(&scene, &FreeSpaceParams::default()).unwrap());
         let b = run(&scene, &FreeSpaceParams::default()).unwrap();
         assert_eq!(a.0.navigable, b.0.navigable);
+        assert_eq!(a.0.open, b.0.open);
         assert_eq!(a.0.clearance, b.0.clearance);
     }
 }
@@ -715,17 +1015,22 @@ mod shared_scene_tests {
 
     #[test]
     #[ignore]
-    fn sponzas_are_inside_and_the_bunny_outside() {
-        for (file, space, inside_point, outside_point) in [
-            ("sponza_crytek/sponza_crytek.obj", "inside", Vec3::new(0.0, 8.0, 0.0), Vec3::new(0.0, 75.0, 0.0)),
-            ("sponza_dabrovic/sponza.obj", "inside", Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 16.5, 0.0)),
-            ("stanford_bunny/bun_zipper.ply", "outside", Vec3::new(0.065, 0.1, 0.0), Vec3::new(-0.02, 0.1, 0.0)),
+    fn every_shared_scene_gets_a_sensible_space() {
+        // (file, space, height, a point that must be navigable, one that must not).
+        for (file, space, height, inside_point, outside_point) in [
+            ("sponza_crytek/sponza_crytek.obj", "inside", "fly", Vec3::new(0.0, 8.0, 0.0), Vec3::new(0.0, -3.0, 0.0)),
+            ("sponza_dabrovic/sponza.obj", "inside", "walk", Vec3::new(0.0, 1.6, 0.0), Vec3::new(0.0, 6.0, 0.0)),
+            ("stanford_bunny/bun_zipper.ply", "outside", "fly", Vec3::new(0.065, 0.1, 0.0), Vec3::new(-0.02, 0.1, 0.0)),
+            ("wooden_staircase/wooden_staircase.obj", "inside", "walk", Vec3::new(0.0, 1.6, -2.0), Vec3::new(0.0, 5.5, 3.0)),
+            ("grey_white_room/grey_white_room.obj", "inside", "walk", Vec3::new(2.5, 1.6, -1.5), Vec3::new(2.5, 0.5, -1.5)),
+            ("dream_apartment/dream_apartment.glb", "inside", "walk", Vec3::new(8.0, 1.6, -9.0), Vec3::new(8.0, 2.5, -9.0)),
+            ("cornell_box/CornellBox-Original.obj", "inside", "walk", Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, -0.5, 0.0)),
         ] {
             let Some(scene) = shared(file) else { continue };
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             let (fs, stats) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
             eprintln!("{file}: {stats:?}");
-            assert_eq!(stats.space, space, "{file}");
+            assert_eq!((stats.space, stats.height), (space, height), "{file}");
             assert!(fs.is_navigable(inside_point), "{file}: {inside_point} should be navigable");
             assert!(!fs.is_navigable(outside_point), "{file}: {outside_point} should not be");
         }

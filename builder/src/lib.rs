@@ -23,6 +23,7 @@ pub mod render;
 pub mod report;
 pub mod smooth;
 pub mod video;
+pub mod walk;
 #[cfg(test)]
 mod testing;
 

@@ -199,7 +199,8 @@ fn prepare(scene: &Scene, params: &FreeSpaceParams) -> Result<(RayScene, FreeSpa
         let _span = tracing::info_span!("free space").entered();
         free_space(scene, &rays, params)?
     };
-    tracing::info!("free space: {} ({}), {} navigable voxels of {:.3} units, near distance {:.3}", stats.space, stats.space_reason, stats.navigable, stats.voxel, stats.near);
+    tracing::info!("space: {} ({}); {} ({})", stats.space, stats.space_reason, stats.height, stats.height_reason);
+    tracing::info!("free space: {} navigable voxels of {:.3} units, near distance {:.3}; open space {} voxels, {} inside closed solids", stats.navigable, stats.voxel, stats.near, stats.open, stats.solid);
     Ok((rays, space, stats))
 }
 
@@ -245,6 +246,7 @@ fn measure(
         samples: report.samples.points.len() as u32,
         reachable_area: report.reachable_area,
         covered_area: report.covered_area,
+        ceiling: Some(report.ceiling()),
         per_group: per_material.iter().map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c }).collect(),
         curve: report.curve.clone(),
     });
@@ -315,6 +317,7 @@ fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, probes: &[Vec3], us
         .to_string(),
         space: Some(space.space.name().to_string()),
         near_distance: Some(space.near),
+        eye_height_m: space.walk.as_ref().map(|w| w.eye * scene.metres_per_unit),
         credits: Vec::new(),
     });
     graph.probes = probes

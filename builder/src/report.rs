@@ -7,7 +7,8 @@
 //! floors) and perspective views from the most open navigable point. Shading:
 //! grey by the angle to a fixed light; magenta where no probe sees the point
 //! (tested per pixel with occlusion rays); dimmed on triangles where the
-//! coverage metric found nothing reachable; probes are green dots.
+//! coverage metric found nothing reachable; in the top view, amber over free
+//! space the navigable space leaves out; probes are green dots.
 
 use crate::coverage::CoverageReport;
 use crate::freespace::FreeSpace;
@@ -34,8 +35,19 @@ fn reachable_triangles(scene: &Scene, report: &CoverageReport) -> Vec<bool> {
 #[derive(Clone, Copy, PartialEq)]
 enum Seen {
     Unreachable,
+    /// Free space the chosen navigable space leaves out (top view only).
+    Excluded,
     Covered,
     Uncovered,
+}
+
+/// What a pixel's column holds, for the top view.
+#[derive(Clone, Copy, PartialEq)]
+enum Column {
+    Navigable,
+    /// Open space (free, in the box, outside solids) but nothing navigable.
+    Excluded,
+    Other,
 }
 
 fn shade(ray_dir: Vec3, normal: Vec3, seen: Seen) -> Rgb<u8> {
@@ -52,22 +64,30 @@ fn shade(ray_dir: Vec3, normal: Vec3, seen: Seen) -> Rgb<u8> {
             let g = (110.0 * l) as u8;
             Rgb([g, g, (g as f32 * 1.15) as u8])
         }
+        Seen::Excluded => Rgb([(230.0 * l) as u8, (160.0 * l) as u8, (40.0 * l) as u8]),
     }
 }
 
 /// Casts one ray per pixel and paints each hit by whether a probe sees that very
 /// point from the side the viewer sees it (an occlusion ray per probe, probes
 /// in order, stopping at the first that sees it).
-/// `ray_at` gives each pixel's ray, or `None` for a ray whose hit cannot be
-/// reachable (drawn dimmed).
-fn render(rays: &RayScene, reachable: &[bool], probes: &[Vec3], width: u32, height: u32, background: Rgb<u8>, ray_at: impl Fn(f32, f32) -> (Ray, bool)) -> RgbImage {
-    let (primary, in_space): (Vec<Ray>, Vec<bool>) =
+/// `ray_at` gives each pixel's ray and what its column holds: hits under
+/// navigable space are judged by the probes, others drawn dimmed, or amber
+/// where the column holds only free space the navigable space leaves out.
+fn render(rays: &RayScene, reachable: &[bool], probes: &[Vec3], width: u32, height: u32, background: Rgb<u8>, ray_at: impl Fn(f32, f32) -> (Ray, Column)) -> RgbImage {
+    let (primary, column): (Vec<Ray>, Vec<Column>) =
         (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| ray_at(x as f32 + 0.5, y as f32 + 0.5)).unzip();
     let hits = rays.intersect_batch(&primary, Packing::Packets8);
     let mut seen: Vec<Option<Seen>> = hits
         .iter()
-        .zip(&in_space)
-        .map(|(h, &ok)| h.map(|h| if ok && reachable[h.triangle as usize] { Seen::Uncovered } else { Seen::Unreachable }))
+        .zip(&column)
+        .map(|(h, &c)| {
+            h.map(|h| match c {
+                Column::Navigable if reachable[h.triangle as usize] => Seen::Uncovered,
+                Column::Excluded => Seen::Excluded,
+                _ => Seen::Unreachable,
+            })
+        })
         .collect();
     for &probe in probes {
         let open: Vec<usize> = (0..hits.len()).filter(|&k| seen[k] == Some(Seen::Uncovered)).collect();
@@ -110,36 +130,44 @@ fn dot(img: &mut RgbImage, x: f32, y: f32, colour: Rgb<u8>) {
 
 /// Orthographic top view, `width` pixels across. Each pixel's ray starts at the
 /// top of the navigable space in its column (a cutaway: interiors show their
-/// floors, not their roofs); columns without navigable space show the roof.
+/// floors, not their roofs); columns without navigable space show the roof,
+/// amber where they hold free space the chosen space leaves out.
 pub fn top_view(scene: &Scene, rays: &RayScene, space: &FreeSpace, report: &CoverageReport, probes: &[Vec3], width: u32) -> RgbImage {
     let reachable = reachable_triangles(scene, report);
     let b = scene.bounds();
     let e = b.extent();
     let height = ((width as f32 * e.z / e.x.max(1e-6)).round() as u32).clamp(1, 4 * width);
     let g = &space.grid;
-    // Highest navigable voxel top per grid column (x, z).
+    // Highest navigable voxel top per grid column (x, z), and whether the column
+    // holds open space at all.
     let mut column_top = vec![f32::NAN; g.dims[0] * g.dims[2]];
-    for i in (0..g.len()).filter(|&i| space.navigable[i]) {
+    let mut column_open = vec![false; g.dims[0] * g.dims[2]];
+    for i in 0..g.len() {
         let c = g.coords(i);
-        let top = g.center(c).y + 0.5 * g.voxel;
-        let slot = &mut column_top[c[0] + g.dims[0] * c[2]];
-        if slot.is_nan() || top > *slot {
-            *slot = top;
+        let slot = c[0] + g.dims[0] * c[2];
+        column_open[slot] |= space.open[i];
+        if space.navigable[i] {
+            let top = g.center(c).y + 0.5 * g.voxel;
+            if column_top[slot].is_nan() || top > column_top[slot] {
+                column_top[slot] = top;
+            }
         }
     }
     let above = b.max.y + 0.01 * b.diagonal();
-    // (ray origin, whether the column holds navigable space).
+    // (ray origin, what the column holds).
     let start = |x: f32, z: f32| {
-        g.cell(Vec3::new(x, g.origin.y + 0.5 * g.voxel, z))
-            .map(|c| column_top[c[0] + g.dims[0] * c[2]])
-            .filter(|t| !t.is_nan())
-            .map_or((Vec3::new(x, above, z), false), |t| (Vec3::new(x, t, z), true))
+        let slot = g.cell(Vec3::new(x, g.origin.y + 0.5 * g.voxel, z)).map(|c| c[0] + g.dims[0] * c[2]);
+        match slot {
+            Some(k) if !column_top[k].is_nan() => (Vec3::new(x, column_top[k], z), Column::Navigable),
+            Some(k) if column_open[k] => (Vec3::new(x, above, z), Column::Excluded),
+            _ => (Vec3::new(x, above, z), Column::Other),
+        }
     };
     let to_world = |x: f32, y: f32| (b.min.x + x / width as f32 * e.x, b.min.z + y / height as f32 * e.z);
     let mut img = render(rays, &reachable, probes, width, height, Rgb([24, 26, 32]), |x, y| {
         let (wx, wz) = to_world(x, y);
-        let (origin, in_space) = start(wx, wz);
-        (Ray::new(origin, Vec3::NEG_Y), in_space)
+        let (origin, column) = start(wx, wz);
+        (Ray::new(origin, Vec3::NEG_Y), column)
     });
     for p in probes {
         dot(&mut img, (p.x - b.min.x) / e.x * width as f32, (p.z - b.min.z) / e.z * height as f32, PROBE);
@@ -158,7 +186,7 @@ pub fn perspective_view(scene: &Scene, rays: &RayScene, report: &CoverageReport,
     render(rays, &reachable, probes, width, height, Rgb([150, 190, 230]), |x, y| {
         let sx = 2.0 * x / width as f32 - 1.0;
         let sy = (1.0 - 2.0 * y / height as f32) * aspect;
-        (Ray::new(eye, (f + right * sx + up * sy).normalize()), true)
+        (Ray::new(eye, (f + right * sx + up * sy).normalize()), Column::Navigable)
     })
 }
 

@@ -54,9 +54,22 @@ pub struct SceneInfo {
     /// Near distance r (minimum clearance of probes and paths), scene units.
     #[serde(default)]
     pub near_distance: Option<f32>,
+    /// Eye height above the floor in metres when probes stand on floors (walk
+    /// mode); absent when they fly.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eye_height_m: Option<f32>,
     /// Attribution to show wherever the scene is shown.
     #[serde(default)]
     pub credits: Vec<String>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ceiling {
+    pub area: f64,
+    /// Of `area`, what some point of the navigable space sees.
+    pub seen_from_space: f64,
+    /// Of `area`, what the probes see.
+    pub covered: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -149,9 +162,15 @@ pub struct PathAssets {
 pub struct Coverage {
     /// Area-uniform surface samples used.
     pub samples: u32,
-    /// Surface area seeable from navigable space, scene units².
+    /// Surface area seeable from navigable space, scene units² (from eye
+    /// height when walking).
     pub reachable_area: f64,
     pub covered_area: f64,
+    /// The ceiling: surface seeable from anywhere in the free space inside the
+    /// scene's bounding box (outside closed solids), and how much of it the
+    /// navigable space and the probes see, scene units².
+    #[serde(default)]
+    pub ceiling: Option<Ceiling>,
     /// Per material (or object): name, reachable area, covered area.
     #[serde(default)]
     pub per_group: Vec<GroupCoverage>,
@@ -392,6 +411,7 @@ mod tests {
             scale_source: "file".into(),
             space: Some("inside".into()),
             near_distance: Some(0.3),
+            eye_height_m: None,
             credits: vec![],
         });
         for (i, x) in [2.0f32, 10.0, 20.0].iter().enumerate() {
@@ -416,7 +436,7 @@ mod tests {
             assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
         });
         g.bar_order = vec![2, 0, 1];
-        g.coverage = Some(Coverage { samples: 1000, reachable_area: 10.0, covered_area: 9.9, per_group: vec![], curve: vec![(1, 0.5), (3, 0.99)] });
+        g.coverage = Some(Coverage { samples: 1000, reachable_area: 10.0, covered_area: 9.9, ceiling: None, per_group: vec![], curve: vec![(1, 0.5), (3, 0.99)] });
         g.stats.insert("explore".into(), serde_json::json!({ "seconds": 1.5 }));
         g
     }

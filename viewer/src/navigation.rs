@@ -311,6 +311,7 @@ pub(crate) mod tests {
             scale_source: "file".into(),
             space: None,
             near_distance: None,
+            eye_height_m: None,
             credits: vec![],
         });
         let positions = [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 0.0, -4.0], [2.0, 0.0, 4.0], [9.0, 0.0, 9.0]];

@@ -1,0 +1,261 @@
+//! Walk: human scale. Where a visitor can stand and walk, for probes at eye
+//! height (the paper's future work; the navigable-space issue's item 2).
+//!
+//! Inputs: the free-space grid (occupancy, clearance, open space, the fly
+//! navigable voxels), the ray-casting scene, the eye height, metres per unit.
+//! Outputs: [`Walk`] (how to stand a probe up), the navigable band, [`WalkStats`].
+//!
+//! 1. Floor cells: in each grid column, every free voxel of the open space with
+//!    an occupied voxel below it is a candidate; a ray down from its centre finds
+//!    the exact floor, which must face up within the slope limit.
+//! 2. Standing: the ray up from the floor must be free for eye height plus head
+//!    room, and the eye voxel must be in the fly space (clearance ≥ r).
+//! 3. Walking: floor cells of neighbouring columns join when their floors differ
+//!    by at most a step plus the slope limit over one voxel, and a ray at hip
+//!    height between them is free (a railing or a wall stops it). Stairs and
+//!    ramps therefore join storeys; a ladder or a jump does not.
+//! 4. Regions kept: the connected regions of at least a sixth of the largest
+//!    one's floor, except roofs (regions whose floor mostly sees the sky with
+//!    another floor below it: nobody tours the roof of the building they visit).
+//!    Table tops, beds and window sills are far below that share and drop out.
+//! 5. The band: voxels within half a step plus one voxel of eye height above a
+//!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
+//!    so the band is connected wherever people can walk.
+//!
+//! A probe [`Walk::stand`]s exactly at eye height above the floor under it.
+//! Defaults: eye 1.6 m, head room 0.25 m above the eye, steps up to 0.3 m,
+//! slopes up to 40°.
+
+use crate::freespace::Grid;
+use crate::raycast::{Packing, Ray, RayScene};
+use glam::Vec3;
+use rayon::prelude::*;
+
+pub const HEAD_ROOM_M: f32 = 0.25;
+pub const STEP_M: f32 = 0.3;
+/// Cosine of the steepest walkable slope (40°).
+pub const SLOPE_COS: f32 = 0.766;
+/// A region is kept when its floor is at least this share of the largest's.
+const REGION_SHARE: f32 = 1.0 / 6.0;
+/// A region is a roof when this share of its cells sees the sky above a floor.
+const ROOF_SHARE: f32 = 0.7;
+
+/// How probes stand, in scene units.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Walk {
+    pub eye: f32,
+    pub head: f32,
+    /// Longest way down from a point of the band to its floor.
+    pub reach: f32,
+}
+
+impl Walk {
+    /// The point exactly eye height above the walkable floor under `p`, if a
+    /// person fits there (head room above the eye). The caller checks that the
+    /// point is navigable.
+    pub fn stand(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
+        let hit = rays.intersect(&Ray { t_max: self.reach, ..Ray::new(p, Vec3::NEG_Y) })?;
+        if hit.normal.y.abs() < SLOPE_COS {
+            return None;
+        }
+        let floor = p - Vec3::Y * hit.t;
+        let tall = self.eye + self.head;
+        let clear = !rays.occluded(&Ray { t_min: 1e-3 * tall, t_max: tall, ..Ray::new(floor, Vec3::Y) });
+        clear.then_some(floor + Vec3::Y * self.eye)
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct WalkStats {
+    pub eye_height_m: f32,
+    /// Floor cells found, and those a person can stand on.
+    pub floor_cells: usize,
+    pub standing_cells: usize,
+    /// Connected walkable regions, those kept, and roofs left out.
+    pub regions: usize,
+    pub regions_kept: usize,
+    pub roofs: usize,
+    /// Floor area of the kept regions, m².
+    pub floor_area_m2: f64,
+    /// Median free height above the floors that have a ceiling, m.
+    pub room_height_m: Option<f32>,
+    pub rays: usize,
+}
+
+/// A floor found in a grid column.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FloorCell {
+    /// Column index x + dims[0]·z.
+    pub column: usize,
+    pub floor_y: f32,
+    /// Free height above the floor (infinite under the sky).
+    pub headroom: f32,
+}
+
+/// The floor cells of a grid, column by column, lowest first within a column.
+pub struct Floors {
+    pub cells: Vec<FloorCell>,
+    pub rays: usize,
+}
+
+/// Finds every floor in the open space (step 1), with its head room.
+pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScene) -> Floors {
+    let [nx, ny, nz] = grid.dims;
+    let starts: Vec<[usize; 3]> = (0..nx * nz)
+        .into_par_iter()
+        .flat_map_iter(|col| {
+            let (x, z) = (col % nx, col / nx);
+            (1..ny).filter(move |&y| open[grid.index([x, y, z])] && occupied[grid.index([x, y - 1, z])]).map(move |y| [x, y, z])
+        })
+        .collect();
+    let down: Vec<Ray> = starts.iter().map(|&c| Ray { t_max: 2.0 * grid.voxel, ..Ray::new(grid.center(c), Vec3::NEG_Y) }).collect();
+    let hits = rays.intersect_batch(&down, Packing::Single);
+    let floors: Vec<(usize, Vec3)> = starts
+        .iter()
+        .zip(&down)
+        .zip(&hits)
+        .filter_map(|((c, r), h)| h.filter(|h| h.normal.y.abs() >= SLOPE_COS).map(|h| (c[0] + nx * c[2], r.at(h.t))))
+        .collect();
+    let eps = 1e-3 * grid.voxel;
+    let up: Vec<Ray> = floors.iter().map(|&(_, p)| Ray { t_min: eps, ..Ray::new(p, Vec3::Y) }).collect();
+    let above = rays.intersect_batch(&up, Packing::Single);
+    let cells = floors
+        .iter()
+        .zip(&above)
+        .map(|(&(column, p), h)| FloorCell { column, floor_y: p.y, headroom: h.map_or(f32::INFINITY, |h| h.t) })
+        .collect();
+    Floors { cells, rays: down.len() + up.len() }
+}
+
+/// Whether a guessed scale makes the rooms a plausible height: the median free
+/// height above floors that have a ceiling, in metres, must be 2 to 8 m. Says
+/// why either way.
+pub fn judge_scale(floors: &Floors, metres_per_unit: f32) -> Result<String, String> {
+    let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite() && *h > 0.5).collect();
+    if heights.len() < 20 {
+        return Err("no ceilings show how tall its rooms are".into());
+    }
+    heights.sort_by(f32::total_cmp);
+    let median = heights[heights.len() / 2];
+    if (2.0..=8.0).contains(&median) {
+        Ok(format!("rooms {median:.1} m high"))
+    } else {
+        Err(format!("its rooms would be {median:.1} m high (if they are about 3.5 m, the scale is about {:.3} m a unit)", 3.5 / median * metres_per_unit))
+    }
+}
+
+/// Steps 2 to 5: the walkable regions and the eye-height band within `fly`.
+pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, eye: f32, metres_per_unit: f32) -> (Walk, Vec<bool>, WalkStats) {
+    let head = HEAD_ROOM_M / metres_per_unit;
+    let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
+    let half_band = 0.5 * rise + grid.voxel;
+    let eye_voxel = |c: &FloorCell| {
+        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
+        grid.cell(Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + eye, grid.origin.z + (z as f32 + 0.5) * grid.voxel))
+    };
+    // Step 2: cells a person can stand on.
+    let standing: Vec<FloorCell> = floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
+    // Cells by column, for neighbour look-ups.
+    let mut by_column: Vec<Vec<u32>> = vec![Vec::new(); grid.dims[0] * grid.dims[2]];
+    for (k, c) in standing.iter().enumerate() {
+        by_column[c.column].push(k as u32);
+    }
+    let centre = |c: &FloorCell, h: f32| {
+        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
+        Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + h, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
+    };
+    // Step 3: candidate steps to the +x and +z neighbours, checked by a hip-height ray.
+    let mut pairs: Vec<(u32, u32)> = Vec::new();
+    for (a, c) in standing.iter().enumerate() {
+        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
+        for (nx, nz) in [(x + 1, z), (x, z + 1)] {
+            if nx >= grid.dims[0] || nz >= grid.dims[2] {
+                continue;
+            }
+            for &b in &by_column[nx + grid.dims[0] * nz] {
+                if (standing[b as usize].floor_y - c.floor_y).abs() <= rise {
+                    pairs.push((a as u32, b));
+                }
+            }
+        }
+    }
+    let hips: Vec<Ray> = pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
+    let blocked = rays.occluded_batch(&hips, Packing::Single);
+    let mut parent: Vec<u32> = (0..standing.len() as u32).collect();
+    fn root(parent: &mut [u32], mut k: u32) -> u32 {
+        while parent[k as usize] != k {
+            parent[k as usize] = parent[parent[k as usize] as usize];
+            k = parent[k as usize];
+        }
+        k
+    }
+    for (&(a, b), &shut) in pairs.iter().zip(&blocked) {
+        if !shut {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            // The smaller index is the root: labels do not depend on thread count or order.
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        }
+    }
+    // Step 4: regions, roofs, and which are kept.
+    let roots: Vec<u32> = (0..standing.len() as u32).map(|k| root(&mut parent, k)).collect();
+    let mut region_of = vec![u32::MAX; standing.len()];
+    let mut sizes: Vec<usize> = Vec::new();
+    let mut roofish: Vec<usize> = Vec::new();
+    let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
+    for k in 0..standing.len() {
+        let r = roots[k] as usize;
+        if region_of[r] == u32::MAX {
+            region_of[r] = sizes.len() as u32;
+            sizes.push(0);
+            roofish.push(0);
+        }
+        let g = region_of[r] as usize;
+        region_of[k] = g as u32;
+        sizes[g] += 1;
+        let c = &standing[k];
+        if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - rise {
+            roofish[g] += 1;
+        }
+    }
+    let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
+    let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
+    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+    // Step 5: the band.
+    let mut band = vec![false; grid.len()];
+    let mut kept_cells = 0usize;
+    for (k, c) in standing.iter().enumerate() {
+        if !kept[region_of[k] as usize] {
+            continue;
+        }
+        kept_cells += 1;
+        let (lo, hi) = (centre(c, eye - half_band), centre(c, eye + half_band));
+        let (Some(a), Some(b)) = (grid.cell(lo).or(grid.cell(centre(c, eye))), grid.cell(hi).or(grid.cell(centre(c, eye)))) else { continue };
+        for y in a[1]..=b[1] {
+            let i = grid.index([a[0], y, a[2]]);
+            band[i] |= fly[i];
+        }
+    }
+    let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite()).collect();
+    heights.sort_by(f32::total_cmp);
+    let stats = WalkStats {
+        eye_height_m: eye * metres_per_unit,
+        floor_cells: floors.cells.len(),
+        standing_cells: standing.len(),
+        regions: sizes.len(),
+        regions_kept: kept.iter().filter(|&&k| k).count(),
+        roofs: roof.iter().filter(|&&r| r).count(),
+        floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
+        room_height_m: heights.get(heights.len() / 2).copied(),
+        rays: floors.rays + hips.len(),
+    };
+    (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
+}
+
+/// Per column, the lowest floor height (infinite where there is none).
+fn by_column_lowest(floors: &Floors, columns: usize) -> Vec<f32> {
+    let mut lowest = vec![f32::INFINITY; columns];
+    for c in &floors.cells {
+        lowest[c.column] = lowest[c.column].min(c.floor_y);
+    }
+    lowest
+}
