@@ -422,23 +422,3 @@ mod tests {
         assert_eq!(a.reached_side, b.reached_side);
     }
 }
-#[cfg(test)]
-mod debug_ceiling {
-    use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode};
-    #[test]
-    #[ignore]
-    fn debug_ceiling_gap() {
-        let scene = exploremaps_scenes::BuiltIn::Gallery.generate(1);
-        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { height: HeightMode::Fly, ..Default::default() }).unwrap();
-        let r = coverage(&scene, &rays, &space, &[], &CoverageParams { samples: 50_000, ..Default::default() });
-        let mut per = std::collections::BTreeMap::<String, (f64, f64)>::new();
-        for i in 0..r.in_ceiling.len() {
-            let m = scene.materials[scene.triangle_material[r.samples.triangles[i] as usize] as usize].name.clone();
-            let e = per.entry(m).or_default();
-            if r.in_ceiling[i] { e.0 += r.samples.area_each; if r.reached_side[i] == 0 { e.1 += r.samples.area_each; if e.1 < 3.0 { eprintln!("  {} n {}", r.samples.points[i], r.samples.normals[i]); } } }
-        }
-        for (m, (a, b)) in per { eprintln!("{m}: ceiling {a:.1}, not from space {b:.1}"); }
-    }
-}

@@ -12,7 +12,8 @@
 //! bounding box fall into 6-connected pockets; rays cast from each pocket's most
 //! open voxel in each block of 4³ voxels decide whether that part is enclosed by
 //! back faces (the inside of a wall, a slab, a closed object, the ground seen
-//! from below) or not. The *open space*
+//! from below) or not; pockets with no voxel two voxels away from every surface
+//! (slivers inside walls and slabs) count as solid too. The *open space*
 //! is every free voxel in the box outside such solids: the surface it sees is
 //! the ceiling of any placement ([`crate::coverage`] reports it); (4) which kind
 //! of scene: `outside` (an object: most of its surface faces out of its box,
@@ -41,7 +42,8 @@
 //!
 //! Parameters (defaults): at most 256 cells on the long axis (`max_cells`);
 //! r = 0.5 % of the bounding-box diagonal L (`near_rel`) unless given in metres,
-//! and at most 0.3 m when walking (a person passes where a probe may stand); the
+//! and at most 0.3 m when walking or when the scale is stated or plausibly
+//! guessed (a probe must pass any door a person passes); the
 //! grid is padded by 5 % of the longest extent. Memory is about 14 bytes a cell:
 //! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
 //! order.
@@ -130,8 +132,9 @@ const FACING_OUT_OBJECT: f32 = 0.5;
 /// A part of the open space is navigable when the scene faces it with at least
 /// this share of the votes of the most-faced part.
 const FACED_SHARE: f32 = 0.1;
-/// Largest near distance when walking: about a person's half width.
-const WALK_NEAR_M: f32 = 0.3;
+/// Largest near distance when walking, or when the scale is trusted: about a
+/// person's half width.
+const PERSON_NEAR_M: f32 = 0.3;
 /// Voxels per block edge for the solid test's ray origins.
 const BLOCK: usize = 4;
 const MAX_TOTAL_CELLS: usize = 40_000_000;
@@ -336,27 +339,35 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         given => (given, "given".to_string()),
     };
 
-    // Walk or fly: walking needs a scene to be in, floors, and a scale to trust.
-    let scale_known = matches!(scene.scale_source, ScaleSource::File | ScaleSource::User);
+    // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
+    // stated, or guessed with rooms of a plausible height.
     let eye = params.eye_height_m / scene.metres_per_unit;
-    let walk_near = (WALK_NEAR_M / scene.metres_per_unit).min(near);
-    let probe_floors = || walk::floor_cells(&grid, &occupied, &open, rays);
+    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit));
+    let judged = match scene.scale_source {
+        ScaleSource::File | ScaleSource::User => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
+        ScaleSource::Guessed => match &floors {
+            Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
+            None => Err("the scale is only guessed".to_string()),
+        },
+    };
+    // With a scale to trust, r is at most a person's half width: a probe passes
+    // any door a visitor passes, however large the scene.
+    if params.near_m.is_none() && judged.is_ok() {
+        near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
+    }
+    let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
     let (walking, height_reason) = match params.height {
         HeightMode::Fly => (false, "given".to_string()),
         HeightMode::Walk => (true, "given".to_string()),
         HeightMode::Auto if space == SpaceMode::Outside => (false, "auto: objects are seen in free flight".to_string()),
-        HeightMode::Auto => {
-            let floors = probe_floors();
-            match walk::judge_scale(&floors, scene.metres_per_unit) {
-                _ if floors.cells.is_empty() => (false, "auto: no floor a person can stand on".to_string()),
-                _ if scale_known => (true, format!("auto: floors, and the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
-                Ok(why) => (true, format!("auto: floors, and the guessed scale is plausible ({why})")),
-                Err(why) => (false, format!("auto: the scale is only guessed and {why}; pass --metres-per-unit to walk")),
-            }
-        }
+        HeightMode::Auto if !has_floors => (false, "auto: no floor a person can stand on".to_string()),
+        HeightMode::Auto => match &judged {
+            Ok(why) => (true, format!("auto: floors, and {why}")),
+            Err(why) => (false, format!("auto: {why}; pass --metres-per-unit to walk")),
+        },
     };
     if walking {
-        near = walk_near;
+        near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
 
     let candidate: Vec<bool> = (0..grid.len())
@@ -407,8 +418,8 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
 
     let mut walk_stats = None;
     let walk = if walking {
-        let floors = probe_floors();
-        let (w, band, stats) = walk::walk_space(&grid, &navigable, &floors, rays, eye, scene.metres_per_unit);
+        let floors = floors.as_ref().expect("computed when walking");
+        let (w, band, stats) = walk::walk_space(&grid, &navigable, floors, rays, eye, scene.metres_per_unit);
         ray_count += stats.rays;
         if band.iter().all(|&b| !b) {
             return Err(FreeSpaceError::Nothing("walkable", near, "no floor a person can reach and stand on at eye height; try --fly"));
@@ -501,7 +512,9 @@ fn make_grid(bounds: &Aabb, max_cells: usize) -> Grid {
 /// plane's span over the column bounds the candidates.
 fn voxelize(scene: &Scene, grid: &Grid) -> Vec<bool> {
     let marks: Vec<AtomicBool> = (0..grid.len()).map(|_| AtomicBool::new(false)).collect();
-    let half = Vec3::splat(0.5 * grid.voxel);
+    // A thousandth of a voxel larger: a surface lying exactly on a voxel boundary
+    // (a floor at 0.15 m on a 0.103 m grid) must not slip between both voxels' tests.
+    let half = Vec3::splat(0.5005 * grid.voxel);
     (0..scene.triangles.len()).into_par_iter().for_each(|t| {
         let tri = scene.triangle(t);
         let lo = tri[0].min(tri[1]).min(tri[2]);
@@ -710,6 +723,15 @@ fn classify_solids(grid: &Grid, free: &[bool], clearance: &[f32], bounds: &Aabb,
             backs > fronts || 2 * inside > crossing
         })
         .collect();
+    // Slivers: pockets with no voxel two voxels away from every surface. They are
+    // the insides of walls, slabs and steps (where coplanar faces can fool both
+    // ray tests), never a place for a probe: solid.
+    let mut widest = vec![0.0f32; labels.iter().filter(|&&l| l != NONE).map(|&l| l as usize + 1).max().unwrap_or(0)];
+    for i in 0..grid.len() {
+        if labels[i] != NONE {
+            widest[labels[i] as usize] = widest[labels[i] as usize].max(clearance[i]);
+        }
+    }
     // Each voxel takes the verdict of its (block, pocket) pair.
     let starts: Vec<usize> = origins.iter().scan(0, |n, o| { let s = *n; *n += o.len(); Some(s) }).collect();
     let solid: Vec<bool> = (0..grid.len())
@@ -720,7 +742,7 @@ fn classify_solids(grid: &Grid, free: &[bool], clearance: &[f32], bounds: &Aabb,
             }
             let b = block_of(grid.coords(i));
             let k = origins[b].binary_search_by_key(&labels[i], |&(l, _)| l).expect("every free voxel's pocket has an origin in its block");
-            pair_solid[starts[b] + k]
+            pair_solid[starts[b] + k] || widest[labels[i] as usize] < 2.0 * grid.voxel
         })
         .collect();
     // Enclosure over the middle of the box, for the log and the report.
@@ -1022,7 +1044,7 @@ mod shared_scene_tests {
             ("sponza_dabrovic/sponza.obj", "inside", "walk", Vec3::new(0.0, 1.6, 0.0), Vec3::new(0.0, 6.0, 0.0)),
             ("stanford_bunny/bun_zipper.ply", "outside", "fly", Vec3::new(0.065, 0.1, 0.0), Vec3::new(-0.02, 0.1, 0.0)),
             ("wooden_staircase/wooden_staircase.obj", "inside", "walk", Vec3::new(0.0, 1.6, -2.0), Vec3::new(0.0, 5.5, 3.0)),
-            ("grey_white_room/grey_white_room.obj", "inside", "walk", Vec3::new(2.5, 1.6, -1.5), Vec3::new(2.5, 0.5, -1.5)),
+            ("grey_white_room/grey_white_room.obj", "inside", "walk", Vec3::new(1.6, 1.6, -0.8), Vec3::new(1.6, 0.5, -0.8)),
             ("dream_apartment/dream_apartment.glb", "inside", "walk", Vec3::new(8.0, 1.6, -9.0), Vec3::new(8.0, 2.5, -9.0)),
             ("cornell_box/CornellBox-Original.obj", "inside", "walk", Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, -0.5, 0.0)),
         ] {

@@ -7,7 +7,8 @@
 //!
 //! 1. Floor cells: in each grid column, every free voxel of the open space with
 //!    an occupied voxel below it is a candidate; a ray down from its centre finds
-//!    the exact floor, which must face up within the slope limit.
+//!    the exact floor (within a step and two voxels), which must face up within
+//!    the slope limit.
 //! 2. Standing: the ray up from the floor must be free for eye height plus head
 //!    room, and the eye voxel must be in the fly space (clearance ≥ r).
 //! 3. Walking: floor cells of neighbouring columns join when their floors differ
@@ -98,8 +99,10 @@ pub struct Floors {
     pub rays: usize,
 }
 
-/// Finds every floor in the open space (step 1), with its head room.
-pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScene) -> Floors {
+/// Finds every floor in the open space (step 1), with its head room. The ray
+/// down reaches a step plus two voxels: a column that straddles a step's edge
+/// is occupied up to the higher tread while its centre stands over the lower.
+pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScene, metres_per_unit: f32) -> Floors {
     let [nx, ny, nz] = grid.dims;
     let starts: Vec<[usize; 3]> = (0..nx * nz)
         .into_par_iter()
@@ -108,7 +111,8 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
             (1..ny).filter(move |&y| open[grid.index([x, y, z])] && occupied[grid.index([x, y - 1, z])]).map(move |y| [x, y, z])
         })
         .collect();
-    let down: Vec<Ray> = starts.iter().map(|&c| Ray { t_max: 2.0 * grid.voxel, ..Ray::new(grid.center(c), Vec3::NEG_Y) }).collect();
+    let drop = 2.0 * grid.voxel + STEP_M / metres_per_unit;
+    let down: Vec<Ray> = starts.iter().map(|&c| Ray { t_max: drop, ..Ray::new(grid.center(c), Vec3::NEG_Y) }).collect();
     let hits = rays.intersect_batch(&down, Packing::Single);
     let floors: Vec<(usize, Vec3)> = starts
         .iter()

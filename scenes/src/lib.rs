@@ -7,9 +7,13 @@
 //! | `maze` | narrow corridors: path finding |
 //! | `pillars` | a hall of columns with props behind them: coverage behind occluders |
 //! | `big` | a triangle budget up to tens of millions: scaling |
+//! | `island` | an open landscape: terrain, houses with windows, a tunnel, a bridge |
+//! | `house` | two storeys joined by a staircase, in a garden: walking between floors |
 
 mod big;
 mod gallery;
+mod house;
+mod island;
 mod maze;
 pub mod mesh;
 mod pillars;
@@ -27,16 +31,20 @@ pub enum BuiltIn {
     Pillars,
     /// Target triangle count.
     Big(usize),
+    Island,
+    House,
 }
 
 pub const DEFAULT_SCENE: &str = "gallery";
 
 /// (name, parameter meaning, one-line description) of every built-in scene.
-pub const CATALOGUE: [(&str, &str, &str); 4] = [
+pub const CATALOGUE: [(&str, &str, &str); 6] = [
     ("gallery", "", "museum: rooms, doors, corridor, pillars, statues, open courtyard (the default)"),
     ("maze", "cells per side, default 8", "roofed labyrinth of 2 m corridors"),
     ("pillars", "", "hall with a 6x4 grid of columns hiding small props"),
     ("big", "target triangles, default 1000000", "museum of many gallery wings on a grid, for scaling benchmarks"),
+    ("island", "", "open landscape: hills, houses with doors and windows, a rock tunnel, a bridge over a river, trees"),
+    ("house", "", "two-storey house with a staircase, in a walled garden"),
 ];
 
 impl BuiltIn {
@@ -49,6 +57,8 @@ impl BuiltIn {
         match (name, param) {
             ("gallery", None) => Some(BuiltIn::Gallery),
             ("pillars", None) => Some(BuiltIn::Pillars),
+            ("island", None) => Some(BuiltIn::Island),
+            ("house", None) => Some(BuiltIn::House),
             ("maze", p) => Some(BuiltIn::Maze(p.unwrap_or(8).clamp(2, 200))),
             ("big", p) => Some(BuiltIn::Big(p.unwrap_or(1_000_000).clamp(1, 100_000_000))),
             _ => None,
@@ -61,6 +71,8 @@ impl BuiltIn {
             BuiltIn::Maze(cells) => maze::maze(seed, cells),
             BuiltIn::Pillars => pillars::pillars(seed),
             BuiltIn::Big(triangles) => big::big(seed, triangles),
+            BuiltIn::Island => island::island(seed),
+            BuiltIn::House => house::house(seed),
         }
     }
 }
@@ -71,7 +83,7 @@ mod tests {
 
     #[test]
     fn every_builtin_is_valid_and_seeded() {
-        for spec in ["gallery", "maze", "pillars", "big:50000"] {
+        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             scene.validate().unwrap_or_else(|e| panic!("{spec}: {e}"));
             assert_eq!(scene.stats, SceneStats::default(), "{spec} made bad triangles");

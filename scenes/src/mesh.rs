@@ -6,6 +6,15 @@
 use crate::scene::{Light, Material, Scene, Texture};
 use glam::{Vec2, Vec3};
 
+/// An opening in a wall: centre and width along it, sill and head heights above its floor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Opening {
+    pub centre: f32,
+    pub width: f32,
+    pub sill: f32,
+    pub head: f32,
+}
+
 pub struct MeshBuilder {
     scene: Scene,
     material: u32,
@@ -94,6 +103,14 @@ impl MeshBuilder {
     /// openings given as (centre, width, height) along the wall.
     #[allow(clippy::too_many_arguments)]
     pub fn wall(&mut self, along_x: bool, line: f32, a: f32, b: f32, floor_y: f32, top_y: f32, thickness: f32, doors: &[(f32, f32, f32)]) {
+        let openings: Vec<Opening> = doors.iter().map(|&(centre, width, height)| Opening { centre, width, sill: 0.0, head: height }).collect();
+        self.wall_with_openings(along_x, line, a, b, floor_y, top_y, thickness, &openings);
+    }
+
+    /// A wall as [`MeshBuilder::wall`], with openings from `sill` to `head` above
+    /// `floor_y` (a door has sill 0; a window's sill is above the floor).
+    #[allow(clippy::too_many_arguments)]
+    pub fn wall_with_openings(&mut self, along_x: bool, line: f32, a: f32, b: f32, floor_y: f32, top_y: f32, thickness: f32, openings: &[Opening]) {
         let h = 0.5 * thickness;
         let block = |s0: f32, s1: f32, y0: f32, y1: f32| {
             if along_x {
@@ -104,21 +121,40 @@ impl MeshBuilder {
         };
         let mut start = a.min(b) - h;
         let end = a.max(b) + h;
-        let mut doors = doors.to_vec();
-        doors.sort_by(|x, y| x.0.total_cmp(&y.0));
-        for (centre, width, height) in doors {
-            let (d0, d1) = (centre - 0.5 * width, centre + 0.5 * width);
+        let mut openings = openings.to_vec();
+        openings.sort_by(|x, y| x.centre.total_cmp(&y.centre));
+        for o in openings {
+            let (d0, d1) = (o.centre - 0.5 * o.width, o.centre + 0.5 * o.width);
             if d0 > start {
                 let (lo, hi) = block(start, d0, floor_y, top_y);
                 self.cuboid(lo, hi);
             }
-            let (lo, hi) = block(d0, d1, floor_y + height, top_y);
-            self.cuboid(lo, hi);
+            if o.sill > 0.0 {
+                let (lo, hi) = block(d0, d1, floor_y, floor_y + o.sill);
+                self.cuboid(lo, hi);
+            }
+            if floor_y + o.head < top_y {
+                let (lo, hi) = block(d0, d1, floor_y + o.head, top_y);
+                self.cuboid(lo, hi);
+            }
             start = d1;
         }
         if end > start {
             let (lo, hi) = block(start, end, floor_y, top_y);
             self.cuboid(lo, hi);
+        }
+    }
+
+    /// A height field over [x0, x1] × [z0, z1], `cells` quads a side, facing up.
+    pub fn terrain(&mut self, x0: f32, z0: f32, x1: f32, z1: f32, cells: usize, height: impl Fn(f32, f32) -> f32) {
+        let at = |i: usize, j: usize| {
+            let (x, z) = (x0 + (x1 - x0) * i as f32 / cells as f32, z0 + (z1 - z0) * j as f32 / cells as f32);
+            Vec3::new(x, height(x, z), z)
+        };
+        for j in 0..cells {
+            for i in 0..cells {
+                self.quad([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j), at(i, j)]);
+            }
         }
     }
 
