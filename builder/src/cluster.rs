@@ -405,13 +405,13 @@ mod tests {
     #[test]
     fn two_rooms_give_two_clusters() {
         use crate::coverage::{reachability, surface_samples};
-        use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+        use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
         use crate::raycast::{Packing, Ray, RayScene};
         use glam::Vec3;
         // Two 10 × 8 rooms joined by a door, three probes in each.
         let scene = crate::testing::rooms(2, 10.0, 3.0, 8.0, &[1]);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         let probes = [
             Vec3::new(2.0, 1.5, 2.0),
             Vec3::new(5.0, 1.2, 6.0),
@@ -437,6 +437,7 @@ mod tests {
             .collect();
         let w = overlap(&seen, samples.area_each);
         assert_eq!(markov_cluster(&w).0, vec![0; 6], "raw shared area merges the rooms (see `similarity`)");
+        eprintln!("w {w:?}"); eprintln!("sim {:?}", similarity(&w));
         let (labels, stats) = markov_cluster(&similarity(&w));
         assert_eq!(stats.clusters, 2, "{labels:?}");
         assert_eq!(labels, vec![0, 0, 0, 1, 1, 1]);

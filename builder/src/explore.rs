@@ -474,12 +474,12 @@ mod tests {
     use exploremaps_scenes::BuiltIn;
 
     fn plan(scene: &Scene, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
-        plan_at(scene, params, HeightMode::Fly)
+        plan_in(scene, params, FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() })
     }
 
-    fn plan_at(scene: &Scene, params: &ExploreParams, height: HeightMode) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
+    fn plan_in(scene: &Scene, params: &ExploreParams, free: FreeSpaceParams) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height, ..Default::default() }).unwrap();
+        let (space, _) = free_space(scene, &rays, &free).unwrap();
         let (c, s) = explore(scene, &rays, &space, params);
         (c, s, space)
     }
@@ -529,8 +529,13 @@ mod tests {
         // Corridor 2 m wide: along x from 0 to 12 at z ∈ [0, 2], then along z up to 12 at x ∈ [10, 12].
         let mut m = MeshBuilder::new("L");
         let (h, t) = (3.0, 0.2);
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(12.0 + t, 0.0, 12.0 + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(12.0 + t, h + t, 12.0 + t));
+        let e = 0.5 * t;
+        // Floor and roof over the L only (slabs over the whole square would make
+        // a covered porch beside it, open space a probe may use).
+        for (y0, y1) in [(-t, 0.0), (h, h + t)] {
+            m.cuboid(Vec3::new(-e, y0, -e), Vec3::new(12.0 + e, y1, 2.0 + e));
+            m.cuboid(Vec3::new(10.0 - e, y0, 2.0 + e), Vec3::new(12.0 + e, y1, 12.0 + e));
+        }
         m.wall(true, 0.0, 0.0, 12.0, 0.0, h, t, &[]);
         m.wall(true, 2.0, 0.0, 10.0, 0.0, h, t, &[]);
         m.wall(false, 0.0, 0.0, 2.0, 0.0, h, t, &[]);
@@ -538,8 +543,10 @@ mod tests {
         m.wall(false, 10.0, 2.0, 12.0, 0.0, h, t, &[]);
         m.wall(true, 12.0, 10.0, 12.0, 0.0, h, t, &[]);
         let scene = m.finish();
+        // The corridor's inside (the space around it in the box is open too).
+        let inside = FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, start: Some(Vec3::new(5.0, 1.5, 1.0)), ..Default::default() };
         for strategy in STRATEGIES {
-            let (probes, stats, space) = plan(&scene, &with(strategy));
+            let (probes, stats, space) = plan_in(&scene, &with(strategy), inside.clone());
             let c = covered(&scene, &space, &probes);
             assert!(c > MIN_COVERAGE[strategy as usize], "{strategy:?}: {c} with {stats:?}");
             if probes.len() == 1 {
@@ -568,8 +575,9 @@ mod tests {
         let mut m = MeshBuilder::new("stadium");
         let (w, h, d, t) = (60.0, 15.0, 40.0, 0.3);
         m.begin_object("hall");
-        m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
-        m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
+        let e = 0.5 * t;
+        m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(w + e, 0.0, d + e));
+        m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
         for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
             m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
         }
@@ -599,7 +607,7 @@ mod tests {
     fn walk_mode_puts_every_probe_at_eye_height_above_a_floor() {
         let scene = BuiltIn::Gallery.generate(1);
         for strategy in STRATEGIES {
-            let (probes, stats, space) = plan_at(&scene, &with(strategy), HeightMode::Walk);
+            let (probes, stats, space) = plan_in(&scene, &with(strategy), FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Walk, ..Default::default() });
             assert!(probes.len() >= 5, "{strategy:?}: {stats:?}");
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             for p in &probes {

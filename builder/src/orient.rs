@@ -10,10 +10,16 @@
 //! largest depth; G = α·(max depth / (diagonal/2)) + β·(1 − Σ H²), times a
 //! stability factor 1 − ½·mean |H − H'| over the views from the probe moved by
 //! r along ±x, ±z (views that change little when the camera moves are better,
-//! so the factor is 1 for a perfectly stable view and falls as it changes).
+//! so the factor is 1 for a perfectly stable view and falls as it changes),
+//! times a clear-view factor min(1, central depth / max(½ · all-round depth, 8 r)):
+//! the depth of the nearest 30 % within 12° of the direction against the
+//! probe's median depth over the whole sphere (and eight near distances), so a pillar or a
+//! wall at arm's length straight ahead makes a poor first view however deep the
+//! scene around it is.
 //! Directions are kept upright: pitch within ±30°, no roll. Preferred
 //! directions are the modes of G over 96 candidate directions found by
-//! mean-shift (kernel 30°), merged within 15°.
+//! mean-shift (kernel 30°), each snapped to the best candidate within the
+//! kernel (so the view shown is one that was scored), merged within 15°.
 //!
 //! Defaults: α = 0.5, β = 0.5, cube faces of 24², 96 directions.
 
@@ -28,6 +34,11 @@ const DIRECTIONS: usize = 96;
 const CONE_COS: f32 = std::f32::consts::FRAC_1_SQRT_2; // 45°
 const BINS: usize = 16;
 const MAX_PITCH: f32 = std::f32::consts::FRAC_PI_6; // 30°
+/// A view whose central median depth is under this share of the probe's
+/// all-round median depth, or under CLEAR_NEARS near distances (about 2.4 m
+/// with a trusted scale), is scaled down in proportion.
+const CLEAR_SHARE: f32 = 0.5;
+const CLEAR_NEARS: f32 = 8.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Preferred {
@@ -57,47 +68,74 @@ fn candidates() -> Vec<Vec3> {
         .collect()
 }
 
-/// Depth histogram and largest depth of the cone around each candidate direction.
-fn cone_histograms(view: &CubeView, dirs: &[Vec3], range: f32) -> Vec<([f32; BINS], f32)> {
+/// Cosine of the central cone whose depth says whether a view is blocked (12°).
+const CENTRAL_COS: f32 = 0.978;
+/// The central depth taken: the nearest 30 % (a view half filled by a door
+/// jamb at arm's length is blocked, whatever shows through the other half).
+const CENTRAL_QUANTILE: f32 = 0.3;
+
+/// Per candidate direction: the depth histogram and largest depth of the cone
+/// around it, and the depth of the nearest 30 % of its central 12°.
+fn cone_histograms(view: &CubeView, dirs: &[Vec3], range: f32) -> Vec<([f32; BINS], f32, f32)> {
+    // Misses (sky) count as the far end of the range.
+    let depth = |pixel: usize| view.hits[pixel].map_or(range, |hit| hit.t.min(range));
     dirs.iter()
         .map(|&d| {
             let mut h = [0.0f32; BINS];
             let (mut count, mut max_depth) = (0.0f32, 0.0f32);
+            let mut central = Vec::new();
             for (pixel, ray_dir) in view.dirs.iter().enumerate() {
-                if ray_dir.dot(d) < CONE_COS {
+                let cos = ray_dir.dot(d);
+                if cos < CONE_COS {
                     continue;
                 }
-                // Misses (sky) count as the far end of the range.
-                let t = view.hits[pixel].map_or(range, |hit| hit.t.min(range));
+                let t = depth(pixel);
                 h[((t / range * BINS as f32) as usize).min(BINS - 1)] += 1.0;
                 count += 1.0;
                 max_depth = max_depth.max(t);
+                if cos >= CENTRAL_COS {
+                    central.push(t);
+                }
             }
             if count > 0.0 {
                 h.iter_mut().for_each(|v| *v /= count);
             }
-            (h, max_depth)
+            (h, max_depth, quantile(&mut central, CENTRAL_QUANTILE))
         })
         .collect()
+}
+
+/// The value below which `q` of the values lie (0 for none).
+fn quantile(values: &mut [f32], q: f32) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f32::total_cmp);
+    values[((values.len() - 1) as f32 * q) as usize]
 }
 
 /// Goodness of every candidate direction around `probe`: (direction, goodness, stability).
 pub fn goodness(rays: &RayScene, probe: Vec3, near: f32, diagonal: f32) -> Vec<(Vec3, f32, f32)> {
     let dirs = candidates();
     let range = (0.5 * diagonal).max(f32::MIN_POSITIVE);
-    let here = cone_histograms(&CubeView::trace(rays, probe, FACE_RES), &dirs, range);
-    let moved: Vec<Vec<([f32; BINS], f32)>> = [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z]
+    let view = CubeView::trace(rays, probe, FACE_RES);
+    let here = cone_histograms(&view, &dirs, range);
+    // How far the probe sees, all round: a view is blocked when its centre is
+    // much nearer than that (a pillar or a wall at arm's length).
+    let all_round = quantile(&mut (0..view.hits.len()).map(|p| view.hits[p].map_or(range, |h| h.t.min(range))).collect::<Vec<_>>(), 0.5).max(f32::MIN_POSITIVE);
+    let moved: Vec<Vec<([f32; BINS], f32, f32)>> = [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z]
         .iter()
         .map(|&m| cone_histograms(&CubeView::trace(rays, probe + m * near, FACE_RES), &dirs, range))
         .collect();
     dirs.iter()
         .enumerate()
         .map(|(k, &d)| {
-            let (h, max_depth) = &here[k];
+            let (h, max_depth, central) = &here[k];
             let spread = 1.0 - h.iter().map(|v| v * v).sum::<f32>();
             let change = moved.iter().map(|m| 0.5 * h.iter().zip(&m[k].0).map(|(a, b)| (a - b).abs()).sum::<f32>()).sum::<f32>() / moved.len() as f32;
             let stability = 1.0 - change;
-            (d, (ALPHA * max_depth / range + BETA * spread) * stability, stability)
+            let clear = (central / (CLEAR_SHARE * all_round).max(CLEAR_NEARS * near)).min(1.0);
+            (d, (ALPHA * max_depth / range + BETA * spread) * stability * clear, stability)
         })
         .collect()
 }
@@ -124,8 +162,9 @@ pub fn preferred_directions(rays: &RayScene, probe: Vec3, near: f32, diagonal: f
                 break;
             }
         }
-        // Goodness at the mode: that of the best candidate within the kernel.
-        let g = scored.iter().filter(|(c, _)| c.dot(d) > kernel_cos).map(|&(_, g)| g).fold(0.0f32, f32::max);
+        // The mode's view is the best evaluated candidate within the kernel: the
+        // mean of nearby directions may itself graze a wall nobody scored.
+        let Some(&(d, g)) = scored.iter().filter(|(c, _)| c.dot(d) > kernel_cos).max_by(|a, b| a.1.total_cmp(&b.1)) else { continue };
         if !modes.iter().any(|(m, _)| m.dot(d) > 0.966) {
             modes.push((d, g));
         }
@@ -179,6 +218,27 @@ mod tests {
         assert!(d.x > 0.0, "the long end of the corridor is the better view ({best:?})");
         assert!(best[0].pitch.abs() <= MAX_PITCH + 1e-5);
         assert!(best.windows(2).all(|w| w[0].goodness >= w[1].goodness));
+    }
+
+    #[test]
+    fn the_first_view_faces_into_the_room_not_a_pillar_at_arms_length() {
+        // Gallery probes whose first view, before the clear-view factor, met a
+        // pillar or a wall 1.1 to 2.4 m ahead (issue: navigable space).
+        let scene = exploremaps_scenes::BuiltIn::Gallery.generate(1);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        for probe in [Vec3::new(30.326, 1.6, 3.632), Vec3::new(37.955, 1.6, 19.494), Vec3::new(5.691, 1.6, 3.648)] {
+            let best = preferred_directions(&rays, probe, 0.272, scene.bounds().diagonal());
+            // How open the view is: the median depth of a 5 × 5 fan of rays within
+            // 10° of its centre, cast here rather than taken from the goodness.
+            let mut depths: Vec<f32> = (0..25)
+                .map(|k| {
+                    let (yaw, pitch) = (best[0].yaw + 0.087 * ((k % 5) as f32 - 2.0), best[0].pitch + 0.087 * ((k / 5) as f32 - 2.0));
+                    rays.intersect(&crate::raycast::Ray::new(probe, direction(yaw, pitch))).map_or(f32::INFINITY, |h| h.t)
+                })
+                .collect();
+            depths.sort_by(f32::total_cmp);
+            assert!(depths[12] > 3.0, "from {probe} the first view ({best:?}) is open for a median {:.2} ahead", depths[12]);
+        }
     }
 
     #[test]

@@ -6,12 +6,14 @@ use glam::Vec3;
 
 /// Closed rooms in a row along x, each `w` wide, `h` high and `d` deep, sharing
 /// 0.2-thick walls, with a door (1.2 × 2.2, at z = d/2) in the walls listed in
-/// `doors` (0 = the west outer wall, 1 = between rooms 0 and 1, …).
+/// `doors` (0 = the west outer wall, 1 = between rooms 0 and 1, …). Floor and
+/// roof slabs end flush with the walls' outer faces.
 pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
     let mut m = MeshBuilder::new("rooms");
     let (t, x1) = (0.2, count as f32 * w);
-    m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(x1 + t, 0.0, d + t));
-    m.cuboid(Vec3::new(-t, h, -t), Vec3::new(x1 + t, h + t, d + t));
+    let e = 0.5 * t;
+    m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(x1 + e, 0.0, d + e));
+    m.cuboid(Vec3::new(-e, h, -e), Vec3::new(x1 + e, h + t, d + e));
     m.wall(true, 0.0, 0.0, x1, 0.0, h, t, &[]);
     m.wall(true, d, 0.0, x1, 0.0, h, t, &[]);
     for k in 0..=count {
@@ -25,8 +27,9 @@ pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
 pub fn pillar_room(radius: f32) -> Scene {
     let mut m = MeshBuilder::new("pillar");
     let (w, h, d, t) = (10.0, 3.0, 6.0, 0.2);
-    m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(w + t, 0.0, d + t));
-    m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
+    let e = 0.5 * t;
+    m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(w + e, 0.0, d + e));
+    m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
     for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
         m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
     }
