@@ -364,7 +364,15 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     println!("  space       {} ({}); {} ({})", f.space, f.space_reason, f.height, f.height_reason);
     println!("  free space  voxel {}, near {} units, {} navigable voxels of {} open ({:.2} s)", num(f.voxel as f64), num(f.near as f64), f.navigable, f.open, f.seconds);
     if let Some(w) = &f.walk {
-        println!("  walk        eye {} m above {} m² of floor in {} region(s) ({} roof(s) left out)", num(w.eye_height_m as f64), num(w.floor_area_m2), w.regions_kept, w.roofs);
+        let levels: Vec<String> = w.levels.iter().map(|(y, share)| format!("{} ({:.0} %)", num(*y as f64), 100.0 * share)).collect();
+        println!(
+            "  walk        eye {} m above {} m² of floor in {} region(s) ({} roof(s) left out); floor levels at {}",
+            num(w.eye_height_m as f64),
+            num(w.floor_area_m2),
+            w.regions_kept,
+            w.roofs,
+            if levels.is_empty() { "no single height (rolling ground)".to_string() } else { levels.join(", ") }
+        );
     }
     if plan.explore.probes > 0 {
         println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", plan.explore.probes, plan.explore.rays as f64 / 1e6, plan.explore.seconds);

@@ -267,12 +267,12 @@ fn ordered(x: f32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
 
     fn setup(scene: &exploremaps_scenes::Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 

@@ -363,13 +363,13 @@ fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, in_ceiling: Vec<boo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
 
     fn setup(scene: &Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 

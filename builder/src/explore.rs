@@ -24,7 +24,7 @@
 //!   in navigable space are occluded-space samples. A sample is dropped once any
 //!   probe sees it (masking). While samples survive, the next probe starts at a
 //!   random one and relaxes toward the area-weighted barycentre of the surface
-//!   it newly sees, halfway to any obstruction.
+//!   it newly sees, halfway to any obstruction, while that area grows.
 //!
 //! When the free space is walked ([`crate::walk`]), every probe stands at eye
 //! height above a walkable floor ([`FreeSpace::stand`]).
@@ -424,6 +424,7 @@ fn relax(rays: &RayScene, space: &FreeSpace, start: Vec3, seen: &[bool], params:
     let mut p = start;
     // A coarse view is enough to steer.
     let res = (params.face_res / 2).max(8);
+    let mut previous: Option<(Vec3, f32)> = None;
     for _ in 0..params.relax_steps {
         let view = CubeView::trace(rays, p, res);
         stats.rays += view.dirs.len();
@@ -440,6 +441,15 @@ fn relax(rays: &RayScene, space: &FreeSpace, start: Vec3, seen: &[bool], params:
         if weight <= 0.0 {
             break;
         }
+        // Stop where the newly seen area stops growing: the barycentre of what two
+        // rooms show lies in their doorway, which sees less of either.
+        if let Some((q, w)) = previous {
+            if weight < w {
+                p = q;
+                break;
+            }
+        }
+        previous = Some((p, weight));
         let target = sum / weight;
         // Keep the probe's height band: barycentres of rooms sit at mid-height anyway,
         // and stepping to a point that is not navigable is refused below.
@@ -618,6 +628,21 @@ mod tests {
             let c = covered(&scene, &space, &probes);
             assert!(c > MIN_COVERAGE[strategy as usize] - 0.05, "{strategy:?}: {c}");
         }
+    }
+
+    #[test]
+    fn walking_the_house_puts_probes_on_both_storeys_joined_by_the_stairs() {
+        let scene = BuiltIn::House.generate(1);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let (space, stats) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
+        let walk = stats.walk.as_ref().expect("the house is walked by default");
+        assert_eq!(walk.regions_kept, 1, "the staircase joins the storeys and the garden: {walk:?}");
+        assert_eq!(walk.levels.len(), 2, "{walk:?}");
+        let (probes, _) = explore(&scene, &rays, &space, &ExploreParams::default());
+        for &(floor, _) in &walk.levels {
+            assert!(probes.iter().any(|p| (p.position.y - floor - 1.6).abs() < 0.3), "no probe on the floor at {floor}: {probes:?}");
+        }
+        assert!(probes.iter().all(|p| p.position.y < 6.0), "a probe on the roof: {probes:?}");
     }
 
     #[test]

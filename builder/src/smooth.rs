@@ -49,7 +49,9 @@ pub fn max_curvature(p: &[Vec3]) -> f32 {
     p.windows(3)
         .map(|w| {
             let (a, b) = (w[1] - w[0], w[2] - w[1]);
-            let turn = a.normalize_or_zero().dot(b.normalize_or_zero()).clamp(-1.0, 1.0).acos();
+            // atan2 of cross and dot stays accurate for small turns, where acos of
+            // a dot of normalised vectors rounds to about 5e-4 rad for none.
+            let turn = a.cross(b).length().atan2(a.dot(b));
             turn / (0.5 * (a.length() + b.length())).max(1e-6)
         })
         .fold(0.0, f32::max)
@@ -152,12 +154,12 @@ pub fn camera_keys(p: &[Vec3], duration_s: f32, arrival: Option<(f32, f32)>) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, SpaceMode};
+    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
 
     fn pillar_room() -> (RayScene, FreeSpace) {
         let scene = crate::testing::pillar_room(1.0);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, ..Default::default() }).unwrap();
+        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 

@@ -80,6 +80,10 @@ pub struct WalkStats {
     pub floor_area_m2: f64,
     /// Median free height above the floors that have a ceiling, m.
     pub room_height_m: Option<f32>,
+    /// Storeys: (floor height in scene units, share of the kept floor area), for
+    /// heights holding at least 5 % of it (bins of 0.25 m, neighbours merged).
+    /// A landscape's rolling ground may show no level at all.
+    pub levels: Vec<(f32, f32)>,
     pub rays: usize,
 }
 
@@ -239,6 +243,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             band[i] |= fly[i];
         }
     }
+    let kept_heights: Vec<f32> = standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| c.floor_y).collect();
+    let levels = levels(&kept_heights, 0.25 / metres_per_unit);
     let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite()).collect();
     heights.sort_by(f32::total_cmp);
     let stats = WalkStats {
@@ -250,9 +256,34 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         roofs: roof.iter().filter(|&&r| r).count(),
         floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
         room_height_m: heights.get(heights.len() / 2).copied(),
+        levels,
         rays: floors.rays + hips.len(),
     };
     (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
+}
+
+/// Floor heights holding at least 5 % of the cells, in bins of `bin` units,
+/// neighbouring bins merged: (mean height, share of the cells).
+fn levels(heights: &[f32], bin: f32) -> Vec<(f32, f32)> {
+    if heights.is_empty() {
+        return Vec::new();
+    }
+    let lowest = heights.iter().copied().fold(f32::INFINITY, f32::min);
+    let mut bins: std::collections::BTreeMap<i64, (f64, usize)> = std::collections::BTreeMap::new();
+    for &h in heights {
+        let e = bins.entry(((h - lowest) / bin) as i64).or_default();
+        e.0 += h as f64;
+        e.1 += 1;
+    }
+    let n = heights.len() as f32;
+    let mut out: Vec<(i64, f64, usize)> = Vec::new();
+    for (k, (sum, count)) in bins.into_iter().filter(|(_, (_, c))| *c as f32 >= 0.05 * n) {
+        match out.last_mut() {
+            Some(last) if last.0 + 1 == k => *last = (k, last.1 + sum, last.2 + count),
+            _ => out.push((k, sum, count)),
+        }
+    }
+    out.into_iter().map(|(_, sum, count)| ((sum / count as f64) as f32, count as f32 / n)).collect()
 }
 
 /// Per column, the lowest floor height (infinite where there is none).
