@@ -206,7 +206,8 @@ fn plan_user_probes_and_bad_planning_arguments() {
         (vec!["--coverage", "1.5"], "fraction"),
         (vec!["--max-cells", "3"], "max-cells"),
         (vec!["--space", "sideways"], "sideways"),
-        (vec!["--eye-height-m", "1.7"], "--walk"),
+        (vec!["--walk", "--fly"], "--fly"),
+        (vec!["--eye-height-m", "0"], "eye-height"),
     ] {
         let bad = dir.path().join("bad");
         let mut all = vec!["plan", "maze:3", "-o", bad.to_str().unwrap(), "--samples", "5000"];

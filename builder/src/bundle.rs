@@ -66,12 +66,25 @@ pub fn coverage_json(plan: &Plan) -> serde_json::Value {
             .collect()
     };
     let c = &plan.coverage;
+    let ceiling = c.ceiling();
     serde_json::json!({
         "probes": plan.graph.probes.len(),
         "samples": c.samples.points.len(),
         "reachable_area": c.reachable_area,
         "covered_area": c.covered_area,
         "fraction": c.fraction(),
+        "measured_from": match &plan.free_space.walk {
+            Some(w) => format!("eye height ({} m) above the walkable floors: surface seen only from higher up or lower down is not counted here, but is in the ceiling", w.eye_height_m),
+            None => "anywhere in the navigable space".to_string(),
+        },
+        "ceiling": {
+            "what": "surface seen from anywhere in the free space inside the scene's bounding box (outside closed solids), whatever space was chosen: the most any placement could see",
+            "area": ceiling.area,
+            "seen_from_space": ceiling.seen_from_space,
+            "covered": ceiling.covered,
+            "space_fraction": if ceiling.area > 0.0 { ceiling.seen_from_space / ceiling.area } else { 1.0 },
+            "covered_fraction": if ceiling.area > 0.0 { ceiling.covered / ceiling.area } else { 1.0 },
+        },
         "probes_for": { "0.90": c.probes_for(0.90), "0.95": c.probes_for(0.95), "0.98": c.probes_for(0.98), "0.99": c.probes_for(0.99) },
         "curve": c.curve,
         "per_material": groups(&plan.per_material),
@@ -83,6 +96,7 @@ pub fn coverage_json(plan: &Plan) -> serde_json::Value {
             "curve": b.report.curve,
         })).collect::<Vec<_>>(),
         "chart": "coverage_curve.png: explored probes green, random baseline orange, grid baseline blue; gridlines every 10 % of the y range and every 10 probes",
+        "top_view": "coverage_top.png: a cutaway from the top of the navigable space; grey seen by a probe, magenta reachable but unseen, dim unreachable, amber free space the chosen space leaves out, green dots probes",
     })
 }
 
