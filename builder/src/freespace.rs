@@ -20,15 +20,17 @@
 //! toward the sides or below) or `inside` (everything else: interiors,
 //! semi-open architecture, landscapes); (5) navigable voxels, by height mode:
 //!
-//! * *fly*: `inside`: open space with clearance ≥ r, in the 6-connected parts the
-//!   scene's surfaces face (each triangle votes for the part in front of it; a
-//!   part needs a tenth of the votes of the most-faced one, or any vote if it
-//!   reaches the box's boundary: sealed voids and slivers drop out, while the
-//!   outside of a building with glazed windows and the ground around it stay);
+//! * *fly*: `inside`: open space with clearance ≥ r, in every 6-connected part
+//!   the scene's surface faces (each triangle votes for the part in front of
+//!   it): free flight is for coverage research, and reaches attics and sealed
+//!   rooms too;
 //!   `outside`: free space with clearance ≥ r around the scene, in the padding
 //!   and in the open space connected to it;
 //! * *walk* ([`crate::walk`]): voxels within a band around eye height above the
-//!   walkable floors of the fly space (slope, steps and head room as people
+//!   walkable floors of the visitor's parts of the fly space: the most-faced
+//!   part, parts with a tenth of its votes, and parts reaching the box's
+//!   boundary (a courtyard, the ground around a building), never an attic or a
+//!   sealed void (slope, steps and head room as people
 //!   move; roofs and small surfaces such as table tops left out). Probes stand at
 //!   exactly eye height above a floor ([`FreeSpace::stand`]).
 //!
@@ -129,8 +131,9 @@ impl Default for FreeSpaceParams {
 /// `auto` takes a scene for an object when more than this share of the rays
 /// leaving its surface leave its box sideways or downward.
 const FACING_OUT_OBJECT: f32 = 0.5;
-/// A part of the open space is navigable when the scene faces it with at least
-/// this share of the votes of the most-faced part.
+/// When walking, a part of the open space is a visitor's when the scene faces it
+/// with at least this share of the votes of the most-faced part (or it reaches
+/// the box's boundary).
 const FACED_SHARE: f32 = 0.1;
 /// Largest near distance when walking, or when the scale is trusted: about a
 /// person's half width.
@@ -408,9 +411,12 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             if most == 0 {
                 return Err(FreeSpaceError::Nothing("inside", near, "try --space outside or a smaller near distance"));
             }
+            // Flying (coverage research) goes wherever the surface faces; a walker
+            // only where a visitor is: the most-faced part, parts with a tenth of
+            // its votes, and parts open to the world (attics and sealed voids stay out).
             let exterior = touches_boundary(&grid, &labels, sizes.len(), &in_box);
             for (k, &v) in votes.iter().enumerate() {
-                kept[k] = v as f32 >= FACED_SHARE * most as f32 || (v > 0 && exterior[k]);
+                kept[k] = v > 0 && (!walking || v as f32 >= FACED_SHARE * most as f32 || exterior[k]);
             }
         }
     }
