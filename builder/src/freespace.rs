@@ -345,7 +345,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
     // stated, or guessed with rooms of a plausible height.
     let eye = params.eye_height_m / scene.metres_per_unit;
-    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit));
+    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &walk::water_triangles(scene)));
     let judged = match scene.scale_source {
         ScaleSource::File | ScaleSource::User => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
         ScaleSource::Guessed => match &floors {
@@ -996,6 +996,30 @@ mod tests {
         let (_, stats) = run(&m.finish(), &FreeSpaceParams::default()).unwrap();
         assert_eq!(stats.space, "outside", "{stats:?}");
         assert_eq!(stats.height, "fly", "{stats:?}");
+    }
+
+    #[test]
+    fn an_island_is_a_scene_to_be_in_walked_on_its_ground_in_its_houses_and_tunnel() {
+        let scene = BuiltIn::Island.generate(1);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let (walk, stats) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
+        assert_eq!((stats.space, stats.height), ("inside", "walk"), "{stats:?}");
+        let (fly, _) = free_space(&scene, &rays, &FreeSpaceParams { height: HeightMode::Fly, ..Default::default() }).unwrap();
+        // The first surface straight down from high above.
+        let top = |x: f32, z: f32| rays.intersect(&Ray::new(Vec3::new(x, 60.0, z), Vec3::NEG_Y)).map(|h| 60.0 - h.t).unwrap();
+        let hill = Vec3::new(0.0, top(0.0, 0.0), 0.0);
+        assert!(walk.is_navigable(hill + Vec3::Y * 1.6), "eye height on open ground {hill}");
+        assert!(!walk.is_navigable(hill + Vec3::Y * 6.0) && fly.is_navigable(hill + Vec3::Y * 6.0), "the air above: flying only");
+        assert!(!fly.is_open(hill - Vec3::Y * 1.0), "under the ground");
+        // Inside the tunnel: its rock's top is 8 m above its floor.
+        let tunnel = Vec3::new(-38.0, top(-38.0, 18.0) - 8.0, 18.0);
+        assert!(walk.is_navigable(tunnel + Vec3::Y * 1.6), "in the tunnel {tunnel}");
+        // Inside the first house, beside its table: its roof's top is 3.3 m above its floor.
+        let house = Vec3::new(-28.0, top(-28.0, -19.0) - 3.3, -19.0);
+        assert!(walk.is_navigable(house + Vec3::Y * 1.6), "in the house {house}");
+        assert!(!walk.is_navigable(house + Vec3::Y * 4.9), "on its roof");
+        let w = stats.walk.unwrap();
+        assert!(w.roofs >= 1, "the houses' flat roofs are left out: {w:?}");
     }
 
     #[test]

@@ -8,7 +8,9 @@
 //! 1. Floor cells: in each grid column, every free voxel of the open space with
 //!    an occupied voxel below it is a candidate; a ray down from its centre finds
 //!    the exact floor (within a step and two voxels), which must face up within
-//!    the slope limit.
+//!    the slope limit and not be water (a material named water, sea, ocean,
+//!    lake, river, pond or pool: nobody walks on the sea around an island, nor
+//!    on the sea bed under it).
 //! 2. Standing: the ray up from the floor must be free for eye height plus head
 //!    room, and the eye voxel must be in the fly space (clearance ≥ r).
 //! 3. Walking: floor cells of neighbouring columns join when their floors differ
@@ -16,9 +18,10 @@
 //!    height between them is free (a railing or a wall stops it). Stairs and
 //!    ramps therefore join storeys; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
-//!    one's floor, except roofs (regions whose floor mostly sees the sky with
-//!    another floor below it: nobody tours the roof of the building they visit).
-//!    Table tops, beds and window sills are far below that share and drop out.
+//!    one's floor, or roofed over and of at least 8 m² (a room), except roofs (regions whose floor
+//!    mostly sees the sky with another floor below it: nobody tours the roof of
+//!    the building they visit). Table tops, beds and window sills are smaller
+//!    and drop out.
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    so the band is connected wherever people can walk.
@@ -36,8 +39,11 @@ pub const HEAD_ROOM_M: f32 = 0.25;
 pub const STEP_M: f32 = 0.3;
 /// Cosine of the steepest walkable slope (40°).
 pub const SLOPE_COS: f32 = 0.766;
-/// A region is kept when its floor is at least this share of the largest's.
+/// A region is kept when its floor is at least this share of the largest's, or
+/// when it is roofed over and at least a small room's area (a house on an
+/// island whose door the grid cannot pass), and is not a roof.
 const REGION_SHARE: f32 = 1.0 / 6.0;
+const ROOM_M2: f32 = 8.0;
 /// A region is a roof when this share of its cells sees the sky above a floor.
 const ROOF_SHARE: f32 = 0.7;
 
@@ -103,10 +109,20 @@ pub struct Floors {
     pub rays: usize,
 }
 
+/// Whether each triangle is water (its material named so): never walked on.
+pub fn water_triangles(scene: &exploremaps_scenes::Scene) -> Vec<bool> {
+    const WORDS: [&str; 7] = ["water", "sea", "ocean", "lake", "river", "pond", "pool"];
+    let water: Vec<bool> = scene.materials.iter().map(|m| {
+        let name = m.name.to_lowercase();
+        WORDS.iter().any(|w| name.split(|c: char| !c.is_alphanumeric()).any(|part| part == *w))
+    }).collect();
+    scene.triangle_material.iter().map(|&m| water.get(m as usize).copied().unwrap_or(false)).collect()
+}
+
 /// Finds every floor in the open space (step 1), with its head room. The ray
 /// down reaches a step plus two voxels: a column that straddles a step's edge
 /// is occupied up to the higher tread while its centre stands over the lower.
-pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScene, metres_per_unit: f32) -> Floors {
+pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScene, metres_per_unit: f32, water: &[bool]) -> Floors {
     let [nx, ny, nz] = grid.dims;
     let starts: Vec<[usize; 3]> = (0..nx * nz)
         .into_par_iter()
@@ -122,7 +138,7 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
         .iter()
         .zip(&down)
         .zip(&hits)
-        .filter_map(|((c, r), h)| h.filter(|h| h.normal.y.abs() >= SLOPE_COS).map(|h| (c[0] + nx * c[2], r.at(h.t))))
+        .filter_map(|((c, r), h)| h.filter(|h| h.normal.y.abs() >= SLOPE_COS && !water[h.triangle as usize]).map(|h| (c[0] + nx * c[2], r.at(h.t))))
         .collect();
     let eps = 1e-3 * grid.voxel;
     let up: Vec<Ray> = floors.iter().map(|&(_, p)| Ray { t_min: eps, ..Ray::new(p, Vec3::Y) }).collect();
@@ -130,7 +146,8 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
     let cells = floors
         .iter()
         .zip(&above)
-        .map(|(&(column, p), h)| FloorCell { column, floor_y: p.y, headroom: h.map_or(f32::INFINITY, |h| h.t) })
+        // Under water (the first thing above is water) there is no head room.
+        .map(|(&(column, p), h)| FloorCell { column, floor_y: p.y, headroom: h.map_or(f32::INFINITY, |h| if water[h.triangle as usize] { 0.0 } else { h.t }) })
         .collect();
     Floors { cells, rays: down.len() + up.len() }
 }
@@ -209,6 +226,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let mut region_of = vec![u32::MAX; standing.len()];
     let mut sizes: Vec<usize> = Vec::new();
     let mut roofish: Vec<usize> = Vec::new();
+    // Cells with a ceiling above, per region.
+    let mut covered: Vec<usize> = Vec::new();
     let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
     for k in 0..standing.len() {
         let r = roots[k] as usize;
@@ -216,6 +235,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             region_of[r] = sizes.len() as u32;
             sizes.push(0);
             roofish.push(0);
+            covered.push(0);
         }
         let g = region_of[r] as usize;
         region_of[k] = g as u32;
@@ -224,10 +244,15 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - rise {
             roofish[g] += 1;
         }
+        if c.headroom.is_finite() {
+            covered[g] += 1;
+        }
     }
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
-    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+    let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
+    let room = |g: usize| 2 * covered[g] > sizes[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2;
+    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && (sizes[g] as f32 >= REGION_SHARE * largest as f32 || room(g))).collect();
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
