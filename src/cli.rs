@@ -171,8 +171,9 @@ pub struct PlanArgs {
     /// cost a probe; 1 places probes until none adds anything.
     #[arg(long, default_value_t = 0.995)]
     pub coverage: f64,
-    /// Near distance r in metres: the least clearance of probes (default 0.5 % of the
-    /// scene's bounding-box diagonal).
+    /// Near distance r in metres: the least clearance of probes and paths (default 0.5 %
+    /// of the scene's bounding-box diagonal, at most 0.3 m when walking or when the
+    /// scale is stated or plausibly guessed, so probes pass any door a visitor passes).
     #[arg(long)]
     pub near_m: Option<f32>,
     /// How probes are placed.

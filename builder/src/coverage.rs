@@ -425,26 +425,3 @@ mod tests {
         assert_eq!(a.reached_side, b.reached_side);
     }
 }
-#[cfg(test)]
-mod debug_ceiling {
-    use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode};
-    #[test]
-    #[ignore]
-    fn debug_ceiling_gap_shared() {
-        let file = std::env::var("FILE").unwrap();
-        let scale = std::env::var("MPU").ok().and_then(|v| v.parse().ok());
-        let scene = crate::load::load(std::path::Path::new(&file), &crate::load::LoadOptions { metres_per_unit: scale, ..Default::default() }).unwrap();
-        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, stats) = free_space(&scene, &rays, &FreeSpaceParams { height: HeightMode::Fly, ..Default::default() }).unwrap();
-        eprintln!("{stats:?}");
-        let r = coverage(&scene, &rays, &space, &[], &CoverageParams { samples: 50_000, ..Default::default() });
-        let mut per = std::collections::BTreeMap::<String, (f64, f64, usize)>::new();
-        for i in 0..r.in_ceiling.len() {
-            let m = scene.objects[scene.triangle_object[r.samples.triangles[i] as usize] as usize].clone();
-            let e = per.entry(m).or_default();
-            if r.in_ceiling[i] { e.0 += r.samples.area_each; if r.reached_side[i] == 0 { e.1 += r.samples.area_each; e.2 += 1; if e.2 <= 3 { eprintln!("  {} n {}", r.samples.points[i], r.samples.normals[i]); } } }
-        }
-        for (m, (a, b, _)) in per { if b > 0.01 * a || b > 1.0 { eprintln!("{m}: ceiling {a:.1}, not from space {b:.1}"); } }
-    }
-}

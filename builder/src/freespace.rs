@@ -369,7 +369,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             Err(why) => (false, format!("auto: {why}; pass --metres-per-unit to walk")),
         },
     };
-    if walking {
+    if walking && params.near_m.is_none() {
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
 
