@@ -826,12 +826,6 @@ fn components(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
     (labels, sizes)
 }
 
-/// The component that the scene's surfaces face into most: each triangle votes
-/// for the first component found stepping out along its normal (r plus one
-/// voxel, doubling up to eight times that). Votes count triangles, not area:
-/// the detail of a scene (columns, arches, statues) faces its main space, while
-/// a few huge panels (a backdrop, the outside of the outer walls) face the space
-
 /// Per component: whether it reaches the box's boundary (open to the world
 /// outside the box, like a courtyard or the ground around a building).
 fn touches_boundary(grid: &Grid, labels: &[u32], count: usize, in_box: &[bool]) -> Vec<bool> {

@@ -70,7 +70,7 @@ pub fn island(seed: u64) -> Scene {
     };
     m.begin_object("terrain");
     m.set_material(grass);
-    m.terrain(-HALF, -HALF, HALF, HALF, 128, &height);
+    m.terrain(-HALF, -HALF, HALF, HALF, 128, height);
     m.begin_object("sea");
     m.set_material(water);
     m.quad([Vec3::new(-HALF, 0.0, HALF), Vec3::new(HALF, 0.0, HALF), Vec3::new(HALF, 0.0, -HALF), Vec3::new(-HALF, 0.0, -HALF)]);

@@ -9,6 +9,7 @@
 //! | `big` | a triangle budget up to tens of millions: scaling |
 //! | `island` | an open landscape: terrain, houses with windows, a tunnel, a bridge |
 //! | `house` | two storeys joined by a staircase, in a garden: walking between floors |
+//! | `sunroom` | a plain white room lit only through a window: global illumination |
 
 mod big;
 mod gallery;
@@ -18,6 +19,7 @@ mod maze;
 pub mod mesh;
 mod pillars;
 mod scene;
+mod sunroom;
 pub mod textures;
 
 pub use scene::{guess_metres_per_unit, Aabb, AlphaMode, Light, Material, ScaleSource, Scene, SceneStats, Texture};
@@ -33,18 +35,20 @@ pub enum BuiltIn {
     Big(usize),
     Island,
     House,
+    Sunroom,
 }
 
 pub const DEFAULT_SCENE: &str = "gallery";
 
 /// (name, parameter meaning, one-line description) of every built-in scene.
-pub const CATALOGUE: [(&str, &str, &str); 6] = [
+pub const CATALOGUE: [(&str, &str, &str); 7] = [
     ("gallery", "", "museum: rooms, doors, corridor, pillars, statues, open courtyard (the default)"),
     ("maze", "cells per side, default 8", "roofed labyrinth of 2 m corridors"),
     ("pillars", "", "hall with a 6x4 grid of columns hiding small props"),
     ("big", "target triangles, default 1000000", "museum of many gallery wings on a grid, for scaling benchmarks"),
     ("island", "", "open landscape: hills, houses with doors and windows, a rock tunnel, a bridge over a river, trees"),
     ("house", "", "two-storey house with a staircase, in a walled garden"),
+    ("sunroom", "", "plain white room lit only by the sun through a window (rendering test)"),
 ];
 
 impl BuiltIn {
@@ -59,6 +63,7 @@ impl BuiltIn {
             ("pillars", None) => Some(BuiltIn::Pillars),
             ("island", None) => Some(BuiltIn::Island),
             ("house", None) => Some(BuiltIn::House),
+            ("sunroom", None) => Some(BuiltIn::Sunroom),
             ("maze", p) => Some(BuiltIn::Maze(p.unwrap_or(8).clamp(2, 200))),
             ("big", p) => Some(BuiltIn::Big(p.unwrap_or(1_000_000).clamp(1, 100_000_000))),
             _ => None,
@@ -73,6 +78,7 @@ impl BuiltIn {
             BuiltIn::Big(triangles) => big::big(seed, triangles),
             BuiltIn::Island => island::island(seed),
             BuiltIn::House => house::house(seed),
+            BuiltIn::Sunroom => sunroom::sunroom(),
         }
     }
 }
@@ -83,7 +89,7 @@ mod tests {
 
     #[test]
     fn every_builtin_is_valid_and_seeded() {
-        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house"] {
+        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "sunroom"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             scene.validate().unwrap_or_else(|e| panic!("{spec}: {e}"));
             assert_eq!(scene.stats, SceneStats::default(), "{spec} made bad triangles");

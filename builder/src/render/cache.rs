@@ -54,6 +54,9 @@ pub struct RadianceCache {
     irradiance: Vec<Vec3>,
     /// Direct irradiance from point lights per cell, for renders that bake them.
     points: Vec<Vec3>,
+    /// Direct irradiance from the suns per cell: with `points`, what a final
+    /// gather's second hits take instead of a shadow ray each.
+    suns: Vec<Vec3>,
     mean: Vec3,
     pub stats: CacheStats,
 }
@@ -103,7 +106,7 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), irradiance: Vec::new(), points: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
+        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), irradiance: Vec::new(), points: Vec::new(), suns: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
         let mut cells: Vec<Cell> = Vec::new();
         let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
             let k = key(cache.cell_of(p), normal_bin(n));
@@ -198,20 +201,28 @@ impl RadianceCache {
                 break;
             }
         }
-        if !tracer.lighting.points.is_empty() {
-            cache.points = cells
+        // Direct light per cell, averaged over its points: point lights (for
+        // renders that bake them) and suns (for a final gather's second hits).
+        let direct = |which: Which, stream: u64| -> Vec<Vec3> {
+            cells
                 .par_iter()
                 .enumerate()
                 .map(|(c, cell)| {
-                    let mut rng = sampler(params.seed, 0xD1EC7, c as u64);
+                    let mut rng = sampler(params.seed, stream, c as u64);
                     let sum: Vec3 = cell
                         .points
                         .iter()
-                        .map(|&(p, n)| tracer.direct(&Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO }, Which::Points, &mut rng))
+                        .map(|&(p, n)| tracer.direct(&Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO }, which, &mut rng))
                         .sum();
                     sum / cell.points.len() as f32
                 })
-                .collect();
+                .collect()
+        };
+        if !tracer.lighting.points.is_empty() {
+            cache.points = direct(Which::Points, 0xD1EC7);
+        }
+        if !tracer.lighting.suns.is_empty() {
+            cache.suns = direct(Which::Suns, 0x5A45);
         }
         cache.mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
         cache.irradiance = e;
@@ -224,9 +235,33 @@ impl RadianceCache {
     /// irradiance with `points`), interpolated bilinearly between the centres
     /// of the cells around it that exist (noise-free).
     pub fn irradiance(&self, p: Vec3, n: Vec3, points: bool) -> Vec3 {
-        let value = |i: u32| self.irradiance[i as usize] + if points { self.points.get(i as usize).copied().unwrap_or_default() } else { Vec3::ZERO };
+        let value = |i: usize| self.irradiance[i] + if points { self.points.get(i).copied().unwrap_or_default() } else { Vec3::ZERO };
+        self.interpolate(p, n, value).unwrap_or_else(|| self.find(p, n).map_or(self.mean, |i| value(i as usize)))
+    }
+
+    /// The point lights' direct irradiance blurred to cells (zero without
+    /// point lights), for renders that bake them.
+    pub fn point_irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
+        if self.points.is_empty() {
+            return Vec3::ZERO;
+        }
+        self.interpolate(p, n, |i| self.points[i]).or_else(|| self.find(p, n).map(|i| self.points[i as usize])).unwrap_or_default()
+    }
+
+    /// Everything a surface point receives, direct light of every sampled
+    /// light included (blurred to cells: right for a final gather's second
+    /// hits, where the gather averages it); `None` where no cell is near.
+    pub fn total_irradiance(&self, p: Vec3, n: Vec3) -> Option<Vec3> {
+        let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
+        let value = |i: usize| self.irradiance[i] + at(&self.points, i) + at(&self.suns, i);
+        self.interpolate(p, n, value).or_else(|| self.find(p, n).map(|i| value(i as usize)))
+    }
+
+    /// Bilinear interpolation across the surface of a per-cell value between
+    /// the centres of the cells around `p` that exist; along the normal, the
+    /// cell `p` is in.
+    fn interpolate(&self, p: Vec3, n: Vec3, value: impl Fn(usize) -> Vec3) -> Option<Vec3> {
         let bin = normal_bin(n);
-        // Bilinear across the surface; along the normal, the cell the point is in.
         let axis = (bin / 2) as usize;
         let mut g = p / self.cell - 0.5;
         g[axis] = (p[axis] / self.cell).floor();
@@ -241,15 +276,11 @@ impl RadianceCache {
                 continue;
             }
             if let Some(&i) = self.index.get(&key(base + o, bin)) {
-                sum += value(i) * w;
+                sum += value(i as usize) * w;
                 weight += w;
             }
         }
-        if weight > 1e-4 {
-            sum / weight
-        } else {
-            self.find(p, n).map_or(self.mean, value)
-        }
+        (weight > 1e-4).then(|| sum / weight)
     }
 
     /// One cell lookup at a point jittered by up to half a cell: cheaper than

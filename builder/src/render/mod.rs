@@ -22,12 +22,14 @@
 
 mod cache;
 mod denoise;
+mod gather;
 mod surface;
 mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::denoise;
 pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN};
+pub use gather::GatherParams;
 pub use trace::{Frame, TraceParams, Tracer};
 
 use crate::raycast::RayScene;
@@ -82,8 +84,8 @@ impl Settings {
         match quality {
             Quality::Preview => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed },
                 cell_m: 0.3,
                 gather_rays: 32,
                 max_cells: 300_000,
@@ -94,8 +96,8 @@ impl Settings {
             },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 4, passes: 3 }), seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 4, passes: 3 }), seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
@@ -158,7 +160,7 @@ impl<'a> Renderer<'a> {
     /// pushes the 98th percentile past the tone curve's shoulder (a median
     /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
-        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, seed: self.settings.seed };
+        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed: self.settings.seed };
         let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
         if seen.is_empty() {
             return 1.0;

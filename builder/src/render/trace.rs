@@ -8,6 +8,7 @@
 //! count.
 
 use super::cache::RadianceCache;
+use super::gather::{Field, GatherParams};
 use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
 use glam::{Vec2, Vec3};
@@ -36,6 +37,9 @@ pub struct TraceParams {
     /// cells) instead of a shadow ray each: the sun stays sharp, and frames
     /// of a scene with many lamps stay cheap.
     pub baked_points: bool,
+    /// With no real bounce: gather the first hits' indirect light on a coarse
+    /// grid ([`super::gather`]) instead of reading it from the cache.
+    pub gather: Option<GatherParams>,
     pub seed: u64,
 }
 
@@ -98,9 +102,13 @@ impl Tracer<'_> {
 
     /// Indirect irradiance at a first hit: from the cache, or by one bounce
     /// and the path beyond it (cosine sampling: E ≈ π L).
-    fn indirect(&self, params: &TraceParams, s: &Surface, rng: &mut Pcg32) -> Vec3 {
+    fn indirect(&self, params: &TraceParams, s: &Surface, at: Option<(&Field, f32, f32, f32)>, rng: &mut Pcg32) -> Vec3 {
         match (&self.cache, params.bounces) {
-            (Some(cache), 0) => cache.irradiance(s.position, s.geometric, params.baked_points),
+            (Some(cache), 0) => match at.and_then(|(field, x, y, depth)| field.irradiance(x, y, s, depth)) {
+                Some(e) if params.baked_points => e + cache.point_irradiance(s.position, s.geometric),
+                Some(e) => e,
+                None => cache.irradiance(s.position, s.geometric, params.baked_points),
+            },
             _ => {
                 let d = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
                 if d.dot(s.geometric) <= 0.0 {
@@ -157,6 +165,10 @@ impl Tracer<'_> {
         let tiles = tiles_x * height.div_ceil(TILE);
         let n = (width * height) as usize;
         let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
+        let field = match (&params.gather, &self.cache, params.bounces) {
+            (Some(g), Some(_), 0) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
+            _ => None,
+        };
         let done: Vec<Vec<(usize, Vec3, Vec3, Vec3)>> = (0..tiles)
             .into_par_iter()
             .map(|tile| {
@@ -170,7 +182,7 @@ impl Tracer<'_> {
                     })
                     .filter(|&(x, y)| x < width && y < height)
                     .collect();
-                self.render_tile(params, eye, (width, height), image, &pixels, &project)
+                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref())
             })
             .collect();
         for (i, c, a, nrm) in done.into_iter().flatten() {
@@ -181,22 +193,26 @@ impl Tracer<'_> {
         frame
     }
 
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync)) -> Vec<(usize, Vec3, Vec3, Vec3)> {
+    #[allow(clippy::too_many_arguments)]
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>) -> Vec<(usize, Vec3, Vec3, Vec3)> {
         let spp = params.samples.max(1);
         let mut rngs: Vec<Pcg32> = pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect();
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
         let mut rays = Vec::with_capacity(pixels.len());
+        let mut at = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
         let mut surfaces = Vec::with_capacity(pixels.len());
         let mut shadows: Vec<(usize, usize, Ray, Vec3)> = Vec::new();
         let mut direct = vec![Vec3::ZERO; pixels.len()];
         for sample in 0..spp {
             rays.clear();
+            at.clear();
             for (&(x, y), rng) in pixels.iter().zip(&mut rngs) {
                 // Stratified in rows of the pixel when there are several samples.
                 let (jx, jy) = if spp == 1 { (0.5, 0.5) } else { (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32) };
                 let d = project((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
                 rays.push(Ray::new(eye, d));
+                at.push((x as f32 + jx, y as f32 + jy));
             }
             for (r8, h8) in rays.chunks(8).zip(hits.chunks_mut(8)) {
                 self.rays.intersect8(r8, h8, true);
@@ -207,7 +223,10 @@ impl Tracer<'_> {
             shadows.clear();
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let mut ray = rays[i];
-                let s = hits[i].and_then(|h| self.through_holes(&mut ray, h)).map(|h| self.materials.surface(&ray, &h));
+                let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
+                // The field's tolerances need the distance along the ray.
+                hits[i] = hit;
+                let s = hit.map(|h| self.materials.surface(&ray, &h));
                 match &s {
                     None => sums[i].0 += self.lighting.sky.radiance(ray.dir),
                     Some(s) => {
@@ -246,7 +265,8 @@ impl Tracer<'_> {
             }
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let Some(s) = &surfaces[i] else { continue };
-                let c = s.emission + s.albedo / PI * (direct[i] + self.indirect(params, s, rng));
+                let field_at = field.zip(hits[i]).map(|(f, h)| (f, at[i].0, at[i].1, h.t * rays[i].dir.length()));
+                let c = s.emission + s.albedo / PI * (direct[i] + self.indirect(params, s, field_at, rng));
                 // A stray NaN or infinity must not poison a pixel (or a denoiser).
                 sums[i].0 += if c.is_finite() { c } else { Vec3::ZERO };
             }

@@ -1,0 +1,345 @@
+//! Render quality against a converged reference (issue: render quality; the
+//! protocol is in docs/RENDER_QUALITY.md). For the `sunroom`, the gallery and
+//! the Crytek Sponza (when present), from the first probe of a default plan:
+//! - the reference: the project's path tracer with no cache, accumulated in
+//!   batches until REF_SPP samples (default 1024) and kept in target/bench-quality
+//!   (a rerun reuses it); its convergence is the mean FLIP between the image at
+//!   half the samples and at all of them (goal < 0.005);
+//! - `final` panoramas (cube faces rendered at 2048², compared at 1024² as the
+//!   viewer's 1024 level), `final` video frames (1024 × 512 equirectangular,
+//!   resampled to 256² faces, their resolution), and the cache read at the first
+//!   hit (the renderer before the final gather) for comparison;
+//! - mean FLIP (NVIDIA's flip-evaluator, LDR, 67 pixels a degree) over the six
+//!   faces, PSNR beside it, and seconds. Goals: panoramas ≤ 0.05, video ≤ 0.08.
+//!
+//! Needs `scripts/bench-env.sh` once (the FLIP package); without it the table
+//! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
+//! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size.
+
+use exploremaps_builder::load::{load, LoadOptions};
+use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::raycast::RayScene;
+use exploremaps_builder::render::{
+    downsample, psnr, to_image, Materials, Quality, Renderer, Settings, TraceParams, Tracer,
+};
+use exploremaps_format::cube_direction;
+use exploremaps_scenes::{BuiltIn, Scene};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = root.join("target/bench-quality");
+    std::fs::create_dir_all(&out).unwrap();
+    let python = root.join("target/bench-py/bin/python");
+    let flip_script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/flip.py");
+    let has_flip = std::process::Command::new(&python)
+        .args(["-c", "import flip_evaluator"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has_flip {
+        println!("no FLIP package: run scripts/bench-env.sh once; PSNR only");
+    }
+    let only: Option<Vec<String>> = std::env::var("SCENES")
+        .ok()
+        .map(|s| s.split(',').map(str::to_string).collect());
+    let face: u32 = std::env::var("FACE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1024);
+    let ref_spp: u32 = std::env::var("REF_SPP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1024);
+    let mut scenes: Vec<(&str, Scene)> = Vec::new();
+    for name in ["sunroom", "gallery", "crytek"] {
+        if only.as_ref().is_some_and(|o| !o.iter().any(|w| w == name)) {
+            continue;
+        }
+        if name == "crytek" {
+            match load(
+                &root.join("../shared/scenes/sponza_crytek/sponza_crytek.obj"),
+                &LoadOptions {
+                    metres_per_unit: Some(0.2),
+                    ..Default::default()
+                },
+            ) {
+                Ok(s) => scenes.push((name, s)),
+                Err(e) => println!("SKIPPED crytek: {e}"),
+            }
+        } else {
+            scenes.push((name, BuiltIn::parse(name).unwrap().generate(1)));
+        }
+    }
+    let mut table = Vec::new();
+    for (name, scene) in &scenes {
+        let planned = plan(scene, name, &PlanParams::default()).expect("plan");
+        let graph = &planned.graph;
+        let mut viewpoints: Vec<Vec3> = graph
+            .probes
+            .iter()
+            .map(|p| Vec3::from(p.position))
+            .collect();
+        viewpoints.extend(
+            graph
+                .paths
+                .iter()
+                .flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))),
+        );
+        let eye = viewpoints[0];
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let settings = Settings::new(Quality::Final, 1);
+        let t = Instant::now();
+        let renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
+        let bake = t.elapsed().as_secs_f64();
+        let exposure = renderer.exposure;
+        let save = |tag: &str, size: u32, faces: &[Vec<Vec3>]| -> Vec<PathBuf> {
+            faces
+                .iter()
+                .enumerate()
+                .map(|(f, c)| {
+                    let path = out.join(format!("{name}-{tag}-{f}.png"));
+                    to_image(size, size, c, exposure).save(&path).unwrap();
+                    path
+                })
+                .collect()
+        };
+
+        // The reference, at half and at all of its samples.
+        let pure = Tracer {
+            rays: &rays,
+            materials: Materials::new(scene),
+            lighting: renderer.tracer.lighting.clone(),
+            cache: None,
+        };
+        let (half_ref, full_ref, ref_s) = reference(&pure, &out, name, eye, face, ref_spp);
+        let ref_paths = save("reference", face, &full_ref);
+        let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
+        let small_ref: Vec<Vec<Vec3>> = full_ref.iter().map(|f| shrink(f, face, 256)).collect();
+        let small_ref_paths = save("reference-256", 256, &small_ref);
+
+        let mut rows: Vec<(String, f64, Vec<PathBuf>, Vec<PathBuf>)> = Vec::new();
+        rows.push((
+            format!("reference at {} spp vs {ref_spp}", ref_spp / 2),
+            ref_s,
+            half_paths,
+            ref_paths.clone(),
+        ));
+        let before = TraceParams {
+            gather: None,
+            ..settings.panorama
+        };
+        for (tag, params) in [
+            ("cache at first hit (before)", before),
+            ("final panorama", settings.panorama),
+        ] {
+            let t = Instant::now();
+            let faces: Vec<Vec<Vec3>> = renderer
+                .cube(&params, eye, 2048, 0)
+                .into_iter()
+                .map(|f| f.color)
+                .collect();
+            let seconds = t.elapsed().as_secs_f64();
+            let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, 2048, face)).collect();
+            rows.push((
+                tag.to_string(),
+                seconds,
+                save(&tag.replace(' ', "_"), face, &faces),
+                ref_paths.clone(),
+            ));
+        }
+        for (tag, params) in [
+            (
+                "video, cache at first hit (before)",
+                TraceParams {
+                    gather: None,
+                    ..settings.video
+                },
+            ),
+            ("final video frame", settings.video),
+        ] {
+            let t = Instant::now();
+            let frame = renderer.equirect(&params, eye, settings.video_width, 0);
+            let seconds = t.elapsed().as_secs_f64();
+            let faces: Vec<Vec<Vec3>> = (0..6)
+                .map(|f| cube_from_equirect(&frame.color, settings.video_width, f, 256))
+                .collect();
+            rows.push((
+                tag.to_string(),
+                seconds,
+                save(&tag.replace([' ', ','], "_"), 256, &faces),
+                small_ref_paths.clone(),
+            ));
+        }
+        let flips: Vec<Option<f64>> = if has_flip {
+            let args: Vec<&PathBuf> = rows
+                .iter()
+                .flat_map(|r| r.3.iter().zip(&r.2).flat_map(|(a, b)| [a, b]))
+                .collect();
+            let run = std::process::Command::new(&python)
+                .arg(&flip_script)
+                .args(&args)
+                .output()
+                .expect("python");
+            let values: Vec<f64> = String::from_utf8_lossy(&run.stdout)
+                .lines()
+                .filter_map(|l| l.trim().parse().ok())
+                .collect();
+            if values.len() != args.len() / 2 {
+                println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
+            }
+            rows.iter()
+                .enumerate()
+                .map(|(i, _)| {
+                    (values.len() == args.len() / 2)
+                        .then(|| values[i * 6..i * 6 + 6].iter().sum::<f64>() / 6.0)
+                })
+                .collect()
+        } else {
+            vec![None; rows.len()]
+        };
+        println!("\n{name}: eye {eye:.2}, {} triangles, cache bake {bake:.1} s ({}), exposure {exposure:.2}", scene.triangles.len(), renderer.tracer.lighting.description);
+        for ((tag, seconds, test, refs), flip) in rows.iter().zip(&flips) {
+            let db: f64 = test
+                .iter()
+                .zip(refs)
+                .map(|(a, b)| {
+                    psnr(
+                        &image::open(a).unwrap().to_rgb8(),
+                        &image::open(b).unwrap().to_rgb8(),
+                    )
+                })
+                .sum::<f64>()
+                / 6.0;
+            let flip = flip.map_or("-".to_string(), |f| format!("{f:.4}"));
+            println!("  {tag:<38} FLIP {flip:>7}   PSNR {db:>5.1} dB   {seconds:>7.1} s");
+            table.push(format!(
+                "{name:<8} {tag:<38} {flip:>7} {db:>5.1} {seconds:>7.1}"
+            ));
+        }
+    }
+    println!("\nscene    method                                  FLIP  PSNR  seconds   (goals: panorama ≤ 0.05, video ≤ 0.08; reference convergence < 0.005)");
+    for line in table {
+        println!("{line}");
+    }
+    println!("images in {}", out.display());
+}
+
+/// The six faces at `face`² by plain path tracing, accumulated in batches of
+/// 32 samples and kept on disk: (at half the samples, at all, seconds spent now).
+fn reference(
+    pure: &Tracer,
+    out: &Path,
+    name: &str,
+    eye: Vec3,
+    face: u32,
+    spp: u32,
+) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+    const BATCH: u32 = 32;
+    let n = (face * face) as usize;
+    let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
+    let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
+    let started = Instant::now();
+    let mut sum = vec![vec![Vec3::ZERO; n]; 6];
+    let mut half = None;
+    let mut done = 0;
+    while done < spp {
+        let next = done + BATCH;
+        if let Ok(bytes) = std::fs::read(file(next)) {
+            sum = bytes
+                .chunks_exact(12 * n)
+                .map(|f| {
+                    f.chunks_exact(12)
+                        .map(|c| Vec3::from_slice(&bytemuck_f32(c)))
+                        .collect()
+                })
+                .collect();
+        } else {
+            let params = TraceParams {
+                samples: BATCH,
+                bounces: 0,
+                baked_points: false,
+                gather: None,
+                seed: 0xF00D + done as u64,
+            };
+            for (f, s) in sum.iter_mut().enumerate() {
+                let frame = pure.render(&params, eye, face, face, f as u64, |a, b| {
+                    Vec3::from(cube_direction(f, a, b))
+                });
+                s.iter_mut()
+                    .zip(&frame.color)
+                    .for_each(|(a, c)| *a += *c * BATCH as f32);
+            }
+            let bytes: Vec<u8> = sum
+                .iter()
+                .flatten()
+                .flat_map(|v| v.to_array())
+                .flat_map(f32::to_le_bytes)
+                .collect();
+            std::fs::write(file(next), bytes).unwrap();
+            if done >= BATCH {
+                let _ = std::fs::remove_file(file(done));
+            }
+        }
+        done = next;
+        if done == spp / 2 {
+            half = Some(
+                sum.iter()
+                    .map(|f| f.iter().map(|c| *c / done as f32).collect())
+                    .collect(),
+            );
+        }
+        eprint!("\r{name}: reference {done}/{spp} samples ");
+    }
+    eprintln!();
+    let full = sum
+        .iter()
+        .map(|f| f.iter().map(|c| *c / done as f32).collect())
+        .collect();
+    (
+        half.unwrap_or_else(|| panic!("REF_SPP must be a multiple of {}", 2 * BATCH)),
+        full,
+        started.elapsed().as_secs_f64(),
+    )
+}
+
+fn bytemuck_f32(c: &[u8]) -> [f32; 3] {
+    std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
+}
+
+/// Box-filters a square image from `from` to `to` pixels a side (powers of two).
+fn shrink(img: &[Vec3], from: u32, to: u32) -> Vec<Vec3> {
+    let mut img = img.to_vec();
+    let mut size = from;
+    while size > to {
+        img = downsample(size, &img);
+        size /= 2;
+    }
+    img
+}
+
+/// One cube face, `size`² pixels, sampled bilinearly from an equirectangular image.
+fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Vec3> {
+    let height = width / 2;
+    (0..size * size)
+        .map(|i| {
+            let d = Vec3::from(cube_direction(
+                face,
+                ((i % size) as f32 + 0.5) / size as f32,
+                ((i / size) as f32 + 0.5) / size as f32,
+            ));
+            let (yaw, pitch) = exploremaps_format::yaw_pitch(d.into());
+            let x = (yaw / std::f32::consts::TAU).rem_euclid(1.0) * width as f32 - 0.5;
+            let y = (0.5 - pitch / std::f32::consts::PI) * height as f32 - 0.5;
+            let (x0, y0) = (x.floor(), y.floor().clamp(0.0, height as f32 - 1.0));
+            let (fx, fy) = (x - x0, (y - y0).clamp(0.0, 1.0));
+            let at = |xx: f32, yy: f32| {
+                eq[(yy.min(height as f32 - 1.0) as u32 * width
+                    + (xx as i64).rem_euclid(width as i64) as u32) as usize]
+            };
+            (at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx) * (1.0 - fy)
+                + (at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx) * fy
+        })
+        .collect()
+}

@@ -1,0 +1,241 @@
+//! Final gather at reduced resolution: the indirect light at a frame's first
+//! hits, traced one real bounce deep, with the radiance cache answering only
+//! at the second hit, where a gather averages its cells over a hemisphere.
+//!
+//! The cache looked up at the first hit showed its cells as soft blotches on
+//! every plain wall. Gathering at every pixel would cost tens of rays a pixel,
+//! but indirect light varies slowly across a surface, so it is gathered on a
+//! grid `step` times coarser than the pixels (16 to 64 rays a point), smoothed
+//! across surfaces by an edge-avoiding à-trous filter (Dammertz et al. 2010,
+//! weights from normals and distances to the tangent plane, so it never blurs
+//! across a corner or a silhouette), and brought back to every pixel sample by
+//! the same geometric weights over the nearest 4 × 4 grid points (joint
+//! bilateral upsampling). Direct light stays per pixel sample, so sun shadows
+//! stay sharp; samples with no similar grid point nearby (thin objects) fall
+//! back to the cache.
+//!
+//! Random numbers come from generators seeded by (render seed, image, grid
+//! point), so the result does not depend on the thread count.
+
+use super::surface::{cosine_direction, Surface, Which};
+use super::trace::{sampler, Tracer};
+use crate::raycast::Ray;
+use glam::{Vec2, Vec3};
+use rand::Rng;
+use rand_pcg::Pcg32;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// Random streams of gather points, apart from the pixels' own.
+const STREAM: u64 = 0x6A7E_0000_0000;
+/// The B3-spline taps of one à-trous pass.
+const TAPS: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
+/// Sharpness of the normal weight: cos^N.
+const NORMAL_POWER: i32 = 16;
+
+/// How a frame's indirect light is gathered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GatherParams {
+    /// Rays a grid point (rounded up to a square for stratification).
+    pub rays: u32,
+    /// Pixels between grid points along each axis.
+    pub step: u32,
+    /// À-trous passes (each doubles the filter's reach).
+    pub passes: u32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    position: Vec3,
+    normal: Vec3,
+    /// Distance from the eye (sets the geometric tolerances).
+    depth: f32,
+    irradiance: Vec3,
+}
+
+/// Indirect irradiance on a coarse grid over one frame.
+pub struct Field {
+    width: u32,
+    height: u32,
+    step: u32,
+    /// Angle one pixel spans at the frame's centre, radians.
+    pixel_angle: f32,
+    points: Vec<Option<Point>>,
+}
+
+/// How much a grid point at (p, n) stands for a surface point at (q, m) seen
+/// from `depth`: normals alike and p near q's tangent plane.
+fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f32) -> f32 {
+    let cos = m.dot(n);
+    if cos <= 0.5 {
+        return 0.0;
+    }
+    let plane = (p - q).dot(m).abs() / tolerance;
+    cos.powi(NORMAL_POWER) * (-plane * plane).exp()
+}
+
+impl Tracer<'_> {
+    /// Gathers the indirect light seen through a `width` × `height` frame
+    /// (as [`Tracer::render`] projects it) on a grid every `params.step` pixels.
+    pub(super) fn gather_field(
+        &self,
+        params: &GatherParams,
+        seed: u64,
+        eye: Vec3,
+        (width, height): (u32, u32),
+        image: u64,
+        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+    ) -> Field {
+        let step = params.step.max(1);
+        let (gw, gh) = (width.div_ceil(step), height.div_ceil(step));
+        let centre = project(0.5, 0.5);
+        let pixel_angle = centre
+            .angle_between(project(0.5 + 1.0 / width as f32, 0.5))
+            .max(1e-6);
+        let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
+        let points = (0..gw * gh)
+            .into_par_iter()
+            .map(|g| {
+                let _mode = crate::raycast::FlushDenormals::new();
+                let (gx, gy) = (g % gw, g / gw);
+                let x = ((gx as f32 + 0.5) * step as f32).min(width as f32 - 0.5);
+                let y = ((gy as f32 + 0.5) * step as f32).min(height as f32 - 0.5);
+                let mut ray = Ray::new(eye, project(x / width as f32, y / height as f32));
+                let hit = self.intersect(&mut ray)?;
+                let s = self.materials.surface(&ray, &hit);
+                let mut rng = sampler(seed, STREAM ^ image, g as u64);
+                let irradiance = self.gather_at(&s, side, &mut rng);
+                Some(Point {
+                    position: s.position,
+                    normal: s.normal,
+                    depth: hit.t * ray.dir.length(),
+                    irradiance,
+                })
+            })
+            .collect();
+        let mut field = Field {
+            width,
+            height,
+            step,
+            pixel_angle,
+            points,
+        };
+        for pass in 0..params.passes {
+            field.filter(1 << pass);
+        }
+        field
+    }
+
+    /// Indirect irradiance at `s` by side² stratified cosine-weighted rays;
+    /// at their hits, emission plus the cache's light (all of it: direct
+    /// from every sampled light and indirect), or the sky.
+    fn gather_at(&self, s: &Surface, side: u32, rng: &mut Pcg32) -> Vec3 {
+        let cache = self
+            .cache
+            .as_ref()
+            .expect("a final gather needs the radiance cache");
+        let mut sum = Vec3::ZERO;
+        let from = s.lifted();
+        for j in 0..side * side {
+            let u = Vec2::new(
+                ((j % side) as f32 + rng.random::<f32>()) / side as f32,
+                ((j / side) as f32 + rng.random::<f32>()) / side as f32,
+            );
+            let d = cosine_direction(s.normal, u);
+            if d.dot(s.geometric) <= 0.0 {
+                continue;
+            }
+            let mut ray = Ray::new(from, d);
+            sum += match self.intersect(&mut ray) {
+                None => self.lighting.sky.radiance(d),
+                Some(hit) => {
+                    let h = self.materials.surface(&ray, &hit);
+                    let e = cache
+                        .total_irradiance(h.position, h.geometric)
+                        .unwrap_or_else(|| {
+                            cache.irradiance(h.position, h.geometric, false)
+                                + self.direct(&h, Which::All, rng)
+                        });
+                    h.emission + h.albedo / PI * e
+                }
+            };
+        }
+        // Cosine sampling: E = π · mean radiance.
+        sum * (PI / (side * side) as f32)
+    }
+}
+
+impl Field {
+    /// One edge-avoiding à-trous pass with taps `spacing` grid points apart.
+    fn filter(&mut self, spacing: u32) {
+        let (gw, gh) = (
+            self.width.div_ceil(self.step) as i64,
+            self.height.div_ceil(self.step) as i64,
+        );
+        let footprint = self.pixel_angle * self.step as f32;
+        let points = &self.points;
+        let next: Vec<Option<Point>> = (0..points.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut p = points[i]?;
+                let (x, y) = (i as i64 % gw, i as i64 / gw);
+                let tolerance = footprint * p.depth * spacing as f32;
+                let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+                for (dy, ty) in TAPS.iter().enumerate() {
+                    let yy = y + (dy as i64 - 2) * spacing as i64;
+                    if yy < 0 || yy >= gh {
+                        continue;
+                    }
+                    for (dx, tx) in TAPS.iter().enumerate() {
+                        let xx = x + (dx as i64 - 2) * spacing as i64;
+                        if xx < 0 || xx >= gw {
+                            continue;
+                        }
+                        let Some(q) = points[(yy * gw + xx) as usize] else {
+                            continue;
+                        };
+                        let w = tx
+                            * ty
+                            * geometric_weight(
+                                p.position, p.normal, q.position, q.normal, tolerance,
+                            );
+                        sum += q.irradiance * w;
+                        weight += w;
+                    }
+                }
+                p.irradiance = sum / weight;
+                Some(p)
+            })
+            .collect();
+        self.points = next;
+    }
+
+    /// Indirect irradiance for a pixel sample at (x, y) (pixel units) whose
+    /// surface is `s`, `depth` from the eye: the grid points of the 4 × 4
+    /// around it, weighted by distance and likeness; `None` when none is alike.
+    pub fn irradiance(&self, x: f32, y: f32, s: &Surface, depth: f32) -> Option<Vec3> {
+        let (gw, gh) = (
+            self.width.div_ceil(self.step) as i64,
+            self.height.div_ceil(self.step) as i64,
+        );
+        let (u, v) = (x / self.step as f32 - 0.5, y / self.step as f32 - 0.5);
+        let (u0, v0) = (u.floor() as i64, v.floor() as i64);
+        let tolerance = self.pixel_angle * self.step as f32 * depth;
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        for yy in (v0 - 1).max(0)..=(v0 + 2).min(gh - 1) {
+            let wy = (1.0 - (v - yy as f32).abs() * 0.5).max(0.0);
+            for xx in (u0 - 1).max(0)..=(u0 + 2).min(gw - 1) {
+                let wx = (1.0 - (u - xx as f32).abs() * 0.5).max(0.0);
+                let Some(q) = self.points[(yy * gw + xx) as usize] else {
+                    continue;
+                };
+                let w = wx
+                    * wy
+                    * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance);
+                sum += q.irradiance * w;
+                weight += w;
+            }
+        }
+        (weight > 1e-3).then(|| sum / weight)
+    }
+}
