@@ -231,8 +231,9 @@ pub struct RenderArgs {
     /// Samples a pixel for panoramas; default by quality.
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Real diffuse bounces before the radiance cache, for panoramas (0: the
-    /// cache at the first hit; 1 adds contact lighting at many times the cost).
+    /// Real diffuse bounces at every pixel before the radiance cache, for
+    /// panoramas (0: the cache at the first hit in preview, the final gather in
+    /// final; 1 traces a bounce per sample, at many times the cost).
     #[arg(long, default_value_t = 0)]
     pub bounces: u32,
     /// Denoise panoramas and thumbnails with Intel Open Image Denoise, guided by

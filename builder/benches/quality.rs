@@ -227,85 +227,49 @@ fn main() {
 }
 
 /// The six faces at `face`² by plain path tracing, accumulated in batches of
-/// 32 samples and kept on disk: (at half the samples, at all, seconds spent now).
-fn reference(
-    pure: &Tracer,
-    out: &Path,
-    name: &str,
-    eye: Vec3,
-    face: u32,
-    spp: u32,
-) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+/// 32 samples; the images at half and at all the samples are kept on disk and
+/// reused: (at half the samples, at all, seconds spent now).
+fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
+    assert!(spp % (2 * BATCH) == 0, "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
     let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
+    let load = |samples: u32| -> Option<Vec<Vec<Vec3>>> {
+        let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == 6 * 12 * n)?;
+        Some(bytes.chunks_exact(12 * n).map(|f| f.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect()).collect())
+    };
+    let save = |samples: u32, img: &[Vec<Vec3>]| {
+        let bytes: Vec<u8> = img.iter().flatten().flat_map(|v| v.to_array()).flat_map(f32::to_le_bytes).collect();
+        std::fs::write(file(samples), bytes).unwrap();
+    };
     let started = Instant::now();
-    let mut sum = vec![vec![Vec3::ZERO; n]; 6];
-    let mut half = None;
-    let mut done = 0;
+    let half = load(spp / 2);
+    if let (Some(half), Some(full)) = (&half, load(spp)) {
+        return (half.clone(), full, 0.0);
+    }
+    // Sums of radiance over the samples so far.
+    let (mut sum, mut done) = match &half {
+        Some(h) => (h.iter().map(|f| f.iter().map(|c| *c * (spp / 2) as f32).collect()).collect(), spp / 2),
+        None => (vec![vec![Vec3::ZERO; n]; 6], 0),
+    };
+    let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let next = done + BATCH;
-        if let Ok(bytes) = std::fs::read(file(next)) {
-            sum = bytes
-                .chunks_exact(12 * n)
-                .map(|f| {
-                    f.chunks_exact(12)
-                        .map(|c| Vec3::from_slice(&bytemuck_f32(c)))
-                        .collect()
-                })
-                .collect();
-        } else {
-            let params = TraceParams {
-                samples: BATCH,
-                bounces: 0,
-                baked_points: false,
-                gather: None,
-                seed: 0xF00D + done as u64,
-            };
-            for (f, s) in sum.iter_mut().enumerate() {
-                let frame = pure.render(&params, eye, face, face, f as u64, |a, b| {
-                    Vec3::from(cube_direction(f, a, b))
-                });
-                s.iter_mut()
-                    .zip(&frame.color)
-                    .for_each(|(a, c)| *a += *c * BATCH as f32);
-            }
-            let bytes: Vec<u8> = sum
-                .iter()
-                .flatten()
-                .flat_map(|v| v.to_array())
-                .flat_map(f32::to_le_bytes)
-                .collect();
-            std::fs::write(file(next), bytes).unwrap();
-            if done >= BATCH {
-                let _ = std::fs::remove_file(file(done));
-            }
+        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, seed: 0xF00D + done as u64 };
+        for (f, s) in sum.iter_mut().enumerate() {
+            let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
+            s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);
         }
-        done = next;
+        done += BATCH;
         if done == spp / 2 {
-            half = Some(
-                sum.iter()
-                    .map(|f| f.iter().map(|c| *c / done as f32).collect())
-                    .collect(),
-            );
+            save(done, &mean(&sum, done));
         }
         eprint!("\r{name}: reference {done}/{spp} samples ");
     }
     eprintln!();
-    let full = sum
-        .iter()
-        .map(|f| f.iter().map(|c| *c / done as f32).collect())
-        .collect();
-    (
-        half.unwrap_or_else(|| panic!("REF_SPP must be a multiple of {}", 2 * BATCH)),
-        full,
-        started.elapsed().as_secs_f64(),
-    )
-}
-
-fn bytemuck_f32(c: &[u8]) -> [f32; 3] {
-    std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
+    let full = mean(&sum, spp);
+    save(spp, &full);
+    (load(spp / 2).expect("the half-way reference"), full, started.elapsed().as_secs_f64())
 }
 
 /// Box-filters a square image from `from` to `to` pixels a side (powers of two).

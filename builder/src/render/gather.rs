@@ -9,8 +9,8 @@
 //! across surfaces by an edge-avoiding à-trous filter (Dammertz et al. 2010,
 //! weights from normals and distances to the tangent plane, so it never blurs
 //! across a corner or a silhouette), and brought back to every pixel sample by
-//! the same geometric weights over the nearest 4 × 4 grid points (joint
-//! bilateral upsampling). Direct light stays per pixel sample, so sun shadows
+//! the same geometric weights over the nearest 2 × 2 grid points, or 4 × 4
+//! where those lie on other surfaces (joint bilateral upsampling). Direct light stays per pixel sample, so sun shadows
 //! stay sharp; samples with no similar grid point nearby (thin objects) fall
 //! back to the cache.
 //!
@@ -214,28 +214,33 @@ impl Field {
     /// surface is `s`, `depth` from the eye: the grid points of the 4 × 4
     /// around it, weighted by distance and likeness; `None` when none is alike.
     pub fn irradiance(&self, x: f32, y: f32, s: &Surface, depth: f32) -> Option<Vec3> {
-        let (gw, gh) = (
-            self.width.div_ceil(self.step) as i64,
-            self.height.div_ceil(self.step) as i64,
-        );
         let (u, v) = (x / self.step as f32 - 0.5, y / self.step as f32 - 0.5);
-        let (u0, v0) = (u.floor() as i64, v.floor() as i64);
         let tolerance = self.pixel_angle * self.step as f32 * depth;
+        // The 2 × 2 around the sample (bilinear) almost always suffice; the
+        // 4 × 4 (a tent twice as wide) where they lie on other surfaces.
+        self.blend(u, v, 1, s, tolerance, 0.25).or_else(|| self.blend(u, v, 2, s, tolerance, 1e-3))
+    }
+
+    /// Grid points within `radius` of (u, v) (grid units) under a tent of
+    /// that radius times likeness to `s`; `None` when their weight is below `least`.
+    fn blend(&self, u: f32, v: f32, radius: i64, s: &Surface, tolerance: f32, least: f32) -> Option<Vec3> {
+        let (gw, gh) = (self.width.div_ceil(self.step) as i64, self.height.div_ceil(self.step) as i64);
+        let (u0, v0) = (u.floor() as i64, v.floor() as i64);
+        let r = radius as f32;
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for yy in (v0 - 1).max(0)..=(v0 + 2).min(gh - 1) {
-            let wy = (1.0 - (v - yy as f32).abs() * 0.5).max(0.0);
-            for xx in (u0 - 1).max(0)..=(u0 + 2).min(gw - 1) {
-                let wx = (1.0 - (u - xx as f32).abs() * 0.5).max(0.0);
-                let Some(q) = self.points[(yy * gw + xx) as usize] else {
+        for yy in (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh - 1) {
+            let wy = (1.0 - (v - yy as f32).abs() / r).max(0.0);
+            for xx in (u0 + 1 - radius).max(0)..=(u0 + radius).min(gw - 1) {
+                let wx = (1.0 - (u - xx as f32).abs() / r).max(0.0);
+                let Some(q) = self.points[(yy * gw + xx) as usize] else { continue };
+                if wx * wy == 0.0 {
                     continue;
-                };
-                let w = wx
-                    * wy
-                    * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance);
+                }
+                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance);
                 sum += q.irradiance * w;
                 weight += w;
             }
         }
-        (weight > 1e-3).then(|| sum / weight)
+        (weight >= least).then(|| sum / weight)
     }
 }

@@ -12,13 +12,17 @@
 //!   solved for all bounces; every panorama and video frame reuses it.
 //! - `trace`: the path tracer (packets, next-event estimation, Russian
 //!   roulette, the cache after `bounces` real bounces).
+//! - `gather`: `final`'s indirect light: a final gather on a grid coarser
+//!   than the pixels (one real bounce, the cache at the second hit), filtered
+//!   across surfaces and upsampled by geometry.
 //!
-//! Both qualities look the cache up at the first hit: a real bounce first
-//! (`TraceParams::bounces`) cost 173 s for a 6×2048² cube at 16 samples on
-//! the Crytek Sponza, against 6 s this way; `preview` traces one sample through each pixel centre,
-//! `final` antialiases with 2 samples and samples point lights exactly rather
-//! than from the cache. Without a cache the tracer is a plain path tracer
-//! (the furnace test and the bench's references).
+//! `preview` looks the cache up at the first hit (one sample through each
+//! pixel centre): cheap, but its cells show as soft blotches on plain walls.
+//! `final` gathers instead (no blotches; the sunroom ceiling test), antialiases
+//! panoramas with 2 samples and samples point lights exactly. A real bounce
+//! at every pixel (`TraceParams::bounces`) cost 173 s for a 6×2048² cube at
+//! 16 samples on the Crytek Sponza. Without a cache the tracer is a plain
+//! path tracer (the furnace test and the benches' references).
 
 mod cache;
 mod denoise;
@@ -44,7 +48,8 @@ use rayon::prelude::*;
 pub enum Quality {
     /// Quick look: one sample a pixel, 512 faces, 512-wide videos.
     Preview,
-    /// Deliverable: antialiased, 512/1024/2048 faces, 1024-wide videos.
+    /// Deliverable: final-gathered indirect light, antialiased panoramas,
+    /// 512/1024/2048 faces, 1024-wide videos.
     Final,
 }
 
@@ -96,7 +101,7 @@ impl Settings {
             },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 4, passes: 3 }), seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 8, passes: 3 }), seed },
                 video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 4, passes: 3 }), seed },
                 cell_m: 0.15,
                 gather_rays: 64,
