@@ -226,15 +226,9 @@ pub fn render_missing(
                 let path = &graph.paths[id];
                 let (video, poster) = path_files(id);
                 let w = settings.video_width;
-                let frames: Vec<image::RgbImage> = path
-                    .camera
-                    .iter()
-                    .enumerate()
-                    .map(|(f, key)| {
-                        let frame = renderer.equirect(&settings.video, Vec3::from(key.position), w, VIDEO_STREAMS + ((id as u64) << 24) + f as u64);
-                        renderer.to_image(w, w / 2, &frame.color)
-                    })
-                    .collect();
+                let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
+                let mut frames: Vec<image::RgbImage> = Vec::with_capacity(eyes.len());
+                renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| frames.push(renderer.to_image(w, w / 2, &frame.color)));
                 let Some(first) = frames.first() else { continue };
                 let mp4 = encoder.encode(&frames, crate::smooth::FPS).map_err(|e| BundleError::Video { path: dir.join(&video).display().to_string(), message: e.to_string() })?;
                 write(dir, &poster, &jpeg(first, 85))?;

@@ -65,7 +65,7 @@ pub struct Field {
 
 /// How much a grid point at (p, n) stands for a surface point at (q, m) seen
 /// from `depth`: normals alike and p near q's tangent plane.
-fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f32) -> f32 {
+pub(super) fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f32) -> f32 {
     let cos = m.dot(n);
     if cos <= 0.5 {
         return 0.0;

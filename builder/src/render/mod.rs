@@ -15,6 +15,8 @@
 //! - `gather`: `final`'s indirect light: a final gather on a grid coarser
 //!   than the pixels (one real bounce, the cache at the second hit), filtered
 //!   across surfaces and upsampled by geometry.
+//! - `reuse`: video frames between key frames take the keys' lighting,
+//!   reprojected by geometry.
 //!
 //! `preview` looks the cache up at the first hit (one sample through each
 //! pixel centre): cheap, but its cells show as soft blotches on plain walls.
@@ -27,6 +29,7 @@
 mod cache;
 mod denoise;
 mod gather;
+mod reuse;
 mod surface;
 mod trace;
 
@@ -78,6 +81,9 @@ pub struct Settings {
     pub face: u32,
     /// Video frame width (height is half), a multiple of 16.
     pub video_width: u32,
+    /// Frames from one video key frame to the next; the frames between reuse
+    /// the keys' lighting ([`Renderer::path_frames`]); 1 renders every frame in full.
+    pub video_keys: u32,
     /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
     /// real bounces or few samples; the cache alone leaves little noise).
     pub denoise: bool,
@@ -96,6 +102,7 @@ impl Settings {
                 max_cells: 300_000,
                 face: 512,
                 video_width: 512,
+                video_keys: 1,
                 denoise: false,
                 seed,
             },
@@ -108,6 +115,7 @@ impl Settings {
                 max_cells: 600_000,
                 face: 2048,
                 video_width: 1024,
+                video_keys: 8,
                 denoise: false,
                 seed,
             },
@@ -186,6 +194,38 @@ impl<'a> Renderer<'a> {
     /// −Z then turns toward +X (the bundle's yaw convention), row 0 looks up.
     pub fn equirect(&self, params: &TraceParams, eye: Vec3, width: u32, image: u64) -> Frame {
         self.tracer.render(params, eye, width, width / 2, image, equirect_direction)
+    }
+
+    /// The equirectangular frames of a path seen from `eyes`, `width` wide,
+    /// handed to `each` in order; frame i uses random stream `image + i`.
+    /// With one sample a pixel, only every `interval`-th frame and the last are
+    /// lit in full; the frames between take their lighting from those two
+    /// ([`reuse`]).
+    pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame)) {
+        let n = eyes.len();
+        let render = |i: usize, between: Option<&reuse::Between>, keep: bool| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, between, keep);
+        if params.samples != 1 || interval <= 1 || n < 3 {
+            (0..n).for_each(|i| each(i, render(i, None, false).0));
+            return;
+        }
+        let mut keys: Vec<usize> = (0..n).step_by(interval as usize).collect();
+        if keys.last() != Some(&(n - 1)) {
+            keys.push(n - 1);
+        }
+        let (first, lit) = render(0, None, true);
+        each(0, first);
+        let mut previous = lit.expect("key frames keep their lighting");
+        for w in keys.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let (key, lit) = render(b, None, true);
+            let next = lit.expect("key frames keep their lighting");
+            for i in a + 1..b {
+                let between = reuse::Between { keys: [&previous, &next], t: (i - a) as f32 / (b - a) as f32 };
+                each(i, render(i, Some(&between), false).0);
+            }
+            each(b, key);
+            previous = next;
+        }
     }
 
     /// A perspective view toward (yaw, pitch) with vertical field of view `fov_y`.

@@ -49,7 +49,11 @@ fn renders_do_not_depend_on_the_thread_count() {
             let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 3));
             let params = TraceParams { samples: 4, bounces: 1, baked_points: false, gather: None, seed: 3 };
             let gather = Settings::new(Quality::Final, 3).panorama;
-            (renderer.exposure, renderer.equirect(&params, eyes[0], 64, 5).color, renderer.equirect(&gather, eyes[1], 64, 6).color)
+            let video = Settings::new(Quality::Final, 3).video;
+            let walk: Vec<Vec3> = (0..5).map(|i| eyes[0].lerp(eyes[1], i as f32 / 4.0)).collect();
+            let mut frames = Vec::new();
+            renderer.path_frames(&video, &walk, 32, 9, 4, |_, f| frames.push(f.color));
+            (renderer.exposure, renderer.equirect(&params, eyes[0], 64, 5).color, renderer.equirect(&gather, eyes[1], 64, 6).color, frames)
         })
     };
     assert_eq!(render(1), render(2));
@@ -289,4 +293,41 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     // (the reference's own energy is mostly its remaining noise).
     assert!(e_before > 2.0 * e_ref, "band energy: cache at the first hit {e_before:.4}, reference {e_ref:.4}");
     assert!(!failed, "band energy {e_ours:.4} against the reference's {e_ref:.4} (at most 1.5x), mean {mean_ratio:.3} of the reference's; images in target/render-failures");
+}
+
+/// Mean absolute difference of two images' radiance over the second's mean.
+fn relative_difference(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (*x - *y).abs().dot(Vec3::ONE)).sum::<f32>() / b.iter().map(|y| y.dot(Vec3::ONE)).sum::<f32>()
+}
+
+#[test]
+fn frames_between_key_frames_match_frames_lit_in_full() {
+    // A walk past the sunroom's block: its shadow and the window patch move
+    // across the frame, and the block uncovers floor the first key never saw.
+    let scene = exploremaps_scenes::BuiltIn::Sunroom.generate(1);
+    let rays = ray_scene(&scene);
+    let eyes: Vec<Vec3> = (0..9).map(|i| Vec3::new(1.5 + 0.3 * i as f32, 1.6, 3.5)).collect();
+    let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Final, 1));
+    let video = renderer.settings.video;
+    let width = 256;
+    let mut frames = Vec::new();
+    renderer.path_frames(&video, &eyes, width, 0, 8, |i, f| frames.push((i, f)));
+    assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..9).collect::<Vec<_>>(), "frames come in order");
+    let full = renderer.equirect(&video, eyes[4], width, 4);
+    let cache_only = renderer.equirect(&TraceParams { gather: None, ..video }, eyes[4], width, 4);
+    let between = &frames[4].1;
+    assert_eq!(between.albedo, full.albedo, "eye rays and textures are the frame's own");
+    let (d_between, d_cache) = (relative_difference(&between.color, &full.color), relative_difference(&cache_only.color, &full.color));
+    println!("middle frame against the frame lit in full: reused {d_between:.4}, cache at the first hit {d_cache:.4}");
+    if d_between > 0.04 || std::env::var("SHOW").is_ok() {
+        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
+        std::fs::create_dir_all(&out).unwrap();
+        let exposure = 0.3 / luminance(mean(&full.color));
+        for (name, f) in [("full", &full), ("between", between), ("cache", &cache_only)] {
+            to_image(width, width / 2, &f.color, exposure).save(out.join(format!("sunroom_walk_{name}.png"))).unwrap();
+        }
+    }
+    assert!(d_between < 0.04, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04); images in target/render-failures");
+    // The key frames are the frames lit in full.
+    assert_eq!(frames[8].1.color, renderer.equirect(&video, eyes[8], width, 8).color);
 }

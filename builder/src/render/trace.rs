@@ -9,6 +9,7 @@
 
 use super::cache::RadianceCache;
 use super::gather::{Field, GatherParams};
+use super::reuse::{Between, Lit};
 use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
 use glam::{Vec2, Vec3};
@@ -63,6 +64,15 @@ pub struct Tracer<'a> {
 }
 
 const TILE: u32 = 8;
+
+/// One pixel's result: its images' values and its (last) sample's hit and irradiance.
+struct Pixel {
+    index: usize,
+    color: Vec3,
+    albedo: Vec3,
+    normal: Vec3,
+    hit: Option<(Vec3, Vec3, Vec3)>,
+}
 /// Paths end here at the latest (Russian roulette ends nearly all long before).
 const MAX_DEPTH: u32 = 64;
 
@@ -161,15 +171,25 @@ impl Tracer<'_> {
     /// direction through image coordinates in [0, 1]² (t down). `image`
     /// separates the random streams of different images.
     pub fn render(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync) -> Frame {
+        self.render_reusing(params, eye, (width, height), image, project, None, false).0
+    }
+
+    /// [`Tracer::render`], taking the irradiance from key frames where
+    /// `between` has it ([`super::reuse`]), and keeping this frame's hits and
+    /// irradiance when `keep` (meaningful with one sample a pixel).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, between: Option<&Between>, keep: bool) -> (Frame, Option<Lit>) {
         let tiles_x = width.div_ceil(TILE);
         let tiles = tiles_x * height.div_ceil(TILE);
         let n = (width * height) as usize;
         let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
-        let field = match (&params.gather, &self.cache, params.bounces) {
-            (Some(g), Some(_), 0) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
+        let mut lit = keep.then(|| Lit { eye, width, height, points: vec![None; n] });
+        // Frames between key frames gather nothing: the keys did.
+        let field = match (&params.gather, &self.cache, params.bounces, between) {
+            (Some(g), Some(_), 0, None) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
             _ => None,
         };
-        let done: Vec<Vec<(usize, Vec3, Vec3, Vec3)>> = (0..tiles)
+        let done: Vec<Vec<Pixel>> = (0..tiles)
             .into_par_iter()
             .map(|tile| {
                 let _mode = FlushDenormals::new();
@@ -182,19 +202,22 @@ impl Tracer<'_> {
                     })
                     .filter(|&(x, y)| x < width && y < height)
                     .collect();
-                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref())
+                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), between)
             })
             .collect();
-        for (i, c, a, nrm) in done.into_iter().flatten() {
-            frame.color[i] = c;
-            frame.albedo[i] = a;
-            frame.normal[i] = nrm;
+        for p in done.into_iter().flatten() {
+            frame.color[p.index] = p.color;
+            frame.albedo[p.index] = p.albedo;
+            frame.normal[p.index] = p.normal;
+            if let Some(lit) = &mut lit {
+                lit.points[p.index] = p.hit;
+            }
         }
-        frame
+        (frame, lit)
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>) -> Vec<(usize, Vec3, Vec3, Vec3)> {
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, between: Option<&Between>) -> Vec<Pixel> {
         let spp = params.samples.max(1);
         let mut rngs: Vec<Pcg32> = pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect();
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
@@ -204,6 +227,8 @@ impl Tracer<'_> {
         let mut surfaces = Vec::with_capacity(pixels.len());
         let mut shadows: Vec<(usize, usize, Ray, Vec3)> = Vec::new();
         let mut direct = vec![Vec3::ZERO; pixels.len()];
+        let mut reused: Vec<Option<Vec3>> = vec![None; pixels.len()];
+        let mut last_hit = vec![None; pixels.len()];
         for sample in 0..spp {
             rays.clear();
             at.clear();
@@ -228,10 +253,18 @@ impl Tracer<'_> {
                 hits[i] = hit;
                 let s = hit.map(|h| self.materials.surface(&ray, &h));
                 match &s {
-                    None => sums[i].0 += self.lighting.sky.radiance(ray.dir),
+                    None => {
+                        sums[i].0 += self.lighting.sky.radiance(ray.dir);
+                        last_hit[i] = None;
+                    }
                     Some(s) => {
                         sums[i].1 += s.albedo;
                         sums[i].2 += s.normal;
+                        reused[i] = between.and_then(|b| b.irradiance(s));
+                        if reused[i].is_some() {
+                            surfaces.push(Some(*s));
+                            continue;
+                        }
                         let u = Vec2::new(rng.random(), rng.random());
                         let mut light = 0;
                         self.lighting.shadow_rays(s, u, which, |r, e| {
@@ -266,13 +299,23 @@ impl Tracer<'_> {
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let Some(s) = &surfaces[i] else { continue };
                 let field_at = field.zip(hits[i]).map(|(f, h)| (f, at[i].0, at[i].1, h.t * rays[i].dir.length()));
-                let c = s.emission + s.albedo / PI * (direct[i] + self.indirect(params, s, field_at, rng));
+                let e = match reused[i] {
+                    Some(e) => e,
+                    None => direct[i] + self.indirect(params, s, field_at, rng),
+                };
+                last_hit[i] = Some((s.position, s.normal, e));
+                let c = s.emission + s.albedo / PI * e;
                 // A stray NaN or infinity must not poison a pixel (or a denoiser).
                 sums[i].0 += if c.is_finite() { c } else { Vec3::ZERO };
             }
         }
         let inv = 1.0 / spp as f32;
-        pixels.iter().zip(sums).map(|(&(x, y), (c, a, n))| ((y * width + x) as usize, c * inv, a * inv, n.normalize_or_zero())).collect()
+        pixels
+            .iter()
+            .zip(sums)
+            .zip(last_hit)
+            .map(|((&(x, y), (c, a, n)), hit)| Pixel { index: (y * width + x) as usize, color: c * inv, albedo: a * inv, normal: n.normalize_or_zero(), hit })
+            .collect()
     }
 }
 
