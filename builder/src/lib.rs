@@ -4,7 +4,8 @@
 //! `load` (scene files into a `Scene`) → `raycast` (Embree; the only module
 //! that talks to it) → `freespace` → `explore` → `coverage`; `report` draws the
 //! pictures, `pipeline` wires the stages, `bundle` writes the result, `export`
-//! and `files` are utilities.
+//! and `files` are utilities. `proxy` builds the light 3D stand-in of the
+//! scene (simplification and progressive meshes; not yet in the pipeline).
 
 pub mod bundle;
 pub mod cluster;
@@ -18,6 +19,7 @@ pub mod load;
 pub mod order;
 pub mod orient;
 pub mod pipeline;
+pub mod proxy;
 pub mod raycast;
 pub mod render;
 pub mod report;
