@@ -202,7 +202,7 @@ impl Tracer<'_> {
                     })
                     .filter(|&(x, y)| x < width && y < height)
                     .collect();
-                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), between)
+                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), between, keep)
             })
             .collect();
         for p in done.into_iter().flatten() {
@@ -217,7 +217,7 @@ impl Tracer<'_> {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, between: Option<&Between>) -> Vec<Pixel> {
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, between: Option<&Between>, keep: bool) -> Vec<Pixel> {
         let spp = params.samples.max(1);
         let mut rngs: Vec<Pcg32> = pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect();
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
@@ -303,7 +303,9 @@ impl Tracer<'_> {
                     Some(e) => e,
                     None => direct[i] + self.indirect(params, s, field_at, rng),
                 };
-                last_hit[i] = Some((s.position, s.normal, e));
+                if keep {
+                    last_hit[i] = Some((s.position, s.normal, e));
+                }
                 let c = s.emission + s.albedo / PI * e;
                 // A stray NaN or infinity must not poison a pixel (or a denoiser).
                 sums[i].0 += if c.is_finite() { c } else { Vec3::ZERO };
