@@ -318,8 +318,13 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     let between = &frames[4].1;
     assert_eq!(between.albedo, full.albedo, "eye rays and textures are the frame's own");
     let (d_between, d_cache) = (relative_difference(&between.color, &full.color), relative_difference(&cache_only.color, &full.color));
-    println!("middle frame against the frame lit in full: reused {d_between:.4}, cache at the first hit {d_cache:.4}");
-    if d_between > 0.04 || std::env::var("SHOW").is_ok() {
+    // Light taken from the wrong surface (an occluder, the far side of an
+    // edge) shows as pixels far off, which a mean hides.
+    let far_off = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).filter(|(x, y)| (luminance(**x) - luminance(**y)).abs() > 0.25 * luminance(**y) + 1e-3).count() as f32 / b.len() as f32;
+    let (f_between, f_cache) = (far_off(&between.color, &full.color), far_off(&cache_only.color, &full.color));
+    println!("middle frame against the frame lit in full: reused {d_between:.4} ({f_between:.4} of pixels 25 % off), cache at the first hit {d_cache:.4} ({f_cache:.4})");
+    let failed = d_between > 0.04 || f_between > 0.018;
+    if failed || std::env::var("SHOW").is_ok() {
         let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
         std::fs::create_dir_all(&out).unwrap();
         let exposure = 0.3 / luminance(mean(&full.color));
@@ -327,7 +332,9 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
             to_image(width, width / 2, &f.color, exposure).save(out.join(format!("sunroom_walk_{name}.png"))).unwrap();
         }
     }
-    assert!(d_between < 0.04, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04); images in target/render-failures");
+    // Measured: 0.029 and 1.1 % of pixels; with the likeness and closeness
+    // checks removed, 0.039 and 2.7 %.
+    assert!(!failed, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04), {f_between:.4} of pixels 25 % off (at most 0.018); images in target/render-failures");
     // The key frames are the frames lit in full.
     assert_eq!(frames[8].1.color, renderer.equirect(&video, eyes[8], width, 8).color);
 }
