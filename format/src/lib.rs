@@ -9,6 +9,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+pub mod edgebreaker;
 #[cfg(feature = "video")]
 pub mod video;
 

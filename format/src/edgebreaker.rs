@@ -1,0 +1,985 @@
+//! Edgebreaker connectivity coding (Rossignac 1999, "Edgebreaker: Connectivity
+//! compression for triangle meshes"; handles after Lopes, Rossignac, Safonova,
+//! Szymczak and Tavares 2003, "Edgebreaker: a simple implementation for
+//! surfaces with handles").
+//!
+//! The encoder walks each connected component triangle by triangle, keeping
+//! the boundary of the visited region as loops of vertices, and writes one
+//! symbol per triangle after the first: C when the triangle brings a new
+//! vertex, L or R when it also borders the visited region on the left or the
+//! right of the gate edge, E when it closes a loop of three, S when its tip lies
+//! further along the loop and splits it in two (the right part is walked
+//! first, the left part waits on a stack). A sixth symbol covers what a sphere
+//! never needs: M joins the current loop with one waiting on the stack (once
+//! per handle; its record says which loop, where, and how long). Where an S tip lies
+//! follows from the symbols alone: summing loop lengths backwards over them
+//! gives the length of each S's right loop, so S costs no extra bits.
+//!
+//! Any triangle list without a repeated index inside a triangle is accepted.
+//! It is made closed and manifold first, and restored after decoding:
+//! - an edge is glued only when exactly two triangles use it in opposite
+//!   directions; any other edge (open, non-manifold, inconsistently oriented)
+//!   is cut into boundary edges;
+//! - a vertex whose triangles then form several fans gets a copy per extra fan,
+//!   listed so that the decoder merges each copy back into its original;
+//! - each boundary loop gets a dummy vertex fanned to its edges, listed so that
+//!   the decoder drops it with its triangles.
+//!
+//! So decoding gives back every triangle with its orientation, up to the order
+//! of vertices and triangles and the rotation of corners within a triangle.
+//! Vertices no triangle uses are not coded.
+
+use std::fmt;
+
+/// Symbols, in the order their codes take in the entropy models.
+pub const C: u8 = 0;
+pub const L: u8 = 1;
+pub const R: u8 = 2;
+pub const S: u8 = 3;
+pub const E: u8 = 4;
+pub const M: u8 = 5;
+pub const SYMBOLS: usize = 6;
+
+const NONE: u32 = u32::MAX;
+/// Most triangles (dummies included) a decoder accepts: bounds the memory a
+/// hostile header can ask for.
+pub const MAX_TRIANGLES: u32 = 1 << 26;
+
+/// A join of the current loop with a waiting one (symbol M).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Merge {
+    /// Position of the waiting loop on the stack, 0 = top.
+    pub depth: u32,
+    /// Steps from that loop's gate to the tip's vertex.
+    pub offset: u32,
+    /// Length of that loop, in vertices.
+    pub length: u32,
+}
+
+/// A mesh's connectivity as Edgebreaker codes it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Connectivity {
+    /// One symbol per triangle that does not start a component.
+    pub symbols: Vec<u8>,
+    /// One per M, in order.
+    pub merges: Vec<Merge>,
+    /// Triangles and vertices decoded, dummies and copies included.
+    pub triangle_count: u32,
+    pub vertex_count: u32,
+    /// Decoded indices of the dummy vertices, ascending.
+    pub dummies: Vec<u32>,
+    /// `[copy, original]` decoded indices, ascending by copy.
+    pub copies: Vec<[u32; 2]>,
+}
+
+/// Where each decoded vertex and triangle came from in the encoder's input.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Order {
+    /// Per kept vertex (see [`Decoded::keep`]), its input index.
+    pub vertices: Vec<u32>,
+    /// Per kept triangle, its input index.
+    pub triangles: Vec<u32>,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CodingError {
+    /// The encoder's input cannot be coded.
+    Input(String),
+    /// The coded data is inconsistent (truncated, corrupt or hostile).
+    Corrupt(String),
+}
+
+impl fmt::Display for CodingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CodingError::Input(m) => write!(f, "mesh cannot be coded: {m}"),
+            CodingError::Corrupt(m) => write!(f, "coded mesh is corrupt: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for CodingError {}
+
+fn corrupt<T>(message: impl Into<String>) -> Result<T, CodingError> {
+    Err(CodingError::Corrupt(message.into()))
+}
+
+#[inline]
+fn next(c: u32) -> u32 {
+    if c % 3 == 2 { c - 2 } else { c + 1 }
+}
+
+#[inline]
+fn prev(c: u32) -> u32 {
+    if c % 3 == 0 { c + 2 } else { c - 1 }
+}
+
+/// The input made closed and manifold, as a corner table: corner `c` is
+/// vertex `corners[c]` of triangle `c / 3`, and `opposite[c]` is the corner
+/// facing it across the edge opposite `c`.
+struct Closed {
+    corners: Vec<u32>,
+    opposite: Vec<u32>,
+    /// Per closed vertex: its input vertex, or NONE for a dummy.
+    source: Vec<u32>,
+    real_triangles: u32,
+}
+
+fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingError> {
+    for (t, tri) in triangles.iter().enumerate() {
+        if tri.iter().any(|&v| v >= vertex_count) {
+            return Err(CodingError::Input(format!("triangle {t} uses vertex {} of {vertex_count}", tri.iter().max().unwrap())));
+        }
+        if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
+            return Err(CodingError::Input(format!("triangle {t} repeats a vertex: {tri:?}")));
+        }
+    }
+    // Dummy triangles add at most one per corner.
+    if triangles.len() as u64 * 2 > MAX_TRIANGLES as u64 {
+        return Err(CodingError::Input(format!("{} triangles; at most {} can be coded", triangles.len(), MAX_TRIANGLES / 2)));
+    }
+    let mut corners: Vec<u32> = triangles.iter().flatten().copied().collect();
+    let n = corners.len() as u32;
+    // Glue edges used exactly twice in opposite directions.
+    let mut edges: Vec<(u64, u32)> = (0..n)
+        .map(|c| {
+            let (u, v) = (corners[next(c) as usize], corners[prev(c) as usize]);
+            ((u.min(v) as u64) << 32 | u.max(v) as u64, c)
+        })
+        .collect();
+    edges.sort_unstable();
+    let mut opposite = vec![NONE; n as usize];
+    for group in edges.chunk_by(|x, y| x.0 == y.0) {
+        if let [(_, c), (_, d)] = *group {
+            if corners[next(c) as usize] == corners[prev(d) as usize] {
+                opposite[c as usize] = d;
+                opposite[d as usize] = c;
+            }
+        }
+    }
+    // One vertex per fan of glued triangles around it.
+    let mut source: Vec<u32> = (0..vertex_count).collect();
+    let mut has_fan = vec![false; vertex_count as usize];
+    let mut done = vec![false; n as usize];
+    let mut fan = Vec::new();
+    for c in 0..n {
+        if done[c as usize] {
+            continue;
+        }
+        let v = corners[c as usize];
+        fan.clear();
+        fan.push(c);
+        done[c as usize] = true;
+        // Swing one way (across the edge leaving v), then the other.
+        let mut k = c;
+        while let Some(o) = Some(opposite[prev(k) as usize]).filter(|&o| o != NONE) {
+            k = prev(o);
+            if done[k as usize] {
+                break;
+            }
+            done[k as usize] = true;
+            fan.push(k);
+        }
+        let mut k = c;
+        while let Some(o) = Some(opposite[next(k) as usize]).filter(|&o| o != NONE) {
+            k = next(o);
+            if done[k as usize] {
+                break;
+            }
+            done[k as usize] = true;
+            fan.push(k);
+        }
+        let id = if has_fan[v as usize] {
+            source.push(v);
+            source.len() as u32 - 1
+        } else {
+            has_fan[v as usize] = true;
+            v
+        };
+        for &k in &fan {
+            corners[k as usize] = id;
+        }
+    }
+    // Close each boundary loop with a dummy vertex. After the split each
+    // vertex starts at most one boundary edge.
+    let mut outgoing = vec![NONE; source.len()];
+    for c in 0..n {
+        if opposite[c as usize] == NONE {
+            outgoing[corners[next(c) as usize] as usize] = c;
+        }
+    }
+    for c0 in 0..n {
+        if opposite[c0 as usize] != NONE {
+            continue;
+        }
+        let d = source.len() as u32;
+        source.push(NONE);
+        let first = corners.len() as u32;
+        let mut c = c0;
+        loop {
+            // Boundary edge u -> w closed by the dummy triangle (w, u, d).
+            let (u, w) = (corners[next(c) as usize], corners[prev(c) as usize]);
+            let base = corners.len() as u32;
+            corners.extend([w, u, d]);
+            opposite.extend([NONE, NONE, c]);
+            opposite[c as usize] = base + 2;
+            if base != first {
+                // The previous dummy triangle's edge d -> u meets this one's u -> d.
+                opposite[(base - 2) as usize] = base;
+                opposite[base as usize] = base - 2;
+            }
+            c = outgoing[w as usize];
+            if c == NONE || opposite[c as usize] != NONE {
+                break;
+            }
+        }
+        let last = corners.len() as u32 - 3;
+        opposite[(last + 1) as usize] = first;
+        opposite[first as usize] = last + 1;
+    }
+    debug_assert!(opposite.iter().all(|&o| o != NONE));
+    Ok(Closed { corners, opposite, source, real_triangles: triangles.len() as u32 })
+}
+
+/// A vertex of a boundary loop, and the loop edge from it to the next one.
+#[derive(Clone, Copy)]
+struct Node {
+    vertex: u32,
+    prev: u32,
+    next: u32,
+    /// Encoder: the corner facing the edge in its visited triangle (so the
+    /// triangle across is `opposite[corner] / 3`). Decoder: that corner's vertex.
+    facing: u32,
+    /// Encoder only: the loop it belongs to, and the next node of its vertex.
+    loop_id: u32,
+    same: u32,
+}
+
+/// Loops of nodes, shared by the encoder and the decoder so that both walk the
+/// same structure.
+#[derive(Default)]
+struct Loops {
+    nodes: Vec<Node>,
+}
+
+impl Loops {
+    fn add(&mut self, vertex: u32, prev: u32, next: u32, facing: u32, loop_id: u32) -> u32 {
+        self.nodes.push(Node { vertex, prev, next, facing, loop_id, same: NONE });
+        let n = self.nodes.len() as u32 - 1;
+        if prev != NONE {
+            self.nodes[prev as usize].next = n;
+            self.nodes[next as usize].prev = n;
+        }
+        n
+    }
+    /// A loop of three: the first triangle of a component.
+    fn triangle(&mut self, v: [u32; 3], facing: [u32; 3], loop_id: u32) -> u32 {
+        let n = self.nodes.len() as u32;
+        for i in 0..3u32 {
+            self.nodes.push(Node { vertex: v[i as usize], prev: n + (i + 2) % 3, next: n + (i + 1) % 3, facing: facing[i as usize], loop_id, same: NONE });
+        }
+        n
+    }
+    fn next(&self, n: u32) -> u32 {
+        self.nodes[n as usize].next
+    }
+    fn prev(&self, n: u32) -> u32 {
+        self.nodes[n as usize].prev
+    }
+    fn vertex(&self, n: u32) -> u32 {
+        self.nodes[n as usize].vertex
+    }
+    /// Link `x -> y`.
+    fn link(&mut self, x: u32, y: u32) {
+        self.nodes[x as usize].next = y;
+        self.nodes[y as usize].prev = x;
+    }
+    fn walk(&self, mut n: u32, steps: u32, forward: bool) -> u32 {
+        for _ in 0..steps {
+            n = if forward { self.next(n) } else { self.prev(n) };
+        }
+        n
+    }
+    /// Splice for S and M: the triangle (b, a, w) with gate `a -> b` and tip
+    /// node `w`. The loop `a -> b` becomes `a -> w' -> (w's old successors)`,
+    /// and `w -> b`. Returns the new node `w'`.
+    fn splice(&mut self, a: u32, w: u32, facing_aw: u32, facing_wb: u32) -> u32 {
+        let b = self.next(a);
+        let after = self.next(w);
+        let node = self.nodes[w as usize];
+        let w2 = self.add(node.vertex, a, after, node.facing, node.loop_id);
+        self.nodes[a as usize].facing = facing_aw;
+        self.link(w, b);
+        self.nodes[w as usize].facing = facing_wb;
+        w2
+    }
+}
+
+/// Codes `triangles` (indices into `vertex_count` vertices).
+pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity, Order), CodingError> {
+    let closed = close(triangles, vertex_count)?;
+    let Closed { corners, opposite, source, real_triangles } = &closed;
+    let vertex_total = source.len();
+    let triangle_total = corners.len() / 3;
+    let mut visited = vec![false; triangle_total];
+    // Closed vertex -> decoded index.
+    let mut decoded = vec![NONE; vertex_total];
+    let mut emitted: Vec<u32> = Vec::with_capacity(vertex_total);
+    let mut triangle_order: Vec<u32> = Vec::with_capacity(triangle_total);
+    let mut out = Connectivity::default();
+    let mut loops = Loops::default();
+    let mut head = vec![NONE; vertex_total];
+    let mut loop_len: Vec<u32> = Vec::new();
+    let mut stack: Vec<(u32, u32)> = Vec::new(); // (gate node, loop id)
+
+    let emit = |v: u32, decoded: &mut Vec<u32>, emitted: &mut Vec<u32>| {
+        decoded[v as usize] = emitted.len() as u32;
+        emitted.push(v);
+    };
+    // Node bookkeeping for the per-vertex lists.
+    fn attach(loops: &mut Loops, head: &mut [u32], n: u32) {
+        let v = loops.vertex(n) as usize;
+        loops.nodes[n as usize].same = head[v];
+        head[v] = n;
+    }
+    fn detach(loops: &mut Loops, head: &mut [u32], n: u32) {
+        let v = loops.vertex(n) as usize;
+        let after = loops.nodes[n as usize].same;
+        if head[v] == n {
+            head[v] = after;
+            return;
+        }
+        let mut k = head[v];
+        while loops.nodes[k as usize].same != n {
+            k = loops.nodes[k as usize].same;
+        }
+        loops.nodes[k as usize].same = after;
+    }
+    fn relabel(loops: &mut Loops, start: u32, id: u32) {
+        let mut n = start;
+        loop {
+            loops.nodes[n as usize].loop_id = id;
+            n = loops.next(n);
+            if n == start {
+                break;
+            }
+        }
+    }
+
+    for start in 0..triangle_total as u32 {
+        if visited[start as usize] {
+            continue;
+        }
+        visited[start as usize] = true;
+        triangle_order.push(start);
+        let c0 = 3 * start;
+        let v = [corners[c0 as usize], corners[c0 as usize + 1], corners[c0 as usize + 2]];
+        for &x in &v {
+            emit(x, &mut decoded, &mut emitted);
+        }
+        let mut current = loop_len.len() as u32;
+        loop_len.push(3);
+        let first = loops.triangle(v, [c0 + 2, c0, c0 + 1], current);
+        for n in first..first + 3 {
+            attach(&mut loops, &mut head, n);
+        }
+        let mut gate = first;
+        loop {
+            let a = gate;
+            let b = loops.next(a);
+            let c = opposite[loops.nodes[a as usize].facing as usize];
+            let t = c / 3;
+            visited[t as usize] = true;
+            triangle_order.push(t);
+            let w = corners[c as usize];
+            if decoded[w as usize] == NONE {
+                emit(w, &mut decoded, &mut emitted);
+                out.symbols.push(C);
+                loops.nodes[a as usize].facing = next(c);
+                let nw = loops.add(w, a, b, prev(c), current);
+                attach(&mut loops, &mut head, nw);
+                loop_len[current as usize] += 1;
+                gate = nw;
+                continue;
+            }
+            let p = loops.prev(a);
+            let q = loops.next(b);
+            let left = opposite[loops.nodes[p as usize].facing as usize] / 3 == t;
+            let right = opposite[loops.nodes[b as usize].facing as usize] / 3 == t;
+            match (left, right) {
+                (true, true) => {
+                    // Across both sides: the loop is (w, a, b). (A loop that
+                    // touches itself at w cannot get here: each of w's nodes
+                    // bounds its own wedge of unvisited triangles.)
+                    debug_assert_eq!(p, q);
+                    out.symbols.push(E);
+                    for n in [p, a, b] {
+                        detach(&mut loops, &mut head, n);
+                    }
+                    match stack.pop() {
+                        Some((g, id)) => {
+                            gate = g;
+                            current = id;
+                        }
+                        None => break,
+                    }
+                }
+                (true, false) => {
+                    out.symbols.push(L);
+                    detach(&mut loops, &mut head, a);
+                    loops.link(p, b);
+                    loops.nodes[p as usize].facing = prev(c);
+                    loop_len[current as usize] -= 1;
+                    gate = p;
+                }
+                (false, true) => {
+                    out.symbols.push(R);
+                    detach(&mut loops, &mut head, b);
+                    loops.link(a, q);
+                    loops.nodes[a as usize].facing = next(c);
+                    loop_len[current as usize] -= 1;
+                    gate = a;
+                }
+                (false, false) => {
+                    // The tip's node: the one whose unvisited wedge holds t.
+                    let mut nw = head[w as usize];
+                    if loops.nodes[nw as usize].same != NONE {
+                        let mut k = c;
+                        let x = loop {
+                            let k2 = prev(opposite[prev(k) as usize]);
+                            if visited[(k2 / 3) as usize] {
+                                break corners[next(k) as usize];
+                            }
+                            k = k2;
+                        };
+                        while loops.vertex(loops.prev(nw)) != x {
+                            nw = loops.nodes[nw as usize].same;
+                        }
+                    }
+                    let other = loops.nodes[nw as usize].loop_id;
+                    if other == current {
+                        out.symbols.push(S);
+                        // Walk both ways from the gate to find the shorter part.
+                        let (mut f, mut g, mut steps) = (b, a, 0u32);
+                        let right_shorter = loop {
+                            if f == nw {
+                                break true;
+                            }
+                            if g == nw {
+                                break false;
+                            }
+                            f = loops.next(f);
+                            g = loops.prev(g);
+                            steps += 1;
+                        };
+                        let len = loop_len[current as usize];
+                        let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
+                        let w2 = loops.splice(a, nw, next(c), prev(c));
+                        attach(&mut loops, &mut head, w2);
+                        let fresh = loop_len.len() as u32;
+                        if right_shorter {
+                            relabel(&mut loops, nw, fresh);
+                            loop_len.push(l1);
+                            loop_len[current as usize] = l2;
+                            stack.push((a, current));
+                            current = fresh;
+                        } else {
+                            relabel(&mut loops, a, fresh);
+                            loop_len.push(l2);
+                            loop_len[current as usize] = l1;
+                            stack.push((a, fresh));
+                        }
+                        gate = nw;
+                    } else {
+                        out.symbols.push(M);
+                        let position = stack.iter().rposition(|&(_, id)| id == other).expect("a loop other than the current one is on the stack");
+                        let (other_gate, _) = stack.remove(position);
+                        let mut offset = 0;
+                        let mut k = other_gate;
+                        while k != nw {
+                            k = loops.next(k);
+                            offset += 1;
+                        }
+                        let length = loop_len[other as usize];
+                        out.merges.push(Merge { depth: (stack.len() - position) as u32, offset, length });
+                        let w2 = loops.splice(a, nw, next(c), prev(c));
+                        attach(&mut loops, &mut head, w2);
+                        let total = loop_len[current as usize] + length + 1;
+                        // Relabel the shorter part (the waiting loop's nodes run
+                        // from w2 to nw, the current one's from b round to a):
+                        // walking the whole merged loop would be quadratic.
+                        let (keep, from, to) = if loop_len[current as usize] >= length { (current, w2, nw) } else { (other, b, a) };
+                        let mut k = from;
+                        loop {
+                            loops.nodes[k as usize].loop_id = keep;
+                            if k == to {
+                                break;
+                            }
+                            k = loops.next(k);
+                        }
+                        loop_len[keep as usize] = total;
+                        current = keep;
+                        gate = nw;
+                    }
+                }
+            }
+        }
+    }
+    debug_assert_eq!(triangle_order.len(), triangle_total);
+
+    out.triangle_count = triangle_total as u32;
+    out.vertex_count = emitted.len() as u32;
+    // Of the copies of an input vertex, the first decoded is kept.
+    let mut first = vec![NONE; vertex_count as usize];
+    let mut order = Order::default();
+    for (i, &v) in emitted.iter().enumerate() {
+        let s = source[v as usize];
+        if s == NONE {
+            out.dummies.push(i as u32);
+        } else if first[s as usize] != NONE {
+            out.copies.push([i as u32, first[s as usize]]);
+        } else {
+            first[s as usize] = i as u32;
+            order.vertices.push(s);
+        }
+    }
+    order.triangles = triangle_order.into_iter().filter(|&t| t < *real_triangles).collect();
+    Ok((out, order))
+}
+
+/// Per decoded vertex, its index among kept vertices (copies take their
+/// original's, dummies NONE). Kept vertices keep their decoded order.
+fn keep_vertices(vertex_count: u32, dummies: &[u32], copies: &[[u32; 2]]) -> Result<(Vec<u32>, u32), CodingError> {
+    const COPY: u32 = NONE - 1;
+    let mut keep = vec![0u32; vertex_count as usize];
+    for &d in dummies {
+        match keep.get_mut(d as usize) {
+            Some(k) if *k == 0 => *k = NONE,
+            _ => return corrupt(format!("dummy vertex {d} of {vertex_count}")),
+        }
+    }
+    for &[copy, original] in copies {
+        if copy >= vertex_count || original >= copy || keep[original as usize] != 0 || keep[copy as usize] != 0 {
+            return corrupt(format!("copy {copy} of vertex {original} ({vertex_count} vertices)"));
+        }
+        keep[copy as usize] = COPY;
+    }
+    let mut kept = 0;
+    for k in keep.iter_mut() {
+        if *k == 0 {
+            *k = kept;
+            kept += 1;
+        }
+    }
+    for &[copy, original] in copies {
+        keep[copy as usize] = keep[original as usize];
+    }
+    Ok((keep, kept))
+}
+
+/// A decoded mesh, before dummies and copies are resolved.
+#[derive(Clone, Debug, Default)]
+pub struct Decoded {
+    /// Triangles over decoded vertices, dummies included.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per decoded vertex, the vertices that predict it: `[a, b, o]` for the
+    /// parallelogram `a + b - o` across the gate it was added on; a component's
+    /// first three vertices have `[NONE; 3]`, `[v0, NONE, NONE]` and
+    /// `[v0, v1, NONE]`.
+    pub predictors: Vec<[u32; 3]>,
+    /// Per decoded vertex, its index among kept ones (NONE for dummies).
+    pub keep: Vec<u32>,
+    pub kept_vertices: u32,
+}
+
+/// Rebuilds the triangles and per-vertex predictors from `code`.
+pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
+    let symbols = &code.symbols;
+    if code.triangle_count > MAX_TRIANGLES || code.vertex_count > code.triangle_count.saturating_mul(3) {
+        return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
+    }
+    // Components end at an E with an empty stack.
+    let mut ends = Vec::new();
+    let mut depth = 0u32;
+    let mut merges = 0usize;
+    for (i, &s) in symbols.iter().enumerate() {
+        match s {
+            S => depth += 1,
+            E if depth == 0 => ends.push(i),
+            E => depth -= 1,
+            M => {
+                let Some(m) = code.merges.get(merges) else { return corrupt("more M symbols than merge records") };
+                if m.depth >= depth {
+                    return corrupt(format!("merge with loop {} of {depth} waiting", m.depth));
+                }
+                depth -= 1;
+                merges += 1;
+            }
+            C | L | R => {}
+            _ => return corrupt(format!("symbol {s}")),
+        }
+    }
+    if merges != code.merges.len() || depth != 0 || ends.last().map_or(!symbols.is_empty(), |&e| e + 1 != symbols.len()) {
+        return corrupt("symbols end inside a component");
+    }
+    if symbols.len() + ends.len() != code.triangle_count as usize {
+        return corrupt(format!("{} symbols and {} components for {} triangles", symbols.len(), ends.len(), code.triangle_count));
+    }
+    // Backwards over each component: lengths of the loops, so of each S's right loop.
+    let mut right_len = vec![0u32; symbols.len()];
+    let mut stack: Vec<u32> = Vec::new();
+    let mut merge_index = code.merges.len();
+    let mut end = symbols.len();
+    for (k, &last) in ends.iter().enumerate().rev() {
+        let begin = if k == 0 { 0 } else { ends[k - 1] + 1 };
+        debug_assert_eq!(last + 1, end);
+        let mut cur: Option<u32> = None;
+        stack.clear();
+        for i in (begin..end).rev() {
+            let bad = || corrupt::<()>(format!("loop lengths do not add up at symbol {i}"));
+            match (symbols[i], cur) {
+                (E, _) => {
+                    if let Some(x) = cur {
+                        stack.push(x);
+                    }
+                    cur = Some(3);
+                }
+                (_, None) => bad()?,
+                (C, Some(x)) if x >= 3 => cur = Some(x - 1),
+                (L | R, Some(x)) => cur = Some(x + 1),
+                (S, Some(x)) if x >= 2 => {
+                    let Some(l2) = stack.pop().filter(|&l2| l2 >= 2) else { return corrupt(format!("S without a left loop at symbol {i}")) };
+                    right_len[i] = x;
+                    cur = Some(x + l2 - 1);
+                }
+                (M, Some(x)) => {
+                    merge_index -= 1;
+                    let m = code.merges[merge_index];
+                    let before = x.checked_sub(m.length + 1).filter(|&b| b >= 2 && m.length >= 2 && m.offset < m.length);
+                    let Some(before) = before else { return corrupt(format!("merge {merge_index} does not fit its loops")) };
+                    let at = (stack.len() as u32).checked_sub(m.depth);
+                    let Some(at) = at else { return corrupt(format!("merge {merge_index} depth")) };
+                    stack.insert(at as usize, m.length);
+                    cur = Some(before);
+                }
+                _ => bad()?,
+            }
+            if cur.is_some_and(|x| x > code.vertex_count.saturating_mul(2) + 3) {
+                bad()?;
+            }
+        }
+        if cur != Some(3) || !stack.is_empty() {
+            return corrupt(format!("component {k} does not start with one triangle"));
+        }
+        end = begin;
+    }
+
+    // Forwards: rebuild.
+    let (keep, kept_vertices) = keep_vertices(code.vertex_count, &code.dummies, &code.copies)?;
+    let mut out = Decoded { triangles: Vec::with_capacity(code.triangle_count as usize), predictors: Vec::with_capacity(code.vertex_count as usize), keep, kept_vertices };
+    let mut loops = Loops::default();
+    loops.nodes.reserve(code.triangle_count as usize + 3);
+    let mut waiting: Vec<(u32, u32)> = Vec::new(); // (gate node, length)
+    let mut i = 0usize;
+    let mut merge_index = 0usize;
+    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> Result<u32, CodingError> {
+        if out.predictors.len() as u32 >= code.vertex_count {
+            return corrupt(format!("more than {} vertices", code.vertex_count));
+        }
+        out.predictors.push(predictor);
+        Ok(out.predictors.len() as u32 - 1)
+    };
+    for &last in &ends {
+        let v0 = new_vertex(&mut out, [NONE; 3])?;
+        let v1 = new_vertex(&mut out, [v0, NONE, NONE])?;
+        let v2 = new_vertex(&mut out, [v0, v1, NONE])?;
+        out.triangles.push([v0, v1, v2]);
+        let mut gate = loops.triangle([v0, v1, v2], [v2, v0, v1], 0);
+        let mut len = 3u32;
+        while i <= last {
+            let s = symbols[i];
+            let a = gate;
+            let b = loops.next(a);
+            let (va, vb) = (loops.vertex(a), loops.vertex(b));
+            let w = match s {
+                C => {
+                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing])?;
+                    loops.nodes[a as usize].facing = vb;
+                    gate = loops.add(w, a, b, va, 0);
+                    len += 1;
+                    w
+                }
+                L => {
+                    let p = loops.prev(a);
+                    loops.link(p, b);
+                    loops.nodes[p as usize].facing = va;
+                    gate = p;
+                    len -= 1;
+                    loops.vertex(p)
+                }
+                R => {
+                    let q = loops.next(b);
+                    loops.link(a, q);
+                    loops.nodes[a as usize].facing = vb;
+                    gate = a;
+                    len -= 1;
+                    loops.vertex(q)
+                }
+                E => {
+                    let w = loops.vertex(loops.prev(a));
+                    if let Some((g, l)) = waiting.pop() {
+                        gate = g;
+                        len = l;
+                    }
+                    w
+                }
+                S => {
+                    let l1 = right_len[i];
+                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2) else { return corrupt(format!("S at symbol {i} splits a loop of {len}")) };
+                    let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
+                    loops.splice(a, nw, vb, va);
+                    waiting.push((a, l2));
+                    gate = nw;
+                    len = l1;
+                    loops.vertex(nw)
+                }
+                _ => {
+                    let m = code.merges[merge_index];
+                    merge_index += 1;
+                    let (g, length) = waiting.remove(waiting.len() - 1 - m.depth as usize);
+                    if length != m.length {
+                        return corrupt(format!("merge {} names a loop of {} that has {length}", merge_index - 1, m.length));
+                    }
+                    let nw = loops.walk(g, m.offset, true);
+                    loops.splice(a, nw, vb, va);
+                    gate = nw;
+                    len += length + 1;
+                    loops.vertex(nw)
+                }
+            };
+            out.triangles.push([vb, va, w]);
+            i += 1;
+        }
+    }
+    if out.predictors.len() as u32 != code.vertex_count {
+        return corrupt(format!("{} vertices decoded, {} declared", out.predictors.len(), code.vertex_count));
+    }
+    Ok(out)
+}
+
+impl Decoded {
+    /// The kept triangles (none touching a dummy) over kept vertices, with
+    /// copies merged back.
+    pub fn resolve(&self) -> Vec<[u32; 3]> {
+        self.triangles
+            .iter()
+            .filter(|t| t.iter().all(|&v| self.keep[v as usize] != NONE))
+            .map(|t| t.map(|v| self.keep[v as usize]))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// Triangles as sets of cyclic rotations, so that two lists compare equal
+    /// when they hold the same oriented triangles.
+    pub(crate) fn canonical(triangles: impl IntoIterator<Item = [u32; 3]>) -> Vec<[u32; 3]> {
+        let mut out: Vec<[u32; 3]> = triangles
+            .into_iter()
+            .map(|t| {
+                let r = (0..3).min_by_key(|&i| t[i]).unwrap();
+                [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// Encodes, decodes and checks the decoded triangles are the input's.
+    pub(crate) fn round_trip(triangles: &[[u32; 3]], vertex_count: u32) -> Connectivity {
+        let (code, order) = encode(triangles, vertex_count).unwrap();
+        let decoded = decode(&code).unwrap_or_else(|e| panic!("{e}: {triangles:?} {code:?}"));
+        let got = decoded.resolve();
+        assert_eq!(got.len(), triangles.len());
+        assert_eq!(order.triangles.len(), triangles.len());
+        // Decoded vertex i is input vertex order.vertices[i].
+        let mapped = canonical(got.iter().map(|t| t.map(|v| order.vertices[v as usize])));
+        assert_eq!(mapped, canonical(triangles.iter().copied()));
+        // Triangle by triangle too.
+        for (k, t) in got.iter().enumerate() {
+            let input = triangles[order.triangles[k] as usize];
+            assert_eq!(canonical([t.map(|v| order.vertices[v as usize])]), canonical([input]));
+        }
+        code
+    }
+
+    pub(crate) fn grid(n: u32) -> Vec<[u32; 3]> {
+        let mut t = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let v = y * (n + 1) + x;
+                t.push([v, v + 1, v + n + 2]);
+                t.push([v, v + n + 2, v + n + 1]);
+            }
+        }
+        t
+    }
+
+    /// A torus of `n` × `m` quads (genus one, so one handle).
+    pub(crate) fn torus(n: u32, m: u32) -> Vec<[u32; 3]> {
+        let mut t = Vec::new();
+        let id = |i: u32, j: u32| (i % n) * m + j % m;
+        for i in 0..n {
+            for j in 0..m {
+                t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        t
+    }
+
+    #[test]
+    fn tetrahedron_is_one_triangle_and_three_symbols() {
+        let tris = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]];
+        let code = round_trip(&tris, 4);
+        assert_eq!(code.symbols.len(), 3);
+        assert!(code.dummies.is_empty() && code.copies.is_empty() && code.merges.is_empty());
+        assert_eq!((code.symbols[0], code.symbols[2]), (C, E));
+    }
+
+    #[test]
+    fn open_grid_gets_one_dummy_and_about_two_bits_worth_of_symbols() {
+        let tris = grid(8);
+        let code = round_trip(&tris, 81);
+        assert_eq!(code.dummies.len(), 1);
+        assert!(code.merges.is_empty());
+        let cs = code.symbols.iter().filter(|&&s| s == C).count();
+        // Euler: every vertex but the first three arrives by a C.
+        assert_eq!(cs as u32, code.vertex_count - 3);
+    }
+
+    #[test]
+    fn torus_handle_is_one_merge() {
+        let tris = torus(6, 5);
+        let code = round_trip(&tris, 30);
+        assert!(code.dummies.is_empty());
+        assert_eq!(code.merges.len(), 1, "{:?}", code.symbols);
+        // Two handles.
+        let mut double = torus(6, 5);
+        double.extend(torus(4, 4).iter().map(|t| t.map(|v| v + 30)));
+        let code = round_trip(&double, 46);
+        assert_eq!(code.merges.len(), 2);
+    }
+
+    #[test]
+    fn non_manifold_input_round_trips() {
+        // Bowtie: two triangles sharing only a vertex; a fin: three triangles
+        // on one edge; a flipped neighbour; a duplicate; an unused vertex.
+        let tris = [[0, 1, 2], [0, 3, 4], [5, 6, 7], [5, 7, 8], [6, 5, 9], [5, 6, 10], [10, 11, 5], [0, 1, 2], [2, 1, 12]];
+        let code = round_trip(&tris, 14);
+        assert!(!code.copies.is_empty());
+    }
+
+    /// Random soups over few vertices (non-manifold edges and vertices, flips),
+    /// tori with holes or pinched at a vertex, and surfaces of genus up to 4.
+    #[test]
+    fn random_soups_round_trip() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rand = |n: u32| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 33) % n as u64) as u32
+        };
+        let mut merges = 0;
+        for k in 0..3000 {
+            let (vertices, mut tris) = if k % 3 == 2 {
+                // Tori joined through a removed triangle each: genus up to 4.
+                let mut tris = torus(3 + rand(5), 3 + rand(5));
+                let mut vertices = tris.iter().flatten().max().unwrap() + 1;
+                for _ in 0..1 + rand(3) {
+                    let (n, m) = (3 + rand(5), 3 + rand(5));
+                    let hole = tris.swap_remove(rand(tris.len() as u32) as usize);
+                    let mut other = torus(n, m);
+                    let [p, q, r] = other.swap_remove(rand(other.len() as u32) as usize);
+                    let glue = |v: u32| if v == p { hole[1] } else if v == q { hole[0] } else if v == r { hole[2] } else { v + vertices };
+                    tris.extend(other.iter().map(|t| t.map(glue)));
+                    vertices += n * m;
+                }
+                (vertices, tris)
+            } else if k % 3 == 0 {
+                let vertices = 4 + rand(12);
+                let count = 1 + rand(40);
+                let mut tris = Vec::new();
+                while tris.len() < count as usize {
+                    let t = [rand(vertices), rand(vertices), rand(vertices)];
+                    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                        tris.push(t);
+                    }
+                }
+                (vertices, tris)
+            } else {
+                // Tori, some with holes, some glued at a vertex.
+                let (n, m) = (3 + rand(6), 3 + rand(6));
+                let mut tris = torus(n, m);
+                for _ in 0..rand(4) {
+                    let i = rand(tris.len() as u32) as usize;
+                    tris.swap_remove(i);
+                }
+                if rand(2) == 0 {
+                    let (from, to) = (rand(n * m), rand(n * m));
+                    tris.iter_mut().for_each(|t| t.iter_mut().for_each(|v| if *v == from { *v = to }));
+                    tris.retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+                }
+                (n * m, tris)
+            };
+            // Shuffle triangles so the traversal starts anywhere.
+            for i in (1..tris.len()).rev() {
+                tris.swap(i, rand(i as u32 + 1) as usize);
+            }
+            let code = round_trip(&tris, vertices);
+            merges += code.merges.len();
+        }
+        assert!(merges > 1000, "merges {merges}");
+    }
+
+    #[test]
+    fn hostile_connectivity_is_an_error() {
+        let (code, _) = encode(&torus(5, 5), 25).unwrap();
+        // Every single-symbol change, truncation and count change either
+        // decodes consistently or errors; never panics.
+        for i in 0..code.symbols.len() {
+            for s in 0..9u8 {
+                let mut bad = code.clone();
+                bad.symbols[i] = s;
+                let _ = decode(&bad);
+            }
+            let mut short = code.clone();
+            short.symbols.truncate(i);
+            assert!(decode(&short).is_err());
+        }
+        // A wrong offset or length can still fit the loops: it decodes,
+        // wrongly (the container's checksum catches that), and must not panic.
+        for delta in [1u32, 2, 1000, u32::MAX / 2] {
+            let mut bad = code.clone();
+            bad.merges[0].offset = bad.merges[0].offset.wrapping_add(delta);
+            let _ = decode(&bad);
+            bad.merges[0].length = bad.merges[0].length.wrapping_add(delta);
+            let _ = decode(&bad);
+        }
+        for field in [0, 1] {
+            for delta in [1u32, 2, 1000, u32::MAX / 2] {
+                let mut bad = code.clone();
+                match field {
+                    0 => bad.triangle_count = bad.triangle_count.wrapping_add(delta),
+                    _ => bad.vertex_count = bad.vertex_count.wrapping_add(delta),
+                }
+                assert!(decode(&bad).is_err(), "field {field} + {delta}");
+            }
+        }
+        let mut bad = code.clone();
+        bad.dummies.push(3);
+        bad.copies.push([2, 7]);
+        assert!(decode(&bad).is_err());
+    }
+}
