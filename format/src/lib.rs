@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 pub mod edgebreaker;
+pub mod meshcode;
 #[cfg(feature = "video")]
 pub mod video;
 

@@ -1,0 +1,683 @@
+//! The coded mesh: a proxy mesh (or any level of it sent whole) in a few
+//! kilobytes, decodable on a phone or in a browser with no C toolchain.
+//!
+//! Connectivity is coded by Edgebreaker ([`crate::edgebreaker`]). Positions
+//! are quantized on a grid of `2^bits` steps per axis of the mesh's box and
+//! predicted by the parallelogram rule (Touma and Gotsman 1998): a vertex that
+//! arrives by a C across the gate `a -> b` of the triangle `(a, b, o)` is
+//! predicted at `a + b - o`. Colours (optional, RGB8 per vertex) use the same
+//! predictors. Residuals and CLERS symbols are range coded (the `constriction`
+//! crate) with static models stored in the file: CLERS conditioned on the
+//! previous symbol, residuals as an Elias-gamma bucket (their bit length,
+//! modelled) followed by raw bits. A CRC-32 closes the file.
+//!
+//! Layout (all integers LEB128 unless said): magic `EMMC`, version byte,
+//! counts, box (6 × f32 LE), then length-prefixed sections: connectivity,
+//! positions, groups, colours; then the CRC-32 (u32 LE) of all that precedes.
+
+use crate::edgebreaker::{self, CodingError, Connectivity, Merge, Order};
+use constriction::stream::model::{SmallContiguousCategoricalEntropyModel, SmallContiguousLookupDecoderModel};
+use constriction::stream::queue::{DefaultRangeDecoder, DefaultRangeEncoder};
+use constriction::stream::{Decode, Encode};
+
+const MAGIC: &[u8; 4] = b"EMMC";
+const VERSION: u8 = 1;
+const NONE: u32 = u32::MAX;
+/// Probabilities are 12-bit fixed point (constriction's "small" preset, which
+/// allows table lookups when decoding).
+const PRECISION: u32 = 12;
+
+/// An indexed triangle mesh with a group (material) per triangle and,
+/// optionally, a colour per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    pub positions: Vec<[f32; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle (empty: all group 0).
+    pub groups: Vec<u32>,
+    /// Per vertex (empty: no colours).
+    pub colours: Vec<[u8; 3]>,
+}
+
+/// Bytes per section, for reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sizes {
+    pub header: usize,
+    pub connectivity: usize,
+    pub positions: usize,
+    pub groups: usize,
+    pub colours: usize,
+}
+
+impl Sizes {
+    pub fn total(&self) -> usize {
+        self.header + self.connectivity + self.positions + self.groups + self.colours + 4
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Encoded {
+    pub bytes: Vec<u8>,
+    /// Where each decoded vertex and triangle came from.
+    pub order: Order,
+    pub sizes: Sizes,
+}
+
+/// Codes `mesh` with positions quantized to `bits` (1..=24) per axis.
+pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
+    let input = |m: String| Err(CodingError::Input(m));
+    if !(1..=24).contains(&bits) {
+        return input(format!("{bits} position bits; 1 to 24 are supported"));
+    }
+    if !mesh.groups.is_empty() && mesh.groups.len() != mesh.triangles.len() {
+        return input(format!("{} groups for {} triangles", mesh.groups.len(), mesh.triangles.len()));
+    }
+    if !mesh.colours.is_empty() && mesh.colours.len() != mesh.positions.len() {
+        return input(format!("{} colours for {} vertices", mesh.colours.len(), mesh.positions.len()));
+    }
+    if let Some(i) = mesh.positions.iter().position(|p| p.iter().any(|x| !x.is_finite())) {
+        return input(format!("vertex {i} is not finite: {:?}", mesh.positions[i]));
+    }
+    let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
+    // The decoder's own pass gives the prediction structure.
+    let decoded = edgebreaker::decode(&code)?;
+    let source: Vec<u32> = decoded.keep.iter().map(|&k| if k == NONE { NONE } else { order.vertices[k as usize] }).collect();
+
+    let (lo, hi) = match order.vertices.first() {
+        None => ([0.0; 3], [0.0; 3]),
+        Some(&first) => order.vertices.iter().fold((mesh.positions[first as usize], mesh.positions[first as usize]), |(lo, hi), &v| {
+            let p = mesh.positions[v as usize];
+            (std::array::from_fn(|i| lo[i].min(p[i])), std::array::from_fn(|i| hi[i].max(p[i])))
+        }),
+    };
+    let grid = Grid::new(lo, hi, bits);
+    let quantized: Vec<[u32; 3]> = source.iter().map(|&v| if v == NONE { [0; 3] } else { grid.quantize(mesh.positions[v as usize]) }).collect();
+    let group_count = mesh.groups.iter().max().map_or(1, |&g| g + 1);
+    let has_colours = !mesh.colours.is_empty();
+
+    let mut out = Writer::default();
+    out.bytes.extend_from_slice(MAGIC);
+    out.bytes.push(VERSION);
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+        out.varint(n as u64);
+    }
+    for x in lo.iter().chain(&hi) {
+        out.bytes.extend_from_slice(&x.to_le_bytes());
+    }
+    let mut sizes = Sizes { header: out.bytes.len(), ..Sizes::default() };
+
+    // Connectivity.
+    let mut sink = Sink::new(SYMBOL_MODELS);
+    let mut context = 0;
+    for &s in &code.symbols {
+        sink.symbol(context, s as usize);
+        context = s as usize;
+    }
+    for m in &code.merges {
+        for x in [m.depth, m.offset, m.length] {
+            sink.value(SYMBOL_MODELS - 1, x);
+        }
+    }
+    let mut last = 0;
+    for &d in &code.dummies {
+        sink.value(SYMBOL_MODELS - 1, d - last);
+        last = d;
+    }
+    let mut last = 0;
+    for &[copy, original] in &code.copies {
+        sink.value(SYMBOL_MODELS - 1, copy - last);
+        sink.value(SYMBOL_MODELS - 1, copy - original);
+        last = copy;
+    }
+    sizes.connectivity = out.section(sink);
+
+    // Positions, then colours, in decoded order, predicted alike.
+    let copy_of = copies_map(&code, &decoded.keep);
+    let mut sink = Sink::new(3);
+    let mut previous = [0u32; 3];
+    for v in 0..code.vertex_count {
+        if source[v as usize] == NONE || copy_of[v as usize] != v {
+            continue;
+        }
+        let predicted = predict(&decoded.predictors[v as usize], &source, &copy_of, &quantized, previous, grid.max);
+        let q = quantized[v as usize];
+        for axis in 0..3 {
+            sink.value(axis, zigzag(q[axis] as i64 - predicted[axis] as i64));
+        }
+        previous = q;
+    }
+    sizes.positions = out.section(sink);
+
+    let mut sink = Sink::new(1);
+    let group_bits = bit_length(group_count - 1);
+    let mut previous = 0;
+    for &t in &order.triangles {
+        let g = mesh.groups.get(t as usize).copied().unwrap_or(0);
+        sink.symbol(0, (g != previous) as usize);
+        if g != previous {
+            sink.raw(g, group_bits);
+            previous = g;
+        }
+    }
+    sizes.groups = out.section(sink);
+
+    let mut sink = Sink::new(3);
+    if has_colours {
+        let colours: Vec<[u32; 3]> = source.iter().map(|&v| if v == NONE { [0; 3] } else { mesh.colours[v as usize].map(u32::from) }).collect();
+        let mut previous = [128u32; 3];
+        for v in 0..code.vertex_count {
+            if source[v as usize] == NONE || copy_of[v as usize] != v {
+                continue;
+            }
+            let predicted = predict(&decoded.predictors[v as usize], &source, &copy_of, &colours, previous, 255);
+            let c = colours[v as usize];
+            for ch in 0..3 {
+                sink.value(ch, zigzag(((c[ch] as i32 - predicted[ch] as i32) as i8) as i64));
+            }
+            previous = c;
+        }
+    }
+    sizes.colours = out.section(sink);
+
+    let crc = crc32fast::hash(&out.bytes);
+    out.bytes.extend_from_slice(&crc.to_le_bytes());
+    debug_assert_eq!(out.bytes.len(), sizes.total());
+    Ok(Encoded { bytes: out.bytes, order, sizes })
+}
+
+/// Decodes a coded mesh; any inconsistency is an error, never a panic.
+pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
+    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+    if bytes.len() < MAGIC.len() + 5 || &bytes[..4] != MAGIC {
+        return Err(corrupt("not a coded mesh (no EMMC header)"));
+    }
+    if bytes[4] != VERSION {
+        return Err(CodingError::Corrupt(format!("version {} (this reader knows {VERSION})", bytes[4])));
+    }
+    let (body, crc) = bytes.split_at(bytes.len() - 4);
+    if crc32fast::hash(body).to_le_bytes() != crc {
+        return Err(corrupt("checksum mismatch (truncated or damaged)"));
+    }
+    let mut input = Reader { bytes: body, at: 5 };
+    let mut counts = [0u32; 9];
+    for c in counts.iter_mut() {
+        *c = u32::try_from(input.varint()?).map_err(|_| corrupt("count over 32 bits"))?;
+    }
+    let [triangle_count, vertex_count, symbol_count, merge_count, dummy_count, copy_count, group_count, has_colours, bits] = counts;
+    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
+        return Err(corrupt("counts out of range"));
+    }
+    let mut lo = [0f32; 3];
+    let mut hi = [0f32; 3];
+    for x in lo.iter_mut().chain(hi.iter_mut()) {
+        *x = f32::from_le_bytes(input.take(4)?.try_into().unwrap_or_default());
+    }
+    if lo.iter().chain(&hi).any(|x| !x.is_finite()) {
+        return Err(corrupt("box is not finite"));
+    }
+    let grid = Grid::new(lo, hi, bits);
+
+    let mut source = Source::new(&mut input, SYMBOL_MODELS)?;
+    let mut code = Connectivity { triangle_count, vertex_count, ..Connectivity::default() };
+    code.symbols.reserve(symbol_count as usize);
+    let mut context = 0;
+    for _ in 0..symbol_count {
+        let s = source.symbol(context)?;
+        if s >= edgebreaker::SYMBOLS {
+            return Err(corrupt("symbol out of range"));
+        }
+        code.symbols.push(s as u8);
+        context = s;
+    }
+    let values = SYMBOL_MODELS - 1;
+    for _ in 0..merge_count {
+        code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
+    }
+    let mut last = 0u32;
+    for _ in 0..dummy_count {
+        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("dummy index"))?;
+        code.dummies.push(last);
+    }
+    let mut last = 0u32;
+    for _ in 0..copy_count {
+        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("copy index"))?;
+        let original = last.checked_sub(source.value(values)?).ok_or_else(|| corrupt("copy original"))?;
+        code.copies.push([last, original]);
+    }
+    let decoded = edgebreaker::decode(&code)?;
+    let triangles = decoded.resolve();
+    let copy_of = copies_map(&code, &decoded.keep);
+    let kept = &decoded.keep;
+
+    let mut source = Source::new(&mut input, 3)?;
+    let mut quantized = vec![[0u32; 3]; vertex_count as usize];
+    let mut positions = vec![[0f32; 3]; decoded.kept_vertices as usize];
+    let mut previous = [0u32; 3];
+    for v in 0..vertex_count as usize {
+        if kept[v] == NONE {
+            continue;
+        }
+        if copy_of[v] as usize != v {
+            quantized[v] = quantized[copy_of[v] as usize];
+            continue;
+        }
+        let predicted = predict(&decoded.predictors[v], kept, &copy_of, &quantized, previous, grid.max);
+        let mut q = [0u32; 3];
+        for axis in 0..3 {
+            let value = predicted[axis] as i64 + unzigzag(source.value(axis)?);
+            q[axis] = u32::try_from(value).ok().filter(|&x| x <= grid.max).ok_or_else(|| corrupt("position off the grid"))?;
+        }
+        quantized[v] = q;
+        positions[kept[v] as usize] = grid.dequantize(q);
+        previous = q;
+    }
+
+    let mut source = Source::new(&mut input, 1)?;
+    let group_bits = bit_length(group_count - 1);
+    let mut groups = Vec::with_capacity(triangles.len());
+    let mut group = 0;
+    for _ in 0..triangles.len() {
+        if source.symbol(0)? == 1 {
+            group = source.raw(group_bits)?;
+            if group >= group_count {
+                return Err(corrupt("group out of range"));
+            }
+        }
+        groups.push(group);
+    }
+
+    let mut source = Source::new(&mut input, 3)?;
+    let mut colours = Vec::new();
+    if has_colours == 1 {
+        let mut all = vec![[0u32; 3]; vertex_count as usize];
+        colours = vec![[0u8; 3]; decoded.kept_vertices as usize];
+        let mut previous = [128u32; 3];
+        for v in 0..vertex_count as usize {
+            if kept[v] == NONE {
+                continue;
+            }
+            if copy_of[v] as usize != v {
+                all[v] = all[copy_of[v] as usize];
+                continue;
+            }
+            let predicted = predict(&decoded.predictors[v], kept, &copy_of, &all, previous, 255);
+            let mut c = [0u32; 3];
+            for ch in 0..3 {
+                let residual = unzigzag(source.value(ch)?) as u8;
+                c[ch] = (predicted[ch] as u8).wrapping_add(residual) as u32;
+            }
+            all[v] = c;
+            colours[kept[v] as usize] = c.map(|x| x as u8);
+            previous = c;
+        }
+    }
+    if input.at != body.len() {
+        return Err(corrupt("bytes left after the last section"));
+    }
+    Ok(MeshData { positions, triangles, groups, colours })
+}
+
+/// Models in the connectivity section: one per previous symbol, then one for
+/// the records' numbers.
+const SYMBOL_MODELS: usize = edgebreaker::SYMBOLS + 1;
+
+/// Per decoded vertex, the decoded vertex holding its value (itself, or the
+/// original it copies).
+fn copies_map(code: &Connectivity, keep: &[u32]) -> Vec<u32> {
+    let mut map: Vec<u32> = (0..keep.len() as u32).collect();
+    for &[copy, original] in &code.copies {
+        map[copy as usize] = original;
+    }
+    map
+}
+
+/// The predicted value of a vertex from its predictors (`kept` is NONE for
+/// dummies, whose values are not coded).
+fn predict(predictors: &[u32; 3], kept: &[u32], copy_of: &[u32], values: &[[u32; 3]], previous: [u32; 3], max: u32) -> [u32; 3] {
+    let real = |v: u32| v != NONE && kept[v as usize] != NONE;
+    let value = |v: u32| values[copy_of[v as usize] as usize];
+    let [a, b, o] = *predictors;
+    match (real(a), real(b), real(o)) {
+        (true, true, true) => {
+            let (a, b, o) = (value(a), value(b), value(o));
+            std::array::from_fn(|i| (a[i] as i64 + b[i] as i64 - o[i] as i64).clamp(0, max as i64) as u32)
+        }
+        (true, true, false) => {
+            let (a, b) = (value(a), value(b));
+            std::array::from_fn(|i| (a[i] + b[i]) / 2)
+        }
+        (true, false, _) => value(a),
+        (false, true, _) => value(b),
+        (false, false, _) => previous,
+    }
+}
+
+struct Grid {
+    lo: [f32; 3],
+    step: [f32; 3],
+    max: u32,
+}
+
+impl Grid {
+    fn new(lo: [f32; 3], hi: [f32; 3], bits: u32) -> Grid {
+        let max = (1u32 << bits) - 1;
+        let step = std::array::from_fn(|i| if hi[i] > lo[i] { (hi[i] - lo[i]) / max as f32 } else { 0.0 });
+        Grid { lo, step, max }
+    }
+    fn quantize(&self, p: [f32; 3]) -> [u32; 3] {
+        std::array::from_fn(|i| if self.step[i] > 0.0 { ((p[i] - self.lo[i]) / self.step[i]).round().clamp(0.0, self.max as f32) as u32 } else { 0 })
+    }
+    fn dequantize(&self, q: [u32; 3]) -> [f32; 3] {
+        std::array::from_fn(|i| self.lo[i] + q[i] as f32 * self.step[i])
+    }
+}
+
+fn zigzag(x: i64) -> u32 {
+    ((x << 1) ^ (x >> 63)) as u32
+}
+
+fn unzigzag(x: u32) -> i64 {
+    (x >> 1) as i64 ^ -((x & 1) as i64)
+}
+
+fn bit_length(x: u32) -> u32 {
+    32 - x.leading_zeros()
+}
+
+#[derive(Default)]
+struct Writer {
+    bytes: Vec<u8>,
+}
+
+impl Writer {
+    fn varint(&mut self, mut x: u64) {
+        while x >= 0x80 {
+            self.bytes.push(x as u8 | 0x80);
+            x >>= 7;
+        }
+        self.bytes.push(x as u8);
+    }
+
+    /// Writes a section: its models, range-coded words and raw bits. Returns
+    /// its size in bytes.
+    fn section(&mut self, sink: Sink) -> usize {
+        let start = self.bytes.len();
+        let mut tables = Vec::new();
+        for counts in &sink.counts {
+            let used = counts.iter().rposition(|&c| c > 0).map_or(0, |i| i + 1);
+            tables.push(fixed_point(if used == 0 { &[0] } else { &counts[..used] }));
+        }
+        for table in &tables {
+            self.varint(table.len() as u64);
+            for &p in &table[..table.len() - 1] {
+                self.varint(p as u64);
+            }
+        }
+        let models: Vec<_> = tables.iter().map(|t| SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(t, false).expect("probabilities sum to one")).collect();
+        let mut coder = DefaultRangeEncoder::new();
+        for &(model, symbol) in &sink.symbols {
+            coder.encode_symbol(symbol as usize, &models[model as usize]).expect("symbol has a nonzero probability");
+        }
+        let words = coder.into_compressed().unwrap_or_default();
+        self.varint(words.len() as u64);
+        for w in words {
+            self.bytes.extend_from_slice(&w.to_le_bytes());
+        }
+        let mut raw = sink.raw;
+        let bytes = sink.raw_bits.div_ceil(8);
+        raw.truncate(bytes);
+        self.varint(bytes as u64);
+        self.bytes.extend_from_slice(&raw);
+        self.bytes.len() - start
+    }
+}
+
+/// 12-bit probabilities from counts, every symbol at least 1/4096.
+fn fixed_point(counts: &[u64]) -> Vec<u16> {
+    let total: u64 = counts.iter().sum();
+    let spare = (1u64 << PRECISION) - counts.len() as u64;
+    let mut p: Vec<u16> = counts.iter().map(|&c| 1 + if total == 0 { 0 } else { (c * spare / total) as u16 }).collect();
+    let sum: u64 = p.iter().map(|&x| x as u64).sum();
+    let top = (0..counts.len()).max_by_key(|&i| (counts[i], std::cmp::Reverse(i))).unwrap_or(0);
+    p[top] += ((1u64 << PRECISION) - sum) as u16;
+    p
+}
+
+/// Symbols and raw bits of a section, gathered before coding (models are
+/// built from their counts).
+struct Sink {
+    counts: Vec<Vec<u64>>,
+    symbols: Vec<(u8, u8)>,
+    raw: Vec<u8>,
+    raw_bits: usize,
+}
+
+impl Sink {
+    fn new(models: usize) -> Sink {
+        Sink { counts: vec![Vec::new(); models], symbols: Vec::new(), raw: Vec::new(), raw_bits: 0 }
+    }
+    fn symbol(&mut self, model: usize, symbol: usize) {
+        let counts = &mut self.counts[model];
+        if counts.len() <= symbol {
+            counts.resize(symbol + 1, 0);
+        }
+        counts[symbol] += 1;
+        self.symbols.push((model as u8, symbol as u8));
+    }
+    fn raw(&mut self, value: u32, bits: u32) {
+        for i in 0..bits {
+            if self.raw_bits % 8 == 0 {
+                self.raw.push(0);
+            }
+            *self.raw.last_mut().unwrap() |= (((value >> i) & 1) as u8) << (self.raw_bits % 8);
+            self.raw_bits += 1;
+        }
+    }
+    /// A number as its bit length (modelled) and the bits under the top one (raw).
+    fn value(&mut self, model: usize, x: u32) {
+        let n = bit_length(x);
+        self.symbol(model, n as usize);
+        if n > 1 {
+            self.raw(x & !(1 << (n - 1)), n - 1);
+        }
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], CodingError> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or(CodingError::Corrupt("truncated".into()))?;
+        let out = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(out)
+    }
+    fn varint(&mut self) -> Result<u64, CodingError> {
+        let mut x = 0u64;
+        for shift in (0..64).step_by(7) {
+            let b = self.take(1)?[0];
+            x |= ((b & 0x7f) as u64) << shift;
+            if b < 0x80 {
+                return Ok(x);
+            }
+        }
+        Err(CodingError::Corrupt("varint too long".into()))
+    }
+}
+
+/// A section being decoded.
+struct Source<'a> {
+    models: Vec<SmallContiguousLookupDecoderModel>,
+    decoder: DefaultRangeDecoder,
+    raw: &'a [u8],
+    raw_at: usize,
+}
+
+impl<'a> Source<'a> {
+    fn new(input: &mut Reader<'a>, models: usize) -> Result<Source<'a>, CodingError> {
+        let corrupt = |m: &str| CodingError::Corrupt(format!("section models: {m}"));
+        let mut tables = Vec::with_capacity(models);
+        for _ in 0..models {
+            let n = input.varint()? as usize;
+            if n == 0 || n > 64 {
+                return Err(corrupt("alphabet size"));
+            }
+            let mut p = Vec::with_capacity(n);
+            let mut sum = 0u64;
+            for _ in 0..n - 1 {
+                let x = input.varint()?;
+                sum += x;
+                if x == 0 || sum >= 1 << PRECISION {
+                    return Err(corrupt("probabilities"));
+                }
+                p.push(x as u16);
+            }
+            p.push(((1u64 << PRECISION) - sum) as u16);
+            tables.push(SmallContiguousLookupDecoderModel::from_nonzero_fixed_point_probabilities(&p, false).map_err(|_| corrupt("probabilities"))?);
+        }
+        let words = input.varint()? as usize;
+        if words > input.bytes.len() / 4 {
+            return Err(corrupt("word count"));
+        }
+        let data = input.take(words * 4)?;
+        let words: Vec<u32> = data.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let decoder = DefaultRangeDecoder::from_compressed(words).map_err(|_| corrupt("range coder"))?;
+        let raw_len = input.varint()? as usize;
+        let raw = input.take(raw_len)?;
+        Ok(Source { models: tables, decoder, raw, raw_at: 0 })
+    }
+    fn symbol(&mut self, model: usize) -> Result<usize, CodingError> {
+        self.decoder.decode_symbol(&self.models[model]).map_err(|_| CodingError::Corrupt("range coder".into()))
+    }
+    fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
+        if self.raw_at + bits as usize > self.raw.len() * 8 {
+            return Err(CodingError::Corrupt("raw bits run out".into()));
+        }
+        let mut x = 0;
+        for i in 0..bits {
+            x |= (((self.raw[self.raw_at / 8] >> (self.raw_at % 8)) & 1) as u32) << i;
+            self.raw_at += 1;
+        }
+        Ok(x)
+    }
+    fn value(&mut self, model: usize) -> Result<u32, CodingError> {
+        let n = self.symbol(model)? as u32;
+        match n {
+            0 => Ok(0),
+            1..=32 => Ok(1 << (n - 1) | self.raw(n - 1)?),
+            _ => Err(CodingError::Corrupt("value over 32 bits".into())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::edgebreaker::tests::{canonical, grid, torus};
+
+    fn wavy_grid(n: u32) -> MeshData {
+        let positions = (0..(n + 1) * (n + 1)).map(|i| {
+            let (x, y) = ((i % (n + 1)) as f32, (i / (n + 1)) as f32);
+            [x, (x * 0.3).sin() + (y * 0.2).cos(), y]
+        });
+        let positions: Vec<[f32; 3]> = positions.collect();
+        let triangles = grid(n);
+        let groups = (0..triangles.len() as u32).map(|t| (t / 40) % 3).collect();
+        let colours = positions.iter().map(|p| [(p[0] * 9.0) as u8, 200, (p[1] * 60.0 + 128.0) as u8]).collect();
+        MeshData { positions, triangles, groups, colours }
+    }
+
+    /// Decoded vertex i is input vertex `order.vertices[i]`: positions within
+    /// half a grid step, colours and groups exact, triangles the same.
+    pub(crate) fn check_round_trip(mesh: &MeshData, bits: u32) -> Encoded {
+        let encoded = encode(mesh, bits).unwrap();
+        let back = decode(&encoded.bytes).unwrap();
+        let order = &encoded.order;
+        assert_eq!(back.positions.len(), order.vertices.len());
+        let (lo, hi) = mesh.positions.iter().fold(([f32::MAX; 3], [f32::MIN; 3]), |(l, h), p| (std::array::from_fn(|i| l[i].min(p[i])), std::array::from_fn(|i| h[i].max(p[i]))));
+        for (k, &v) in order.vertices.iter().enumerate() {
+            for i in 0..3 {
+                let step = (hi[i] - lo[i]) / ((1u32 << bits) - 1) as f32;
+                assert!((back.positions[k][i] - mesh.positions[v as usize][i]).abs() <= step * 0.5001 + 1e-6, "vertex {v} axis {i}");
+            }
+            if !mesh.colours.is_empty() {
+                assert_eq!(back.colours[k], mesh.colours[v as usize]);
+            }
+        }
+        let mapped = canonical(back.triangles.iter().map(|t| t.map(|v| order.vertices[v as usize])));
+        assert_eq!(mapped, canonical(mesh.triangles.iter().copied()));
+        for (k, &t) in order.triangles.iter().enumerate() {
+            assert_eq!(back.groups[k], mesh.groups.get(t as usize).copied().unwrap_or(0));
+        }
+        encoded
+    }
+
+    #[test]
+    fn grid_with_groups_and_colours_round_trips() {
+        let mesh = wavy_grid(30);
+        let encoded = check_round_trip(&mesh, 14);
+        // 1800 triangles: connectivity well under 2 bits a triangle.
+        let bits = encoded.sizes.connectivity as f64 * 8.0 / mesh.triangles.len() as f64;
+        assert!(bits < 2.0, "{bits} bits a triangle");
+        check_round_trip(&MeshData { colours: Vec::new(), groups: Vec::new(), ..mesh }, 10);
+    }
+
+    #[test]
+    fn torus_soup_and_empty_meshes_round_trip() {
+        let tris = torus(12, 7);
+        let positions = (0..84).map(|i| {
+            let (a, b) = ((i / 7) as f32 * 0.52, (i % 7) as f32 * 0.9);
+            [(2.0 + b.cos()) * a.cos(), b.sin(), (2.0 + b.cos()) * a.sin()]
+        });
+        check_round_trip(&MeshData { positions: positions.collect(), triangles: tris, ..MeshData::default() }, 14);
+        let soup = MeshData { positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0; 3], [5.0, 6.0, 5.0], [6.0, 5.0, 5.0]], triangles: vec![[0, 1, 2], [3, 4, 5], [0, 2, 1]], groups: vec![0, 7, 2], colours: Vec::new() };
+        check_round_trip(&soup, 14);
+        let empty = MeshData::default();
+        assert_eq!(decode(&encode(&empty, 14).unwrap().bytes).unwrap(), empty);
+    }
+
+    #[test]
+    fn damaged_files_are_errors() {
+        let mesh = wavy_grid(6);
+        let bytes = encode(&mesh, 14).unwrap().bytes;
+        for n in 0..bytes.len() {
+            assert!(decode(&bytes[..n]).is_err(), "truncated to {n}");
+        }
+        for i in 0..bytes.len() {
+            for bit in [0, 3, 7] {
+                let mut bad = bytes.clone();
+                bad[i] ^= 1 << bit;
+                assert!(decode(&bad).is_err(), "byte {i} bit {bit}");
+            }
+        }
+    }
+
+    /// Files that pass the checksum but lie: every field rewritten, the CRC
+    /// recomputed. Errors or a mesh; never a panic.
+    #[test]
+    fn hostile_files_do_not_panic() {
+        let mesh = wavy_grid(5);
+        let bytes = encode(&mesh, 14).unwrap().bytes;
+        let body = bytes.len() - 4;
+        let mut state = 12345u64;
+        for trial in 0..20000 {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let mut bad = bytes[..body].to_vec();
+            let i = (state >> 33) as usize % body;
+            bad[i] = (state >> 20) as u8;
+            if trial % 3 == 0 {
+                let j = (state >> 40) as usize % body;
+                bad[j] = bad[j].wrapping_add(1);
+            }
+            let crc = crc32fast::hash(&bad);
+            bad.extend_from_slice(&crc.to_le_bytes());
+            if let Ok(m) = decode(&bad) {
+                assert!(m.triangles.iter().flatten().all(|&v| (v as usize) < m.positions.len()));
+                assert_eq!(m.groups.len(), m.triangles.len());
+            }
+        }
+    }
+}
