@@ -1,20 +1,39 @@
-//! Proxy simplification (issue: light 3D proxy): for the Stanford bunny, the
-//! Crytek Sponza and the Dabrovic Sponza (when `../shared/scenes` has them)
-//! and the built-in gallery, weld then simplify to 50 %, 10 %, 2 % and 1 % of
-//! the triangles; print the time, the triangles reached, the largest collapse
-//! error (in % of the bounding-box diagonal), the triangles whose normal turned
-//! more than 90° from the input's, and the progressive stream's size.
-//! Not yet here: Hausdorff/RMS distances and meshoptimizer side by side.
-//! `cargo bench -p exploremaps-builder --bench proxy`.
+//! Proxy mesh bench (issue: light 3D proxy), one command for all figures:
+//! `cargo bench -p exploremaps-builder --bench proxy --features proxy-bench`.
+//!
+//! Scenes: the built-in gallery, and from `../shared/scenes` (when present)
+//! the Stanford bunny and the Crytek and Dabrovic Sponzas, each welded first.
+//!
+//! 1. Simplification at 50, 10, 2 and 1 % of the triangles, ours against
+//!    meshoptimizer (`meshopt_simplify` with pruning, no error limit, on the
+//!    same welded positions; it ignores materials, ours keeps their borders):
+//!    time, triangles reached, and the geometric error against the input as
+//!    symmetric Hausdorff and RMS distances in % of the box diagonal, from
+//!    100 000 area-uniform points sampled on each mesh and projected on the
+//!    other (parry3d's BVH). The Hausdorff figure is the largest sampled
+//!    distance, so a lower bound of the true one. Also: triangles whose normal
+//!    turned past 90° from the input's.
+//! 2. Coding of each level sent whole (`meshcode`, 14-bit positions):
+//!    connectivity bits a triangle, bytes all-in, bytes a triangle, against
+//!    meshoptimizer's index and vertex codecs (16-bit quantized positions,
+//!    the closest it has) followed by gzip -9; decoding speed.
 
 use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::proxy::progressive::Progressive;
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
 use exploremaps_builder::proxy::weld::weld_scene;
+use exploremaps_builder::proxy::Mesh;
+use exploremaps_format::meshcode;
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
+use parry3d::math::{Isometry, Point};
+use parry3d::query::PointQuery;
+use parry3d::shape::TriMesh;
+use std::io::Write;
 use std::path::Path;
+use std::process::{Command, Stdio};
 use std::time::Instant;
+
+const SAMPLES: usize = 100_000;
 
 fn main() {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
@@ -26,24 +45,163 @@ fn main() {
             Err(e) => println!("skipped {}: {e}", path.display()),
         }
     }
-    println!("{:<16} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7} {:>8}", "scene", "input", "ratio", "reached", "seconds", "error %", "flipped", "splits");
+    let mut coding = Vec::new();
+    println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way)");
+    println!("{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8}", "scene", "ratio", "input", "reached", "seconds", "Hausdorff", "RMS", "flip", "reached", "seconds", "Hausdorff", "RMS");
     for (name, scene) in &scenes {
         let t = Instant::now();
         let diagonal = scene.bounds().diagonal();
         let (mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
         println!("{name}: welded {} -> {} vertices, {} degenerate and {} repeated triangles dropped ({:.2} s)", stats.vertices_before, stats.vertices_after, stats.degenerate, stats.duplicates, t.elapsed().as_secs_f64());
+        let input_tree = tree(&mesh.positions, &mesh.triangles);
+        let input_samples = sample(&mesh.positions, &mesh.triangles);
+        let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        coding.push((format!("{name} 100%"), mesh.clone()));
         for ratio in [0.5, 0.1, 0.02, 0.01] {
             let target = (mesh.triangles.len() as f64 * ratio) as usize;
             let t = Instant::now();
             let s = simplify(&mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
-            let seconds = t.elapsed().as_secs_f64();
+            let ours_seconds = t.elapsed().as_secs_f64();
             let normal = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
             let flipped = (0..mesh.triangles.len())
                 .filter(|&t| s.alive[t])
                 .filter(|&t| normal(mesh.triangles[t].map(|v| mesh.positions[v as usize])).dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize]))) < 0.0)
                 .count();
-            let pm = Progressive::new(&mesh, &s);
-            println!("{name:<16} {:>8} {:>7.0}% {:>8} {seconds:>9.3} {:>9.4} {flipped:>7} {:>8}", mesh.triangles.len(), ratio * 100.0, s.triangles().len(), 100.0 * s.error / diagonal, pm.refinements.len());
+            let ours = s.compact();
+            let (oh, or) = distances(&mesh, &input_tree, &input_samples, &ours.positions, &ours.triangles);
+
+            let t = Instant::now();
+            let simplified = meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None);
+            let theirs_seconds = t.elapsed().as_secs_f64();
+            let theirs: Vec<[u32; 3]> = simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let (th, tr) = distances(&mesh, &input_tree, &input_samples, &mesh.positions, &theirs);
+            let pct = |x: f32| 100.0 * x / diagonal;
+            println!(
+                "{name:<16} {:>4.0}% {:>8} | {:>8} {ours_seconds:>7.3} {:>9.4} {:>8.4} {flipped:>4} | {:>8} {theirs_seconds:>7.3} {:>9.4} {:>8.4}",
+                ratio * 100.0,
+                mesh.triangles.len(),
+                ours.triangles.len(),
+                pct(oh),
+                pct(or),
+                theirs.len(),
+                pct(th),
+                pct(tr)
+            );
+            if ratio == 0.1 || ratio == 0.01 {
+                coding.push((format!("{name} {:.0}%", ratio * 100.0), ours));
+            }
         }
     }
+
+    println!("\n== coding each level whole: meshcode (Edgebreaker, 14-bit parallelogram) | meshoptimizer codecs (16-bit) + gzip -9");
+    println!("{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} | {:>9} {:>8}", "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "bytes", "B/tri");
+    for (name, mesh) in &coding {
+        let encoded = meshcode::encode(&mesh.to_coded(), 14).expect("codes");
+        let n = mesh.triangles.len() as f64;
+        let decode_rate = {
+            let t = Instant::now();
+            let mut runs = 0;
+            while runs < 3 || t.elapsed().as_secs_f64() < 0.5 {
+                std::hint::black_box(meshcode::decode(&encoded.bytes).expect("decodes"));
+                runs += 1;
+            }
+            n * runs as f64 / t.elapsed().as_secs_f64() / 1e6
+        };
+        let theirs = meshopt_coded(mesh);
+        println!(
+            "{name:<22} {:>8} {:>10.3} {:>9} {:>9} {:>8.2} {decode_rate:>10.1} | {:>9} {:>8.2}",
+            mesh.triangles.len(),
+            encoded.sizes.connectivity as f64 * 8.0 / n,
+            encoded.sizes.connectivity,
+            encoded.bytes.len(),
+            encoded.bytes.len() as f64 / n,
+            theirs,
+            theirs as f64 / n
+        );
+    }
+}
+
+fn tree(positions: &[Vec3], triangles: &[[u32; 3]]) -> TriMesh {
+    TriMesh::new(positions.iter().map(|p| Point::new(p.x, p.y, p.z)).collect(), triangles.to_vec()).expect("a mesh with triangles")
+}
+
+/// Points spread uniformly over the surface (a fixed sequence: same points
+/// every run).
+fn sample(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let areas: Vec<f64> = triangles.iter().map(|t| 0.5 * (positions[t[1] as usize] - positions[t[0] as usize]).cross(positions[t[2] as usize] - positions[t[0] as usize]).length() as f64).collect();
+    let mut cumulative = Vec::with_capacity(areas.len());
+    let mut total = 0.0;
+    for a in &areas {
+        total += a;
+        cumulative.push(total);
+    }
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..SAMPLES)
+        .map(|_| {
+            let k = cumulative.partition_point(|&c| c < uniform() * total).min(triangles.len() - 1);
+            let (mut u, mut v) = (uniform() as f32, uniform() as f32);
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let [a, b, c] = triangles[k].map(|i| positions[i as usize]);
+            a + u * (b - a) + v * (c - a)
+        })
+        .collect()
+}
+
+/// Symmetric (Hausdorff, RMS) distance between the input (with its tree and
+/// samples) and a simplified mesh over the positions given.
+fn distances(input: &Mesh, input_tree: &TriMesh, input_samples: &[Vec3], positions: &[Vec3], triangles: &[[u32; 3]]) -> (f32, f32) {
+    let _ = input;
+    if triangles.is_empty() {
+        return (f32::NAN, f32::NAN);
+    }
+    let used: Vec<Vec3> = positions.to_vec();
+    let other = tree(&used, triangles);
+    let other_samples = sample(positions, triangles);
+    let identity = Isometry::identity();
+    let mut max = 0f32;
+    let mut sum = 0f64;
+    for (from, to) in [(input_samples, &other), (&other_samples[..], input_tree)] {
+        for p in from {
+            let d = to.distance_to_point(&identity, &Point::new(p.x, p.y, p.z), false);
+            max = max.max(d);
+            sum += (d as f64).powi(2);
+        }
+    }
+    (max, (sum / (2 * SAMPLES) as f64).sqrt() as f32)
+}
+
+/// Bytes of meshoptimizer's index and vertex codecs (positions as 16-bit
+/// integers in the box, padded to 8 bytes a vertex) after gzip -9.
+fn meshopt_coded(mesh: &Mesh) -> usize {
+    let (lo, hi) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
+    let scale = (hi - lo).max(Vec3::splat(1e-20));
+    let vertices: Vec<[u16; 4]> = mesh
+        .positions
+        .iter()
+        .map(|&p| {
+            let q = ((p - lo) / scale * 65535.0).round();
+            [q.x as u16, q.y as u16, q.z as u16, 0]
+        })
+        .collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let index_bytes = meshopt::encode_index_buffer(&indices, vertices.len()).expect("index codec");
+    let vertex_bytes = meshopt::encode_vertex_buffer(&vertices).expect("vertex codec");
+    gzip(&index_bytes) + gzip(&vertex_bytes)
+}
+
+fn gzip(bytes: &[u8]) -> usize {
+    let mut child = Command::new("gzip").arg("-9").stdin(Stdio::piped()).stdout(Stdio::piped()).spawn().expect("gzip runs");
+    let mut stdin = child.stdin.take().unwrap();
+    let data = bytes.to_vec();
+    let writer = std::thread::spawn(move || stdin.write_all(&data));
+    let out = child.wait_with_output().expect("gzip output");
+    writer.join().unwrap().expect("gzip input");
+    out.stdout.len()
 }

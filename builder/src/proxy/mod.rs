@@ -8,6 +8,8 @@
 //!   recording every collapse.
 //! - `progressive`: the collapses as vertex splits (Hoppe 1996), so a base
 //!   mesh and an ordered stream of splits rebuild every level exactly.
+//! - Coding (Edgebreaker connectivity, predicted positions) lives in the format
+//!   crate (`exploremaps_format::meshcode`), so the viewer decodes it in wasm.
 
 pub mod progressive;
 pub mod simplify;
@@ -26,12 +28,75 @@ pub struct Mesh {
 
 impl Mesh {
     /// Diagonal of the bounding box (0 for an empty mesh).
+    /// The mesh as the coder takes it.
+    pub fn to_coded(&self) -> exploremaps_format::meshcode::MeshData {
+        exploremaps_format::meshcode::MeshData { positions: self.positions.iter().map(|p| p.to_array()).collect(), triangles: self.triangles.clone(), groups: self.groups.clone(), colours: Vec::new() }
+    }
+
     pub fn diagonal(&self) -> f32 {
         let (lo, hi) = self.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
         if lo.x > hi.x {
             0.0
         } else {
             (hi - lo).length()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::simplify::{simplify, SimplifyParams};
+    use super::weld::weld_scene;
+    use exploremaps_format::meshcode::{decode, encode};
+    use exploremaps_scenes::BuiltIn;
+
+    /// Codes `mesh` and checks every triangle comes back, over the same
+    /// (quantized) positions and in the same group. Returns connectivity bits
+    /// a triangle.
+    pub(crate) fn coded_round_trip(name: &str, mesh: &super::Mesh) -> f64 {
+        let data = mesh.to_coded();
+        let encoded = encode(&data, 14).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let back = decode(&encoded.bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(back.triangles.len(), mesh.triangles.len(), "{name}");
+        let tolerance = mesh.diagonal() / (1 << 14) as f32;
+        for (k, t) in back.triangles.iter().enumerate() {
+            let input = encoded.order.triangles[k] as usize;
+            assert_eq!(back.groups[k], mesh.groups[input], "{name}: triangle {input}");
+            let want = mesh.triangles[input].map(|v| mesh.positions[v as usize]);
+            let got = t.map(|v| glam::Vec3::from(back.positions[v as usize]));
+            // Same corners in the same cyclic order.
+            let r = (0..3).find(|&r| (0..3).all(|i| got[(i + r) % 3].distance(want[i]) <= tolerance));
+            assert!(r.is_some(), "{name}: triangle {input} is {got:?}, was {want:?}");
+        }
+        encoded.sizes.connectivity as f64 * 8.0 / mesh.triangles.len().max(1) as f64
+    }
+
+    #[test]
+    fn every_built_in_scene_codes_and_decodes() {
+        for spec in ["gallery", "maze:4", "pillars", "island", "house", "sunroom"] {
+            let scene = BuiltIn::parse(spec).unwrap().generate(1);
+            let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
+            coded_round_trip(spec, &mesh);
+            let level = simplify(&mesh, &SimplifyParams { target_triangles: mesh.triangles.len() / 10, max_error: f32::INFINITY });
+            coded_round_trip(&format!("{spec} at 10 %"), &level.compact());
+        }
+    }
+
+    #[test]
+    #[ignore]
+    fn every_shared_scene_codes_and_decodes() {
+        // Slow: the shared third-party scenes (`cargo test -- --ignored`).
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
+        for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj", "cornell_box/CornellBox-Original.obj", "wooden_staircase/wooden_staircase.obj", "dream_apartment/dream_apartment.glb"] {
+            let path = root.join(file);
+            if !path.exists() {
+                eprintln!("SKIPPED: {} is absent", path.display());
+                continue;
+            }
+            let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
+            let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
+            let bits = coded_round_trip(file, &mesh);
+            eprintln!("{file}: {} triangles, {bits:.2} connectivity bits a triangle", mesh.triangles.len());
         }
     }
 }
