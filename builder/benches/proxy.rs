@@ -16,7 +16,11 @@
 //! 2. Coding of each level sent whole (`meshcode`, 14-bit positions):
 //!    connectivity bits a triangle, bytes all-in, bytes a triangle, against
 //!    meshoptimizer's index and vertex codecs (16-bit quantized positions,
-//!    the closest it has) followed by gzip -9; decoding speed.
+//!    the closest it has) followed by gzip -9, and against Google Draco (npm
+//!    `draco3d` 1.5.7, installed into `target/bench-node` on first run;
+//!    Edgebreaker, 14-bit positions, other settings default); decoding speed
+//!    natively and in Node's WebAssembly (ours: the format crate's
+//!    `wasm_decode` example, built by this bench; Draco: its npm module).
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
@@ -94,8 +98,9 @@ fn main() {
         }
     }
 
+    let wasm = wasm_module().map_err(|e| println!("wasm decode skipped: {e}")).ok();
     println!("\n== coding each level whole: meshcode (Edgebreaker, 14-bit parallelogram) | meshoptimizer codecs (16-bit) + gzip -9");
-    println!("{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} | {:>9} {:>8}", "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "bytes", "B/tri");
+    println!("{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} {:>9} | {:>9} {:>8} | {:>9} {:>8} {:>10}", "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "wasm M/s", "meshopt B", "B/tri", "Draco B", "B/tri", "wasm M/s");
     for (name, mesh) in &coding {
         let encoded = meshcode::encode(&mesh.to_coded(), 14).expect("codes");
         let n = mesh.triangles.len() as f64;
@@ -108,16 +113,25 @@ fn main() {
             }
             n * runs as f64 / t.elapsed().as_secs_f64() / 1e6
         };
+        let wasm_rate = wasm.as_ref().map_or(0.0, |module| wasm_decode(module, &encoded.bytes).unwrap_or_else(|e| {
+            println!("wasm decode skipped: {e}");
+            0.0
+        }));
         let theirs = meshopt_coded(mesh);
+        let (draco_bytes, draco_rate) = draco(mesh).unwrap_or_else(|e| {
+            println!("Draco skipped: {e}");
+            (0, 0.0)
+        });
         println!(
-            "{name:<22} {:>8} {:>10.3} {:>9} {:>9} {:>8.2} {decode_rate:>10.1} | {:>9} {:>8.2}",
+            "{name:<22} {:>8} {:>10.3} {:>9} {:>9} {:>8.2} {decode_rate:>10.1} {wasm_rate:>9.1} | {:>9} {:>8.2} | {draco_bytes:>9} {:>8.2} {draco_rate:>10.2}",
             mesh.triangles.len(),
             encoded.sizes.connectivity as f64 * 8.0 / n,
             encoded.sizes.connectivity,
             encoded.bytes.len(),
             encoded.bytes.len() as f64 / n,
             theirs,
-            theirs as f64 / n
+            theirs as f64 / n,
+            draco_bytes as f64 / n
         );
     }
 }
@@ -204,4 +218,62 @@ fn gzip(bytes: &[u8]) -> usize {
     let out = child.wait_with_output().expect("gzip output");
     writer.join().unwrap().expect("gzip input");
     out.stdout.len()
+}
+
+/// Draco's size and decoding speed (M triangles a second) for `mesh`.
+fn draco(mesh: &Mesh) -> Result<(usize, f64), String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let prefix = root.join("../target/bench-node");
+    let module = prefix.join("node_modules/draco3d");
+    if !module.exists() {
+        let status = Command::new("npm").args(["install", "--silent", "--prefix"]).arg(&prefix).arg("draco3d@1.5.7").status().map_err(|e| format!("npm: {e}"))?;
+        if !status.success() {
+            return Err("npm install draco3d failed".into());
+        }
+    }
+    let mut data = Vec::new();
+    data.extend_from_slice(&(mesh.positions.len() as u32).to_le_bytes());
+    data.extend_from_slice(&(mesh.triangles.len() as u32).to_le_bytes());
+    for p in &mesh.positions {
+        for x in p.to_array() {
+            data.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    for v in mesh.triangles.iter().flatten() {
+        data.extend_from_slice(&v.to_le_bytes());
+    }
+    let file = prefix.join("mesh.bin");
+    std::fs::write(&file, data).map_err(|e| format!("{}: {e}", file.display()))?;
+    let out = Command::new("node").arg(root.join("benches/draco.js")).arg(&file).env("DRACO3D", &module).output().map_err(|e| format!("node: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let field = |key: &str| text.lines().find_map(|l| l.strip_prefix(key)).map(str::trim).map(str::to_string);
+    match (field("bytes "), field("decode ")) {
+        (Some(b), Some(r)) => Ok((b.parse().map_err(|_| "bytes")?, r.parse().map_err(|_| "rate")?)),
+        _ => Err(format!("node said: {} {}", text, String::from_utf8_lossy(&out.stderr))),
+    }
+}
+
+/// Builds the decoder as a bare wasm module (see format/examples/wasm_decode.rs).
+fn wasm_module() -> Result<std::path::PathBuf, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let status = Command::new(env!("CARGO"))
+        .current_dir(&root)
+        .args(["build", "--quiet", "--release", "-p", "exploremaps-format", "--example", "wasm_decode", "--target", "wasm32-unknown-unknown"])
+        .status()
+        .map_err(|e| format!("cargo: {e}"))?;
+    if !status.success() {
+        return Err("building the wasm decoder failed (is the wasm32 target installed?)".into());
+    }
+    Ok(root.join("target/wasm32-unknown-unknown/release/examples/wasm_decode.wasm"))
+}
+
+/// Our decoder's speed in Node's WebAssembly, M triangles a second.
+fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = root.join("../target/bench-node/mesh.emmc");
+    std::fs::create_dir_all(file.parent().unwrap()).map_err(|e| e.to_string())?;
+    std::fs::write(&file, bytes).map_err(|e| format!("{}: {e}", file.display()))?;
+    let out = Command::new("node").arg(root.join("benches/wasm_decode.js")).arg(module).arg(&file).output().map_err(|e| format!("node: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines().find_map(|l| l.strip_prefix("decode ")).and_then(|r| r.trim().parse().ok()).ok_or_else(|| format!("node said: {text} {}", String::from_utf8_lossy(&out.stderr)))
 }
