@@ -111,7 +111,7 @@ fn next(c: u32) -> u32 {
 
 #[inline]
 fn prev(c: u32) -> u32 {
-    if c % 3 == 0 { c + 2 } else { c - 1 }
+    if c.is_multiple_of(3) { c + 2 } else { c - 1 }
 }
 
 /// The input made closed and manifold, as a corner table: corner `c` is
