@@ -15,7 +15,7 @@
 //! counts, box (6 × f32 LE), then length-prefixed sections: connectivity,
 //! positions, groups, colours; then the CRC-32 (u32 LE) of all that precedes.
 
-use crate::edgebreaker::{self, CodingError, Connectivity, Merge, Order};
+use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order};
 use constriction::stream::model::{SmallContiguousCategoricalEntropyModel, SmallContiguousLookupDecoderModel};
 use constriction::stream::stack::DefaultAnsCoder;
 use constriction::stream::{Decode, Encode};
@@ -134,18 +134,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     // Positions, then colours, in decoded order, predicted alike.
     let copy_of = copies_map(&code, &decoded.keep);
     let mut sink = Sink::new(3);
-    let mut previous = [0u32; 3];
-    for v in 0..code.vertex_count {
-        if source[v as usize] == NONE || copy_of[v as usize] != v {
-            continue;
-        }
-        let predicted = predict(&decoded.predictors[v as usize], &source, &copy_of, &quantized, previous, grid.max);
-        let q = quantized[v as usize];
-        for axis in 0..3 {
-            sink.value(axis, zigzag(q[axis] as i64 - predicted[axis] as i64));
-        }
-        previous = q;
-    }
+    encode_predicted(&mut sink, &decoded, &copy_of, &quantized, grid.max, [0; 3], |q, p| zigzag(q as i64 - p as i64));
     sizes.positions = out.section(sink);
 
     let mut sink = Sink::new(1);
@@ -164,18 +153,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut sink = Sink::new(3);
     if has_colours {
         let colours: Vec<[u32; 3]> = source.iter().map(|&v| if v == NONE { [0; 3] } else { mesh.colours[v as usize].map(u32::from) }).collect();
-        let mut previous = [128u32; 3];
-        for v in 0..code.vertex_count {
-            if source[v as usize] == NONE || copy_of[v as usize] != v {
-                continue;
-            }
-            let predicted = predict(&decoded.predictors[v as usize], &source, &copy_of, &colours, previous, 255);
-            let c = colours[v as usize];
-            for ch in 0..3 {
-                sink.value(ch, zigzag(((c[ch] as i32 - predicted[ch] as i32) as i8) as i64));
-            }
-            previous = c;
-        }
+        encode_predicted(&mut sink, &decoded, &copy_of, &colours, 255, [128; 3], |c, p| zigzag(((c as i32 - p as i32) as i8) as i64));
     }
     sizes.colours = out.section(sink);
 
@@ -247,29 +225,13 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let decoded = edgebreaker::decode(&code)?;
     let triangles = decoded.resolve();
     let copy_of = copies_map(&code, &decoded.keep);
-    let kept = &decoded.keep;
-
     let mut source = Source::new(&mut input, 3)?;
-    let mut quantized = vec![[0u32; 3]; vertex_count as usize];
+    let quantized = decode_predicted(&mut source, &decoded, &copy_of, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
     let mut positions = vec![[0f32; 3]; decoded.kept_vertices as usize];
-    let mut previous = [0u32; 3];
-    for v in 0..vertex_count as usize {
-        if kept[v] == NONE {
-            continue;
+    for (v, &k) in decoded.keep.iter().enumerate() {
+        if k != NONE {
+            positions[k as usize] = grid.dequantize(quantized[v]);
         }
-        if copy_of[v] as usize != v {
-            quantized[v] = quantized[copy_of[v] as usize];
-            continue;
-        }
-        let predicted = predict(&decoded.predictors[v], kept, &copy_of, &quantized, previous, grid.max);
-        let mut q = [0u32; 3];
-        for axis in 0..3 {
-            let value = predicted[axis] as i64 + unzigzag(source.value(axis)?);
-            q[axis] = u32::try_from(value).ok().filter(|&x| x <= grid.max).ok_or_else(|| corrupt("position off the grid"))?;
-        }
-        quantized[v] = q;
-        positions[kept[v] as usize] = grid.dequantize(q);
-        previous = q;
     }
 
     let mut source = Source::new(&mut input, 1)?;
@@ -289,26 +251,12 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let mut source = Source::new(&mut input, 3)?;
     let mut colours = Vec::new();
     if has_colours == 1 {
-        let mut all = vec![[0u32; 3]; vertex_count as usize];
+        let all = decode_predicted(&mut source, &decoded, &copy_of, 255, [128; 3], |p, r| Some((p as u8).wrapping_add(unzigzag(r) as u8) as u32))?;
         colours = vec![[0u8; 3]; decoded.kept_vertices as usize];
-        let mut previous = [128u32; 3];
-        for v in 0..vertex_count as usize {
-            if kept[v] == NONE {
-                continue;
+        for (v, &k) in decoded.keep.iter().enumerate() {
+            if k != NONE {
+                colours[k as usize] = all[v].map(|x| x as u8);
             }
-            if copy_of[v] as usize != v {
-                all[v] = all[copy_of[v] as usize];
-                continue;
-            }
-            let predicted = predict(&decoded.predictors[v], kept, &copy_of, &all, previous, 255);
-            let mut c = [0u32; 3];
-            for ch in 0..3 {
-                let residual = unzigzag(source.value(ch)?) as u8;
-                c[ch] = (predicted[ch] as u8).wrapping_add(residual) as u32;
-            }
-            all[v] = c;
-            colours[kept[v] as usize] = c.map(|x| x as u8);
-            previous = c;
         }
     }
     if input.at != body.len() {
@@ -329,6 +277,45 @@ fn copies_map(code: &Connectivity, keep: &[u32]) -> Vec<u32> {
         map[copy as usize] = original;
     }
     map
+}
+
+/// Codes one triple per vertex that is neither a dummy nor a copy, in
+/// decoded order, as residuals from its prediction (positions and colours
+/// alike); `residual(actual, predicted)` is the number coded.
+fn encode_predicted(sink: &mut Sink, decoded: &Decoded, copy_of: &[u32], values: &[[u32; 3]], max: u32, first: [u32; 3], residual: impl Fn(u32, u32) -> u32) {
+    let mut previous = first;
+    for v in 0..values.len() {
+        if decoded.keep[v] == NONE || copy_of[v] as usize != v {
+            continue;
+        }
+        let predicted = predict(&decoded.predictors[v], &decoded.keep, copy_of, values, previous, max);
+        for i in 0..3 {
+            sink.value(i, residual(values[v][i], predicted[i]));
+        }
+        previous = values[v];
+    }
+}
+
+/// The inverse of `encode_predicted`: a triple per decoded vertex (copies
+/// take their original's); `value(predicted, coded)` is None when out of range.
+fn decode_predicted(source: &mut Source, decoded: &Decoded, copy_of: &[u32], max: u32, first: [u32; 3], value: impl Fn(u32, u32) -> Option<u32>) -> Result<Vec<[u32; 3]>, CodingError> {
+    let mut values = vec![[0u32; 3]; decoded.keep.len()];
+    let mut previous = first;
+    for v in 0..values.len() {
+        if decoded.keep[v] == NONE {
+            continue;
+        }
+        if copy_of[v] as usize != v {
+            values[v] = values[copy_of[v] as usize];
+            continue;
+        }
+        let predicted = predict(&decoded.predictors[v], &decoded.keep, copy_of, &values, previous, max);
+        for i in 0..3 {
+            values[v][i] = value(predicted[i], source.value(i)?).ok_or_else(|| CodingError::Corrupt("value out of range".into()))?;
+        }
+        previous = values[v];
+    }
+    Ok(values)
 }
 
 /// The predicted value of a vertex from its predictors (`kept` is NONE for
