@@ -73,13 +73,13 @@ fn main() {
                 .filter(|&t| normal(mesh.triangles[t].map(|v| mesh.positions[v as usize])).dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize]))) < 0.0)
                 .count();
             let ours = s.compact();
-            let (oh, or) = distances(&mesh, &input_tree, &input_samples, &ours.positions, &ours.triangles);
+            let (oh, or) = distances(&input_tree, &input_samples, &ours.positions, &ours.triangles);
 
             let t = Instant::now();
             let simplified = meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None);
             let theirs_seconds = t.elapsed().as_secs_f64();
             let theirs: Vec<[u32; 3]> = simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-            let (th, tr) = distances(&mesh, &input_tree, &input_samples, &mesh.positions, &theirs);
+            let (th, tr) = distances(&input_tree, &input_samples, &mesh.positions, &theirs);
             let pct = |x: f32| 100.0 * x / diagonal;
             println!(
                 "{name:<16} {:>4.0}% {:>8} | {:>8} {ours_seconds:>7.3} {:>9.4} {:>8.4} {flipped:>4} | {:>8} {theirs_seconds:>7.3} {:>9.4} {:>8.4}",
@@ -168,15 +168,13 @@ fn sample(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         .collect()
 }
 
-/// Symmetric (Hausdorff, RMS) distance between the input (with its tree and
+/// Symmetric (Hausdorff, RMS) distance between the input (its tree and
 /// samples) and a simplified mesh over the positions given.
-fn distances(input: &Mesh, input_tree: &TriMesh, input_samples: &[Vec3], positions: &[Vec3], triangles: &[[u32; 3]]) -> (f32, f32) {
-    let _ = input;
+fn distances(input_tree: &TriMesh, input_samples: &[Vec3], positions: &[Vec3], triangles: &[[u32; 3]]) -> (f32, f32) {
     if triangles.is_empty() {
         return (f32::NAN, f32::NAN);
     }
-    let used: Vec<Vec3> = positions.to_vec();
-    let other = tree(&used, triangles);
+    let other = tree(positions, triangles);
     let other_samples = sample(positions, triangles);
     let identity = Isometry::identity();
     let mut max = 0f32;

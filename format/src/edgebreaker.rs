@@ -266,10 +266,8 @@ impl Loops {
     fn add(&mut self, vertex: u32, prev: u32, next: u32, facing: u32, loop_id: u32) -> u32 {
         self.nodes.push(Node { vertex, prev, next, facing, loop_id, same: NONE });
         let n = self.nodes.len() as u32 - 1;
-        if prev != NONE {
-            self.nodes[prev as usize].next = n;
-            self.nodes[next as usize].prev = n;
-        }
+        self.nodes[prev as usize].next = n;
+        self.nodes[next as usize].prev = n;
         n
     }
     /// A loop of three: the first triangle of a component.
