@@ -410,11 +410,12 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     let ceiling = c.ceiling();
     if ceiling.area > 0.0 {
         println!(
-            "  ceiling     {} units² seen from the free space in the box: {:.1} % seen from the {} space, {:.1} % by the probes",
+            "  ceiling     {} units² seen from the free space in the box: {:.1} % seen from the {} space, {:.1} % by the probes; {} units² more seen only through crevices no viewpoint fits in",
             num(ceiling.area),
             100.0 * ceiling.seen_from_space / ceiling.area,
             if f.height == "walk" { "walk (eye-height)" } else { "navigable" },
-            100.0 * ceiling.covered / ceiling.area
+            100.0 * ceiling.covered / ceiling.area,
+            num(ceiling.crevices)
         );
     }
     for b in &plan.baselines {

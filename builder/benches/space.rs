@@ -2,7 +2,8 @@
 //! space). For each shared and built-in scene, plans it in free flight and,
 //! where it has floors and a scale, walking, and prints:
 //! - the space `auto` chose and why;
-//! - the ceiling (surface seen from the free space inside the scene's box), the
+//! - the ceiling (surface seen from the free space inside the scene's box where
+//!   a viewpoint fits; crevices apart), the
 //!   share of it the navigable space sees, and the share the probes see (goal in
 //!   free flight: ≥ 95 %);
 //! - the same probe count placed by greedy set cover over 3,000 random candidates
@@ -56,8 +57,8 @@ fn main() {
         }
     }
     println!(
-        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>7} {:>8} {:>9} {:>7}",
-        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "space%", "probe%", "greedy%", "eye err", "levels"
+        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>8} {:>9} {:>7}",
+        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "crev%", "space%", "probe%", "greedy%", "eye err", "levels"
     );
     for (name, scene) in &scenes {
         for height in [HeightMode::Fly, HeightMode::Walk] {
@@ -102,7 +103,7 @@ fn main() {
             };
             let pct = |x: f64| if ceiling.area > 0.0 { format!("{:.1}", 100.0 * x / ceiling.area) } else { "-".into() };
             println!(
-                "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>8} {:>7} {:>8} {:>9} {:>7}",
+                "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>8} {:>9} {:>7}",
                 mode(height),
                 result.free_space.space,
                 probes.len(),
@@ -111,6 +112,7 @@ fn main() {
                 100.0 * report.fraction(),
                 100.0 * again.fraction(),
                 human_area(ceiling.area * (scene.metres_per_unit as f64).powi(2)),
+                100.0 * ceiling.crevices / (ceiling.area + ceiling.crevices).max(f64::MIN_POSITIVE),
                 pct(ceiling.seen_from_space),
                 pct(ceiling.covered),
                 pct(greedy_ceiling.covered),
@@ -122,7 +124,8 @@ fn main() {
     }
     println!("columns: plan s = free space to bar order; total s adds the coverage metric and its random and grid baselines;");
     println!("reported = coverage of what the navigable space sees, as the plan reports it; again = the same metric, another seed");
-    println!("and sample set; ceil = the ceiling's area in m² (surface seen from the free space in the box); space% / probe% = its");
+    println!("and sample set; ceil = the ceiling's area in m² (surface seen from the free space in the box where a viewpoint fits);");
+    println!("crev% = surface seen only through crevices (from free voxels touching geometry), in % of it and the ceiling; space% / probe% = its");
     println!("share seen from the navigable space / by the probes; greedy% = by greedy set cover over 3,000 random candidates with");
     println!("as many probes; eye err = the largest distance of a probe from eye height above the floor under it; levels = floor");
     println!("levels with a probe at eye height above them.");

@@ -78,8 +78,9 @@ pub fn coverage_json(plan: &Plan) -> serde_json::Value {
             None => "anywhere in the navigable space".to_string(),
         },
         "ceiling": {
-            "what": "surface seen from anywhere in the free space inside the scene's bounding box (outside closed solids), whatever space was chosen: the most any placement could see",
+            "what": "surface seen from the free space inside the scene's bounding box (outside closed solids) where a viewpoint fits (touching no occupied voxel), whatever space was chosen: the most any placement could see; crevices_area is surface seen only from narrower gaps, left out",
             "area": ceiling.area,
+            "crevices_area": ceiling.crevices,
             "seen_from_space": ceiling.seen_from_space,
             "covered": ceiling.covered,
             "space_fraction": if ceiling.area > 0.0 { ceiling.seen_from_space / ceiling.area } else { 1.0 },

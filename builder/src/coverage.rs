@@ -16,11 +16,15 @@
 //!    tried, so such a surface still counts once. When the space is walked, the
 //!    navigable voxels are the band around eye height: reachable then means seen
 //!    from eye height.
-//!    The same rays decide whether the sample is in the *ceiling*: seen from any
+//!    The same rays decide whether the sample is in the *ceiling*: seen from a
 //!    voxel of the open space (free, inside the scene's box, outside closed
-//!    solids), whatever space was chosen. The report gives the ceiling's area,
-//!    the share of it the navigable space sees, and the share the probes see, so
-//!    the space choice's exclusions show.
+//!    solids) that touches no occupied voxel, whatever space was chosen. Surface
+//!    seen only from open voxels touching geometry lies in *crevices* (gaps of
+//!    about two voxels or less: behind furniture, under plinths, between a
+//!    foundation and the ground) where no viewpoint fits and which the grid
+//!    cannot even tell open from closed; the report gives their area apart. It
+//!    gives the ceiling's area, the share of it the navigable space sees, and the
+//!    share the probes see, so the space choice's exclusions show.
 //! 3. Covered: a reachable sample is covered when the segment from some probe to
 //!    it is free and the probe is on the side the sample is reached from.
 //!    Probes are tested in placement order, which yields the coverage-versus-
@@ -66,8 +70,8 @@ pub struct CoverageReport {
     pub samples: SurfaceSamples,
     /// Per sample: +1 reached from its front, −1 only from its back, 0 unreachable.
     pub reached_side: Vec<i8>,
-    /// Per sample: seen from some voxel of the open space (the ceiling).
-    pub in_ceiling: Vec<bool>,
+    /// Per sample: whether the open space sees it (the ceiling, or only from crevices).
+    pub from_open: Vec<FromOpen>,
     /// Per sample: index of the first probe (placement order) that sees it.
     pub first_seen_by: Vec<Option<u32>>,
     pub reachable_area: f64,
@@ -100,11 +104,13 @@ impl CoverageReport {
 
     /// The ceiling's area, and the shares of it the navigable space and the probes see.
     pub fn ceiling(&self) -> exploremaps_format::Ceiling {
-        let area = |keep: &dyn Fn(usize) -> bool| (0..self.in_ceiling.len()).filter(|&i| self.in_ceiling[i] && keep(i)).count() as f64 * self.samples.area_each;
+        let area = |keep: &dyn Fn(usize) -> bool| (0..self.from_open.len()).filter(|&i| keep(i)).count() as f64 * self.samples.area_each;
+        let ceiling = |i: usize| self.from_open[i] == FromOpen::Ceiling;
         exploremaps_format::Ceiling {
-            area: area(&|_| true),
-            seen_from_space: area(&|i| self.reached_side[i] != 0),
-            covered: area(&|i| self.first_seen_by[i].is_some()),
+            area: area(&ceiling),
+            seen_from_space: area(&|i| ceiling(i) && self.reached_side[i] != 0),
+            covered: area(&|i| ceiling(i) && self.first_seen_by[i].is_some()),
+            crevices: area(&|i| self.from_open[i] == FromOpen::CreviceOnly),
         }
     }
 
@@ -179,18 +185,35 @@ pub fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
     (t * r * phi.cos() + b * r * phi.sin() + n * (1.0 - u1).max(0.0).sqrt()).normalize_or(n)
 }
 
+/// From where in the open space a surface sample is seen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FromOpen {
+    /// Not at all (inside solids, outside the box, or behind everything).
+    #[default]
+    No,
+    /// Only from open voxels touching geometry: a crevice no viewpoint fits in.
+    CreviceOnly,
+    /// From an open voxel touching no occupied voxel: in the ceiling.
+    Ceiling,
+}
+
+/// Open voxels at least this many voxels from every occupied voxel centre touch
+/// none (a corner neighbour is √3 away): points in them see the ceiling.
+const CEILING_CLEARANCE_VOXELS: f32 = 1.99;
+
 /// Which side of each sample navigable space reaches (+1 front, −1 back, 0
-/// none), and whether the open space sees it (the ceiling), with the rays cast.
-pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &SurfaceSamples, dirs: usize, seed: u64) -> (Vec<i8>, Vec<bool>, usize) {
+/// none), and from where in the open space it is seen, with the rays cast.
+pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &SurfaceSamples, dirs: usize, seed: u64) -> (Vec<i8>, Vec<FromOpen>, usize) {
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let step = space.grid.voxel * 0.5;
     // Largest distance worth marching: the grid's diagonal.
     let far = space.grid.voxel * (space.grid.dims.iter().map(|&d| (d * d) as f32).sum::<f32>()).sqrt();
-    let reached: Vec<(i8, bool)> = (0..samples.points.len())
+    let roomy = CEILING_CLEARANCE_VOXELS * space.grid.voxel;
+    let reached: Vec<(i8, FromOpen)> = (0..samples.points.len())
         .into_par_iter()
         .map(|i| {
             let mut rng = Pcg64Mcg::seed_from_u64(seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            let (mut reached, mut in_ceiling) = (0i8, false);
+            let (mut reached, mut from_open) = (0i8, FromOpen::No);
             for side in [1.0f32, -1.0] {
                 let n = samples.normals[i] * side;
                 let origin = samples.points[i] + n * eps;
@@ -200,22 +223,24 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
                     let mut t = step.min(t_hit);
                     while t < t_hit {
                         let p = origin + d * t;
-                        in_ceiling = in_ceiling || space.is_open(p);
+                        if from_open != FromOpen::Ceiling && space.is_open(p) {
+                            from_open = if space.clearance_at(p) >= roomy { FromOpen::Ceiling } else { FromOpen::CreviceOnly };
+                        }
                         if reached == 0 && t >= space.near && space.is_navigable(p) {
                             reached = side as i8;
                         }
-                        if reached != 0 && in_ceiling {
-                            return (reached, true);
+                        if reached != 0 && from_open == FromOpen::Ceiling {
+                            return (reached, from_open);
                         }
                         t += step;
                     }
                 }
             }
-            (reached, in_ceiling)
+            (reached, from_open)
         })
         .collect();
-    let (side, in_ceiling) = reached.into_iter().unzip();
-    (side, in_ceiling, samples.points.len() * dirs * 2)
+    let (side, from_open) = reached.into_iter().unzip();
+    (side, from_open, samples.points.len() * dirs * 2)
 }
 
 /// The reachable ones among a set of surface samples, as bit positions, for
@@ -298,8 +323,8 @@ pub fn coverage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec
 /// Measures coverage of `probes` over given surface samples.
 pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &CoverageParams) -> CoverageReport {
     let started = Instant::now();
-    let (reached_side, in_ceiling, reach_rays) = reachability(rays, space, &samples, params.reach_dirs, params.seed);
-    let mut report = seen_from(samples, reached_side, in_ceiling, rays, space, probes);
+    let (reached_side, from_open, reach_rays) = reachability(rays, space, &samples, params.reach_dirs, params.seed);
+    let mut report = seen_from(samples, reached_side, from_open, rays, space, probes);
     report.rays += reach_rays;
     report.seconds = started.elapsed().as_secs_f64();
     report
@@ -309,13 +334,13 @@ pub fn coverage_of(samples: SurfaceSamples, rays: &RayScene, space: &FreeSpace, 
 /// (for baselines: the expensive reachability is done once).
 pub fn coverage_like(base: &CoverageReport, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
     let started = Instant::now();
-    let mut report = seen_from(base.samples.clone(), base.reached_side.clone(), base.in_ceiling.clone(), rays, space, probes);
+    let mut report = seen_from(base.samples.clone(), base.reached_side.clone(), base.from_open.clone(), rays, space, probes);
     report.seconds = started.elapsed().as_secs_f64();
     report
 }
 
 /// Which reachable samples the probes see, probe by probe in order.
-fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, in_ceiling: Vec<bool>, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
+fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, from_open: Vec<FromOpen>, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
     let mut ray_count = 0;
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let mut first_seen_by: Vec<Option<u32>> = vec![None; samples.points.len()];
@@ -354,7 +379,7 @@ fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, in_ceiling: Vec<boo
         covered_area: covered as f64 * samples.area_each,
         samples,
         reached_side,
-        in_ceiling,
+        from_open,
         first_seen_by,
         reachable_area,
         curve,
@@ -367,7 +392,7 @@ fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, in_ceiling: Vec<boo
 mod tests {
     use super::*;
     use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
-    use crate::testing::rooms;
+    use crate::testing::{rooms, rooms_with};
     use exploremaps_scenes::mesh::MeshBuilder;
 
     fn setup(scene: &Scene) -> (RayScene, FreeSpace) {
@@ -411,6 +436,25 @@ mod tests {
         assert_eq!(both.curve.len(), 2);
         assert!((both.curve[0].1 - one.fraction()).abs() < 1e-12, "the curve's first point is the first probe alone");
         assert_eq!(both.probes_for(0.99), Some(2));
+    }
+
+    #[test]
+    fn surface_seen_only_through_a_crevice_is_kept_apart_from_the_ceiling() {
+        // A cabinet 2 m wide and 2 m tall stands 5 cm (about two voxels) from the
+        // back wall of a closed room: the wall behind it and its back face (8 m²)
+        // are seen only through the gap, from free voxels touching geometry.
+        let scene = rooms_with(1, 6.0, 3.0, 4.0, &[], |m| m.cuboid(Vec3::new(2.0, 0.0, 0.15), Vec3::new(4.0, 2.0, 0.65)));
+        let plain = rooms(1, 6.0, 3.0, 4.0, &[]);
+        let params = CoverageParams { samples: 40_000, ..Default::default() };
+        let (rays, space) = setup(&scene);
+        let probes = [Vec3::new(1.0, 1.5, 3.0), Vec3::new(5.0, 1.5, 3.0), Vec3::new(3.0, 2.6, 1.2)];
+        let ceiling = coverage(&scene, &rays, &space, &probes, &params).ceiling();
+        assert!(ceiling.crevices > 0.5 * 8.0 && ceiling.crevices < 1.05 * 8.0, "{ceiling:?}");
+        assert!(ceiling.covered > 0.97 * ceiling.area, "{ceiling:?}");
+        // The plain room has no crevice, corners included.
+        let (rays, space) = setup(&plain);
+        let ceiling = coverage(&plain, &rays, &space, &probes, &params).ceiling();
+        assert!(ceiling.crevices < 0.005 * ceiling.area, "{ceiling:?}");
     }
 
     #[test]

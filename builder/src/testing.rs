@@ -9,6 +9,11 @@ use glam::Vec3;
 /// `doors` (0 = the west outer wall, 1 = between rooms 0 and 1, …). Floor and
 /// roof slabs end flush with the walls' outer faces.
 pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
+    rooms_with(count, w, h, d, doors, |_| {})
+}
+
+/// [`rooms`] with more geometry added by `furnish`.
+pub fn rooms_with(count: usize, w: f32, h: f32, d: f32, doors: &[usize], furnish: impl FnOnce(&mut MeshBuilder)) -> Scene {
     let mut m = MeshBuilder::new("rooms");
     let (t, x1) = (0.2, count as f32 * w);
     let e = 0.5 * t;
@@ -20,6 +25,7 @@ pub fn rooms(count: usize, w: f32, h: f32, d: f32, doors: &[usize]) -> Scene {
         let door: &[(f32, f32, f32)] = if doors.contains(&k) { &[(0.5 * d, 1.2, 2.2)] } else { &[] };
         m.wall(false, k as f32 * w, 0.0, d, 0.0, h, t, door);
     }
+    furnish(&mut m);
     m.finish()
 }
 

@@ -13,10 +13,12 @@
 //!    on the sea bed under it).
 //! 2. Standing: the ray up from the floor must be free for eye height plus head
 //!    room, and the eye voxel must be in the fly space (clearance ≥ r).
-//! 3. Walking: floor cells of neighbouring columns join when their floors differ
-//!    by at most a step plus the slope limit over one voxel, and a ray at hip
-//!    height between them is free (a railing or a wall stops it). Stairs and
-//!    ramps therefore join storeys; a ladder or a jump does not.
+//! 3. Walking: floor cells of columns within a stride (0.25 m, at least the
+//!    four neighbours) join when their floors differ by at most a step plus the
+//!    slope limit over one voxel, and a ray at hip height between them is
+//!    free (a railing or a wall stops it). Stairs and ramps therefore join
+//!    storeys, also where a tread's nosing hides the floor under it from the
+//!    grid; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
 //!    one's floor, or roofed over and of at least 8 m² (a room), except roofs (regions whose floor
 //!    mostly sees the sky with another floor below it: nobody tours the roof of
@@ -39,6 +41,13 @@ pub const HEAD_ROOM_M: f32 = 0.25;
 pub const STEP_M: f32 = 0.3;
 /// Cosine of the steepest walkable slope (40°).
 pub const SLOPE_COS: f32 = 0.766;
+/// Tangent of the steepest walkable slope.
+const SLOPE_TAN: f32 = 0.839;
+/// A person steps over a strip this wide where no foot can stand: a stair
+/// tread's nosing, a threshold, a gutter. At grid resolution such strips read
+/// as missing floor (a ray up from a column under a nosing meets it at once),
+/// so floor cells join across them.
+pub const STRIDE_M: f32 = 0.25;
 /// A region is kept when its floor is at least this share of the largest's, or
 /// when it is roofed over and at least a small room's area (a house on an
 /// island whose door the grid cannot pass), and is not a roof.
@@ -172,7 +181,7 @@ pub fn judge_scale(floors: &Floors, metres_per_unit: f32) -> Result<String, Stri
 /// Steps 2 to 5: the walkable regions and the eye-height band within `fly`.
 pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, eye: f32, metres_per_unit: f32) -> (Walk, Vec<bool>, WalkStats) {
     let head = HEAD_ROOM_M / metres_per_unit;
-    let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
+    let rise = STEP_M / metres_per_unit + grid.voxel * SLOPE_TAN;
     let half_band = 0.5 * rise + grid.voxel;
     let eye_voxel = |c: &FloorCell| {
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
@@ -189,11 +198,16 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
         Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + h, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
     };
-    // Step 3: candidate steps to the +x and +z neighbours, checked by a hip-height ray.
+    // Step 3: candidate steps to the columns within a stride ahead (half the
+    // disc, so each pair once), checked by a hip-height ray.
+    let offsets = stride_offsets(grid.voxel * metres_per_unit);
+    // The same rise across a stride as between neighbours: a step is a step, and
+    // slopes are followed from column to column.
     let mut pairs: Vec<(u32, u32)> = Vec::new();
     for (a, c) in standing.iter().enumerate() {
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
-        for (nx, nz) in [(x + 1, z), (x, z + 1)] {
+        for &(dx, dz) in &offsets {
+            let (Some(nx), Some(nz)) = (x.checked_add_signed(dx), z.checked_add_signed(dz)) else { continue };
             if nx >= grid.dims[0] || nz >= grid.dims[2] {
                 continue;
             }
@@ -285,6 +299,23 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         rays: floors.rays + hips.len(),
     };
     (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
+}
+
+/// Column offsets (dx, dz) ahead of a column within a stride, at least the
+/// next columns along x and z: the half disc with dz > 0, or dz = 0 and dx > 0,
+/// so that each pair of columns is tried once.
+fn stride_offsets(voxel_m: f32) -> Vec<(isize, isize)> {
+    let k = (STRIDE_M / voxel_m).floor().max(1.0);
+    let n = k as isize;
+    let mut out = Vec::new();
+    for dz in 0..=n {
+        for dx in -n..=n {
+            if (dz > 0 || dx > 0) && ((dx * dx + dz * dz) as f32).sqrt() <= k {
+                out.push((dx, dz));
+            }
+        }
+    }
+    out
 }
 
 /// Floor heights holding at least 5 % of the cells, in bins of `bin` units,

@@ -72,6 +72,10 @@ pub struct Ceiling {
     pub seen_from_space: f64,
     /// Of `area`, what the probes see.
     pub covered: f64,
+    /// Surface seen from the free space only through crevices (gaps about two
+    /// voxels wide or less, where no viewpoint fits); not part of `area`.
+    #[serde(default)]
+    pub crevices: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

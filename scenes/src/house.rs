@@ -5,7 +5,7 @@
 //! z∈[-4.5, 4.5], floors at 0.15 and 3.15 (storeys of 3 m, slabs 0.2 thick), a
 //! flat roof at 6.15. Ground floor: a living room (west) and a kitchen (east)
 //! with a doorway between; the front door faces south; the staircase runs
-//! along the north wall, west to east, 16 steps of 0.1875 × 0.28 m, under an
+//! along the north wall, west to east, 16 steps of 0.1875 × 0.28 m (treads with a 3 cm chamfered nosing), under an
 //! opening in the upper slab with a railing round it. Upper floor: two bedrooms
 //! off a landing. Windows on every outer wall, no glass. Ceiling lights in each
 //! room and a sun. About 2k triangles: a scene for walking, not for detail.
@@ -13,7 +13,7 @@
 use crate::mesh::{MeshBuilder, Opening};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 const STOREY: f32 = 3.0;
 const SLAB: f32 = 0.2;
@@ -26,6 +26,9 @@ const RUN: f32 = 0.28;
 const STAIR_X0: f32 = -4.0;
 const STAIR_Z0: f32 = -4.375;
 const STAIR_W: f32 = 1.0;
+/// Treads: thickness, and overhang of the nosing past the riser below.
+const TREAD: f32 = 0.04;
+const NOSING: f32 = 0.03;
 
 pub fn house(seed: u64) -> Scene {
     let mut m = MeshBuilder::new("house");
@@ -85,12 +88,24 @@ pub fn house(seed: u64) -> Scene {
     m.wall(false, -1.0, -2.9, z1, upper, upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
     m.wall(false, 2.5, -2.9, z1, upper, upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
 
-    // The staircase: solid steps from the ground floor up to the landing.
+    // The staircase: solid steps from the ground floor up to the landing, each
+    // tread overhanging its riser by a nosing with a chamfered edge, as real
+    // treads do (the floor under a nosing is hidden from above).
     m.begin_object("staircase");
     m.set_material(wood);
     for k in 0..STEPS {
         let x = STAIR_X0 + k as f32 * RUN;
-        m.cuboid(Vec3::new(x, GROUND_FLOOR, STAIR_Z0), Vec3::new(x + RUN, GROUND_FLOOR + (k + 1) as f32 * RISE, STAIR_Z0 + STAIR_W));
+        let top = GROUND_FLOOR + (k + 1) as f32 * RISE;
+        m.cuboid(Vec3::new(x, GROUND_FLOOR, STAIR_Z0), Vec3::new(x + RUN, top - TREAD, STAIR_Z0 + STAIR_W));
+        let (front, chamfer) = (x - NOSING, 0.5 * TREAD);
+        let tread = [
+            Vec2::new(front, top - TREAD),
+            Vec2::new(x + RUN, top - TREAD),
+            Vec2::new(x + RUN, top),
+            Vec2::new(front + chamfer, top),
+            Vec2::new(front, top - chamfer),
+        ];
+        m.prism_z(&tread, STAIR_Z0, STAIR_Z0 + STAIR_W);
     }
     // Railings: along the stairwell's open side upstairs, and beside the stairs.
     m.set_material(stone);

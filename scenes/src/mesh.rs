@@ -98,6 +98,26 @@ impl MeshBuilder {
         self.quad([p(f, f, f), p(t, f, f), p(t, f, t), p(f, f, t)]); // -y
     }
 
+    /// A closed prism: a convex polygon in the x-y plane (counter-clockwise seen
+    /// from +z) extruded from `z0` to `z1`, with outward faces.
+    pub fn prism_z(&mut self, profile: &[Vec2], z0: f32, z1: f32) {
+        let at = |p: Vec2, z: f32| Vec3::new(p.x, p.y, z);
+        for k in 0..profile.len() {
+            let (a, b) = (profile[k], profile[(k + 1) % profile.len()]);
+            self.quad([at(a, z0), at(b, z0), at(b, z1), at(a, z1)]);
+        }
+        for (z, n) in [(z1, Vec3::Z), (z0, Vec3::NEG_Z)] {
+            let first = self.scene.positions.len() as u32;
+            for &p in profile {
+                self.vertex(at(p, z), n, Vec2::new(p.x, p.y) / self.tile_m);
+            }
+            for k in 1..profile.len() as u32 - 1 {
+                // Counter-clockwise seen from +z for the +z cap, reversed for -z.
+                if n.z > 0.0 { self.triangle([first, first + k, first + k + 1]) } else { self.triangle([first, first + k + 1, first + k]) }
+            }
+        }
+    }
+
     /// A wall of `thickness` centred on the line from `(a, z)` to `(b, z)` along x
     /// (or along z with `along_x == false`), from `floor_y` to `top_y`, with door
     /// openings given as (centre, width, height) along the wall.
