@@ -57,8 +57,8 @@ fn main() {
         }
     }
     println!(
-        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>8} {:>9} {:>7}",
-        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "crev%", "space%", "probe%", "greedy%", "eye err", "levels"
+        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
+        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "crev%", "space%", "probe%", "again%", "greedy%", "eye err", "levels"
     );
     for (name, scene) in &scenes {
         for height in [HeightMode::Fly, HeightMode::Walk] {
@@ -85,6 +85,7 @@ fn main() {
             let greedy_ceiling = greedy_report.ceiling();
             // The same metric with another seed and sample set.
             let again = coverage(scene, &rays, &space, &probes, &CoverageParams { seed: 0x5eed, ..Default::default() });
+            let again_ceiling = again.ceiling();
             let baselines: f64 = result.baselines.iter().map(|b| b.report.seconds).sum();
             let planning = result.seconds - report.seconds - baselines;
             let (eye_err, levels) = match (&space.walk, &result.free_space.walk) {
@@ -103,7 +104,7 @@ fn main() {
             };
             let pct = |x: f64| if ceiling.area > 0.0 { format!("{:.1}", 100.0 * x / ceiling.area) } else { "-".into() };
             println!(
-                "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>8} {:>9} {:>7}",
+                "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
                 mode(height),
                 result.free_space.space,
                 probes.len(),
@@ -115,6 +116,7 @@ fn main() {
                 100.0 * ceiling.crevices / (ceiling.area + ceiling.crevices).max(f64::MIN_POSITIVE),
                 pct(ceiling.seen_from_space),
                 pct(ceiling.covered),
+                format!("{:.1}", 100.0 * again_ceiling.covered / again_ceiling.area.max(f64::MIN_POSITIVE)),
                 pct(greedy_ceiling.covered),
                 eye_err,
                 levels
@@ -126,7 +128,8 @@ fn main() {
     println!("reported = coverage of what the navigable space sees, as the plan reports it; again = the same metric, another seed");
     println!("and sample set; ceil = the ceiling's area in m² (surface seen from the free space in the box where a viewpoint fits);");
     println!("crev% = surface seen only through crevices (from free voxels touching geometry), in % of it and the ceiling; space% / probe% = its");
-    println!("share seen from the navigable space / by the probes; greedy% = by greedy set cover over 3,000 random candidates with");
+    println!("share seen from the navigable space / by the probes; again% = the probes' share recomputed with another seed and");
+    println!("sample set; greedy% = by greedy set cover over 3,000 random candidates with");
     println!("as many probes; eye err = the largest distance of a probe from eye height above the floor under it; levels = floor");
     println!("levels with a probe at eye height above them.");
 }

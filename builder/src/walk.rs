@@ -41,8 +41,6 @@ pub const HEAD_ROOM_M: f32 = 0.25;
 pub const STEP_M: f32 = 0.3;
 /// Cosine of the steepest walkable slope (40°).
 pub const SLOPE_COS: f32 = 0.766;
-/// Tangent of the steepest walkable slope.
-const SLOPE_TAN: f32 = 0.839;
 /// A person steps over a strip this wide where no foot can stand: a stair
 /// tread's nosing, a threshold, a gutter. At grid resolution such strips read
 /// as missing floor (a ray up from a column under a nosing meets it at once),
@@ -181,7 +179,7 @@ pub fn judge_scale(floors: &Floors, metres_per_unit: f32) -> Result<String, Stri
 /// Steps 2 to 5: the walkable regions and the eye-height band within `fly`.
 pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, eye: f32, metres_per_unit: f32) -> (Walk, Vec<bool>, WalkStats) {
     let head = HEAD_ROOM_M / metres_per_unit;
-    let rise = STEP_M / metres_per_unit + grid.voxel * SLOPE_TAN;
+    let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
     let half_band = 0.5 * rise + grid.voxel;
     let eye_voxel = |c: &FloorCell| {
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
@@ -198,41 +196,40 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
         Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + h, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
     };
-    // Step 3: candidate steps to the columns within a stride ahead (half the
-    // disc, so each pair once), checked by a hip-height ray.
-    let offsets = stride_offsets(grid.voxel * metres_per_unit);
-    // The same rise across a stride as between neighbours: a step is a step, and
-    // slopes are followed from column to column.
-    let mut pairs: Vec<(u32, u32)> = Vec::new();
-    for (a, c) in standing.iter().enumerate() {
-        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
-        for &(dx, dz) in &offsets {
-            let (Some(nx), Some(nz)) = (x.checked_add_signed(dx), z.checked_add_signed(dz)) else { continue };
-            if nx >= grid.dims[0] || nz >= grid.dims[2] {
-                continue;
-            }
-            for &b in &by_column[nx + grid.dims[0] * nz] {
-                if (standing[b as usize].floor_y - c.floor_y).abs() <= rise {
-                    pairs.push((a as u32, b));
+    // Step 3: steps to the next columns along x and z, then, between cells that
+    // are still apart, to the other columns within a stride ahead (half the
+    // disc, so each pair once); each checked by a hip-height ray. The rise is
+    // the same across a stride as between neighbours: a step is a step, and
+    // slopes are followed column by column.
+    let (near, far): (Vec<_>, Vec<_>) = stride_offsets(grid.voxel * metres_per_unit).into_iter().partition(|&(dx, dz)| dx * dx + dz * dz == 1);
+    let mut parent: Vec<u32> = (0..standing.len() as u32).collect();
+    let mut hip_rays = 0;
+    for (pass, offsets) in [near, far].iter().enumerate() {
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for (a, c) in standing.iter().enumerate() {
+            let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
+            for &(dx, dz) in offsets {
+                let (Some(nx), Some(nz)) = (x.checked_add_signed(dx), z.checked_add_signed(dz)) else { continue };
+                if nx >= grid.dims[0] || nz >= grid.dims[2] {
+                    continue;
+                }
+                for &b in &by_column[nx + grid.dims[0] * nz] {
+                    let apart = pass == 0 || root(&mut parent, a as u32) != root(&mut parent, b);
+                    if apart && (standing[b as usize].floor_y - c.floor_y).abs() <= rise {
+                        pairs.push((a as u32, b));
+                    }
                 }
             }
         }
-    }
-    let hips: Vec<Ray> = pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
-    let blocked = rays.occluded_batch(&hips, Packing::Single);
-    let mut parent: Vec<u32> = (0..standing.len() as u32).collect();
-    fn root(parent: &mut [u32], mut k: u32) -> u32 {
-        while parent[k as usize] != k {
-            parent[k as usize] = parent[parent[k as usize] as usize];
-            k = parent[k as usize];
-        }
-        k
-    }
-    for (&(a, b), &shut) in pairs.iter().zip(&blocked) {
-        if !shut {
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            // The smaller index is the root: labels do not depend on thread count or order.
-            parent[ra.max(rb) as usize] = ra.min(rb);
+        let hips: Vec<Ray> = pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
+        hip_rays += hips.len();
+        let blocked = rays.occluded_batch(&hips, Packing::Single);
+        for (&(a, b), &shut) in pairs.iter().zip(&blocked) {
+            if !shut {
+                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                // The smaller index is the root: labels do not depend on thread count or order.
+                parent[ra.max(rb) as usize] = ra.min(rb);
+            }
         }
     }
     // Step 4: regions, roofs, and which are kept.
@@ -296,9 +293,18 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
         room_height_m: heights.get(heights.len() / 2).copied(),
         levels,
-        rays: floors.rays + hips.len(),
+        rays: floors.rays + hip_rays,
     };
     (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
+}
+
+/// Union-find root with path halving.
+fn root(parent: &mut [u32], mut k: u32) -> u32 {
+    while parent[k as usize] != k {
+        parent[k as usize] = parent[parent[k as usize] as usize];
+        k = parent[k as usize];
+    }
+    k
 }
 
 /// Column offsets (dx, dz) ahead of a column within a stride, at least the

@@ -5,10 +5,11 @@
 //! z∈[-4.5, 4.5], floors at 0.15 and 3.15 (storeys of 3 m, slabs 0.2 thick), a
 //! flat roof at 6.15. Ground floor: a living room (west) and a kitchen (east)
 //! with a doorway between; the front door faces south; the staircase runs
-//! along the north wall, west to east, 16 steps of 0.1875 × 0.28 m (treads with a 3 cm chamfered nosing), under an
-//! opening in the upper slab with a railing round it. Upper floor: two bedrooms
-//! off a landing. Windows on every outer wall, no glass. Ceiling lights in each
-//! room and a sun. About 2k triangles: a scene for walking, not for detail.
+//! along the north wall, west to east, 16 steps of 0.1875 × 0.28 m (treads
+//! with a 3 cm chamfered nosing), under an opening in the upper slab with a
+//! railing round it. Upper floor: two bedrooms off a landing. Windows on every
+//! outer wall, no glass. Ceiling lights in each room and a sun. About 1.5k
+//! triangles: a scene for walking, not for detail.
 
 use crate::mesh::{MeshBuilder, Opening};
 use crate::scene::{Light, Material, Scene};
