@@ -23,7 +23,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap};
 use std::time::Instant;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -208,21 +208,26 @@ fn a_star(space: &FreeSpace, a: Vec3, b: Vec3) -> Option<Vec<Vec3>> {
     // The heuristic is inflated by half: a slightly longer route (smoothing
     // straightens it) for a search that goes to the goal instead of flooding rooms.
     let h = |i: usize| 1.5 * (g.center(g.coords(i)) - b).length();
-    let mut cost = vec![f32::INFINITY; g.len()];
-    let mut parent = vec![u32::MAX; g.len()];
-    let mut closed = vec![false; g.len()];
-    cost[start] = 0.0;
-    parent[start] = start as u32;
+    // Per visited voxel: cost so far, parent, expanded. A map, not grid-sized
+    // arrays: a search visits a sliver of a fine grid (tens of millions of cells).
+    let mut state: HashMap<usize, (f32, u32, bool)> = HashMap::from([(start, (0.0, start as u32, false))]);
     let mut open = BinaryHeap::from([(Reverse(ordered(h(start))), start)]);
     while let Some((Reverse(key), i)) = open.pop() {
-        if closed[i] || key > ordered(cost[i] + h(i)) {
+        let here = state.get_mut(&i).expect("queued voxels have a state");
+        if here.2 || key > ordered(here.0 + h(i)) {
             continue; // expanded already, or a stale entry
         }
-        closed[i] = true;
+        here.2 = true;
+        let cost_i = here.0;
         if i == goal {
             let mut cells = vec![goal];
-            while parent[*cells.last().unwrap()] as usize != *cells.last().unwrap() {
-                cells.push(parent[*cells.last().unwrap()] as usize);
+            loop {
+                let last = *cells.last().unwrap();
+                let up = state[&last].1 as usize;
+                if up == last {
+                    break;
+                }
+                cells.push(up);
             }
             cells.reverse();
             let mut polyline = vec![a];
@@ -242,14 +247,14 @@ fn a_star(space: &FreeSpace, a: Vec3, b: Vec3) -> Option<Vec<Vec3>> {
                         continue;
                     }
                     let j = g.index(n.map(|v| v as usize));
-                    if !space.navigable[j] || closed[j] {
+                    if !space.navigable[j] {
                         continue;
                     }
                     let step = ((dx * dx + dy * dy + dz * dz) as f32).sqrt() * g.voxel;
-                    let through = cost[i] + step * (1.0 + space.near / space.clearance[j].max(1e-6));
-                    if through < cost[j] {
-                        cost[j] = through;
-                        parent[j] = i as u32;
+                    let through = cost_i + step * (1.0 + space.near / space.clearance[j].max(1e-6));
+                    let there = state.entry(j).or_insert((f32::INFINITY, u32::MAX, false));
+                    if !there.2 && through < there.0 {
+                        *there = (through, i as u32, false);
                         open.push((Reverse(ordered(through + h(j))), j));
                     }
                 }

@@ -58,7 +58,6 @@ use glam::Vec3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
-use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -104,6 +103,11 @@ pub struct FreeSpaceParams {
     pub eye_height_m: f32,
     /// Cells on the longest axis of the (padded) bounding box.
     pub max_cells: usize,
+    /// Largest voxel when walking, metres: the grid is refined to it (within
+    /// the cell budget) so that every door a person passes is open on it.
+    pub walk_voxel_m: f32,
+    /// Voxel edge in scene units; overrides `max_cells` (within the budget).
+    pub voxel: Option<f32>,
     /// Near distance r as a fraction of the bounding-box diagonal.
     pub near_rel: f32,
     /// Near distance in metres; overrides `near_rel` when given.
@@ -120,6 +124,8 @@ impl Default for FreeSpaceParams {
             height: HeightMode::Auto,
             eye_height_m: 1.6,
             max_cells: 256,
+            walk_voxel_m: WALK_VOXEL_M,
+            voxel: None,
             near_rel: 0.005,
             near_m: None,
             start: None,
@@ -138,6 +144,10 @@ const FACED_SHARE: f32 = 0.1;
 /// Largest near distance when walking, or when the scale is trusted: about a
 /// person's half width.
 const PERSON_NEAR_M: f32 = 0.3;
+/// Largest walking voxel: a door 0.8 m wide and 2.0 m high always leaves a
+/// free column (two voxels fit the width) whose eye voxel (1.6 m) is below
+/// the lintel, and its clearance (one voxel) passes the near distance 0.3 m.
+const WALK_VOXEL_M: f32 = 0.4;
 /// Voxels per block edge for the solid test's ray origins.
 const BLOCK: usize = 4;
 const MAX_TOTAL_CELLS: usize = 40_000_000;
@@ -229,6 +239,9 @@ pub struct FreeSpace {
     pub walk: Option<Walk>,
     /// Scene bounds (unpadded).
     pub bounds: Aabb,
+    /// Distance from each voxel centre to the nearest navigable voxel centre,
+    /// scene units; made when first asked for.
+    navigable_distance: std::sync::OnceLock<Vec<f32>>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -276,6 +289,19 @@ impl FreeSpace {
         self.grid.cell(p).map_or(0.0, |c| self.clearance[self.grid.index(c)])
     }
 
+    /// How far along a straight line from `p` no point can be navigable: the
+    /// distance from `p`'s voxel centre to the nearest navigable voxel centre
+    /// less a voxel diagonal (both points may lie anywhere in their voxels).
+    /// `None` outside the grid. Lets a march skip empty space without missing
+    /// a navigable voxel.
+    pub fn navigable_free_run(&self, p: Vec3) -> Option<f32> {
+        let c = self.grid.cell(p)?;
+        let distances = self.navigable_distance.get_or_init(|| {
+            distance_transform(&self.grid, &self.navigable).into_par_iter().map(|d2| d2.sqrt() * self.grid.voxel).collect()
+        });
+        Some(distances[self.grid.index(c)] - 3f32.sqrt() * self.grid.voxel)
+    }
+
     /// Centres of all navigable voxels, in grid order.
     pub fn navigable_points(&self) -> Vec<Vec3> {
         (0..self.grid.len()).filter(|&i| self.navigable[i]).map(|i| self.grid.center(self.grid.coords(i))).collect()
@@ -312,7 +338,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         Some(m) => m / scene.metres_per_unit,
         None => params.near_rel * bounds.diagonal(),
     };
-    let grid = make_grid(&bounds, params.max_cells);
+    let grid = make_grid(&bounds, params.max_cells, params.voxel);
     let occupied = voxelize(scene, &grid);
     let clearance: Vec<f32> = distance_transform(&grid, &occupied).into_iter().map(|d2| d2.sqrt() * grid.voxel).collect();
 
@@ -371,6 +397,25 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     };
     if walking && params.near_m.is_none() {
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
+    }
+    // A large scene's grid is coarser than a door: walk on a finer one.
+    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
+    let mut height_reason = height_reason;
+    if walking && grid.voxel > 1.001 * walk_voxel {
+        let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
+        let door_m = 2.0 * finer * scene.metres_per_unit;
+        if params.voxel.is_none() && finer < 0.999 * grid.voxel {
+            let params = FreeSpaceParams { space, height: HeightMode::Walk, voxel: Some(finer), ..params.clone() };
+            let (fs, mut stats) = free_space(scene, rays, &params)?;
+            stats.space_reason = space_reason;
+            stats.height_reason = format!("{height_reason}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", finer * scene.metres_per_unit);
+            stats.rays += ray_count;
+            stats.seconds = started.elapsed().as_secs_f64();
+            return Ok((fs, stats));
+        }
+        if finer > 1.001 * walk_voxel {
+            height_reason = format!("{height_reason}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed");
+        }
     }
 
     let candidate: Vec<bool> = (0..grid.len())
@@ -462,7 +507,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         rays: ray_count,
         seconds: started.elapsed().as_secs_f64(),
     };
-    Ok((FreeSpace { grid, occupied, clearance, open, navigable, near, space, walk, bounds }, stats))
+    Ok((FreeSpace { grid, occupied, clearance, open, navigable, near, space, walk, bounds, navigable_distance: Default::default() }, stats))
 }
 
 fn scale_word(source: ScaleSource) -> &'static str {
@@ -498,11 +543,13 @@ fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
     out as f32 / list.len() as f32
 }
 
-fn make_grid(bounds: &Aabb, max_cells: usize) -> Grid {
+/// The grid over the padded box: `max_cells` on its long side, or voxels of
+/// the given size; coarser if the total would pass the cell budget.
+fn make_grid(bounds: &Aabb, max_cells: usize, voxel: Option<f32>) -> Grid {
     let extent = bounds.extent();
     let pad = 0.05 * extent.max_element();
     let padded = extent + Vec3::splat(2.0 * pad);
-    let mut voxel = padded.max_element() / max_cells as f32;
+    let mut voxel = voxel.unwrap_or(padded.max_element() / max_cells as f32);
     // Keep the total within the memory bound (flat scenes are far from cubic).
     let cells = |v: f32| (padded / v).ceil();
     while { let c = cells(voxel); c.x * c.y * c.z } > MAX_TOTAL_CELLS as f32 {
@@ -594,27 +641,40 @@ pub(crate) fn triangle_box_overlap(centre: Vec3, half: Vec3, tri: &[Vec3; 3]) ->
 /// voxel centre: exact, by three passes of the 1D lower-envelope transform.
 pub(crate) fn distance_transform(grid: &Grid, occupied: &[bool]) -> Vec<f32> {
     const FAR: f32 = 1e20;
-    let mut d: Vec<f32> = occupied.iter().map(|&o| if o { 0.0 } else { FAR }).collect();
+    let mut d: Vec<f32> = occupied.par_iter().map(|&o| if o { 0.0 } else { FAR }).collect();
     let [nx, ny, nz] = grid.dims;
-    for axis in 0..3 {
-        let (n, stride) = match axis {
-            0 => (nx, 1),
-            1 => (ny, nx),
-            _ => (nz, nx * ny),
-        };
-        // Every line along `axis` starts at a voxel whose coordinate on it is 0.
-        let starts: Vec<usize> = (0..grid.len()).filter(|&i| grid.coords(i)[axis] == 0).collect();
-        let lines: Vec<Vec<f32>> = starts
-            .par_iter()
-            .map(|&s| {
-                let f: Vec<f32> = (0..n).map(|k| d[s + k * stride]).collect();
-                lower_envelope(&f)
-            })
-            .collect();
-        for (&s, line) in starts.iter().zip(lines) {
-            for (k, value) in line.into_iter().enumerate() {
-                d[s + k * stride] = value;
+    // Lines along x and y lie within a z slab: transform them in place, a slab a task.
+    d.par_chunks_mut(nx * ny).for_each(|slab| {
+        for row in slab.chunks_mut(nx) {
+            let out = lower_envelope(row);
+            row.copy_from_slice(&out);
+        }
+        for x in 0..nx {
+            let line: Vec<f32> = (0..ny).map(|y| slab[x + nx * y]).collect();
+            for (y, v) in lower_envelope(&line).into_iter().enumerate() {
+                slab[x + nx * y] = v;
             }
+        }
+    });
+    // Lines along z, a y row of them a task: gathered and written back by rows
+    // of x, which are contiguous.
+    let planes: Vec<Vec<f32>> = (0..ny)
+        .into_par_iter()
+        .map(|y| {
+            let mut block = vec![0.0; nx * nz];
+            for x in 0..nx {
+                let line: Vec<f32> = (0..nz).map(|z| d[x + nx * (y + ny * z)]).collect();
+                for (z, v) in lower_envelope(&line).into_iter().enumerate() {
+                    block[x + nx * z] = v;
+                }
+            }
+            block
+        })
+        .collect();
+    for (y, block) in planes.into_iter().enumerate() {
+        for z in 0..nz {
+            let at = nx * (y + ny * z);
+            d[at..at + nx].copy_from_slice(&block[nx * z..nx * (z + 1)]);
         }
     }
     d
@@ -798,30 +858,79 @@ fn crossings(rays: &RayScene, list: &[Ray], voxel: f32) -> (Vec<Option<Hit>>, Ve
 
 const NONE: u32 = u32::MAX;
 
-/// 6-connected components of the marked voxels, labelled in grid order.
+/// 6-connected components of the marked voxels, labelled in grid order (by
+/// each component's lowest voxel index). Runs of marked voxels along x are
+/// joined (union-find) with the overlapping runs of the rows below and behind:
+/// a fine grid's open air is a few runs a row, far fewer unions than voxels.
 fn components(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
-    let mut labels = vec![NONE; grid.len()];
-    let mut sizes = Vec::new();
-    let mut queue = VecDeque::new();
-    for seed in 0..grid.len() {
-        if !marked[seed] || labels[seed] != NONE {
-            continue;
+    let [nx, ny, nz] = grid.dims;
+    let row_runs: Vec<Vec<(u32, u32)>> = (0..ny * nz)
+        .into_par_iter()
+        .map(|r| {
+            let row = &marked[r * nx..(r + 1) * nx];
+            let mut runs = Vec::new();
+            let mut x = 0;
+            while x < nx {
+                if row[x] {
+                    let start = x;
+                    while x < nx && row[x] {
+                        x += 1;
+                    }
+                    runs.push((start as u32, x as u32));
+                } else {
+                    x += 1;
+                }
+            }
+            runs
+        })
+        .collect();
+    let first: Vec<usize> = row_runs.iter().scan(0, |n, r| { let s = *n; *n += r.len(); Some(s) }).collect();
+    let count = first.last().map_or(0, |&f| f + row_runs.last().map_or(0, Vec::len));
+    // The root of a set is its earliest run: the one holding its lowest voxel.
+    let mut parent: Vec<u32> = (0..count as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
         }
-        let label = sizes.len() as u32;
-        labels[seed] = label;
-        queue.push_back(seed);
-        let mut size = 0;
-        while let Some(i) = queue.pop_front() {
-            size += 1;
-            for n in grid.neighbours(grid.coords(i)) {
-                let j = grid.index(n);
-                if marked[j] && labels[j] == NONE {
-                    labels[j] = label;
-                    queue.push_back(j);
+        x
+    }
+    for r in 0..ny * nz {
+        let (y, z) = (r % ny, r / ny);
+        for q in [(y > 0).then(|| r - 1), (z > 0).then(|| r - ny)].into_iter().flatten() {
+            let (mine, theirs) = (&row_runs[r], &row_runs[q]);
+            let (mut i, mut j) = (0, 0);
+            while i < mine.len() && j < theirs.len() {
+                let (a, b) = (mine[i], theirs[j]);
+                if a.0 < b.1 && b.0 < a.1 {
+                    let (ra, rb) = (find(&mut parent, (first[r] + i) as u32), find(&mut parent, (first[q] + j) as u32));
+                    parent[ra.max(rb) as usize] = ra.min(rb);
+                }
+                if a.1 <= b.1 {
+                    i += 1;
+                } else {
+                    j += 1;
                 }
             }
         }
-        sizes.push(size);
+    }
+    let mut run_label = vec![NONE; count];
+    let mut sizes = Vec::new();
+    for k in 0..count {
+        let root = find(&mut parent, k as u32) as usize;
+        if run_label[root] == NONE {
+            run_label[root] = sizes.len() as u32;
+            sizes.push(0);
+        }
+        run_label[k] = run_label[root];
+    }
+    let mut labels = vec![NONE; grid.len()];
+    for (r, runs) in row_runs.iter().enumerate() {
+        for (j, &(s, e)) in runs.iter().enumerate() {
+            let label = run_label[first[r] + j];
+            labels[r * nx + s as usize..r * nx + e as usize].fill(label);
+            sizes[label as usize] += (e - s) as usize;
+        }
     }
     (labels, sizes)
 }
@@ -907,6 +1016,43 @@ mod tests {
                 })
                 .fold(f32::INFINITY, f32::min);
             assert_eq!(di, brute, "voxel {c:?}");
+        }
+    }
+
+    #[test]
+    fn components_match_a_flood_fill_and_are_labelled_in_grid_order() {
+        // Random grids of various densities (sparse: many small parts; dense:
+        // runs that meet in U shapes, which union-find must merge late).
+        let grid = Grid { origin: Vec3::ZERO, voxel: 1.0, dims: [13, 9, 7] };
+        for density in [3usize, 5, 8, 12] {
+            let marked: Vec<bool> = (0..grid.len()).map(|i| (i * 2_654_435_761usize >> 7) % 16 < density).collect();
+            let (labels, sizes) = components(&grid, &marked);
+            // Reference: breadth-first flood fill from each unlabelled voxel in grid order.
+            let mut reference = vec![NONE; grid.len()];
+            let mut ref_sizes = Vec::new();
+            for seed in 0..grid.len() {
+                if !marked[seed] || reference[seed] != NONE {
+                    continue;
+                }
+                let label = ref_sizes.len() as u32;
+                let mut stack = vec![seed];
+                reference[seed] = label;
+                let mut size = 0;
+                while let Some(i) = stack.pop() {
+                    size += 1;
+                    for n in grid.neighbours(grid.coords(i)) {
+                        let j = grid.index(n);
+                        if marked[j] && reference[j] == NONE {
+                            reference[j] = label;
+                            stack.push(j);
+                        }
+                    }
+                }
+                ref_sizes.push(size);
+            }
+            assert!(ref_sizes.len() > 1, "density {density}: the grid must have several parts to test");
+            assert_eq!(labels, reference, "density {density}");
+            assert_eq!(sizes, ref_sizes, "density {density}");
         }
     }
 
@@ -1012,6 +1158,15 @@ mod tests {
         let house = Vec3::new(-28.0, top(-28.0, -19.0) - 3.3, -19.0);
         assert!(walk.is_navigable(house + Vec3::Y * 1.6), "in the house {house}");
         assert!(!walk.is_navigable(house + Vec3::Y * 4.9), "on its roof");
+        // A visitor walks in through the 1 m door: the walking grid is refined
+        // for doors (the default grid's 0.69 m voxels close them), and the house
+        // and the hill are one part of the walking space.
+        assert!(walk.grid.voxel <= 0.4 + 1e-4 && fly.grid.voxel > 0.6, "walk {} fly {}", walk.grid.voxel, fly.grid.voxel);
+        assert!(stats.height_reason.contains("doors"), "{stats:?}");
+        let (labels, _) = components(&walk.grid, &walk.navigable);
+        let label = |p: Vec3| labels[walk.grid.index(walk.grid.cell(p).unwrap())];
+        assert_eq!(label(house + Vec3::Y * 1.6), label(hill + Vec3::Y * 1.6), "the house joins the ground through its door");
+        assert_eq!(label(tunnel + Vec3::Y * 1.6), label(hill + Vec3::Y * 1.6), "and so does the tunnel");
         let w = stats.walk.unwrap();
         assert!(w.roofs >= 1, "the houses' flat roofs are left out: {w:?}");
     }

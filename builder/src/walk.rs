@@ -20,10 +20,11 @@
 //!    storeys, also where a tread's nosing hides the floor under it from the
 //!    grid; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
-//!    one's floor, or roofed over and of at least 8 m² (a room), except roofs (regions whose floor
-//!    mostly sees the sky with another floor below it: nobody tours the roof of
-//!    the building they visit). Table tops, beds and window sills are smaller
-//!    and drop out.
+//!    one's floor, except roofs (regions whose floor mostly sees the sky with
+//!    another floor below it: nobody tours the roof of the building they
+//!    visit). Table tops, beds and window sills are smaller and drop out. A
+//!    room joins the rest through its door: the walking grid is fine enough
+//!    for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    so the band is connected wherever people can walk.
@@ -46,11 +47,9 @@ pub const SLOPE_COS: f32 = 0.766;
 /// as missing floor (a ray up from a column under a nosing meets it at once),
 /// so floor cells join across them.
 pub const STRIDE_M: f32 = 0.25;
-/// A region is kept when its floor is at least this share of the largest's, or
-/// when it is roofed over and at least a small room's area (a house on an
-/// island whose door the grid cannot pass), and is not a roof.
+/// A region is kept when its floor is at least this share of the largest's,
+/// and it is not a roof.
 const REGION_SHARE: f32 = 1.0 / 6.0;
-const ROOM_M2: f32 = 8.0;
 /// A region is a roof when this share of its cells sees the sky above a floor.
 const ROOF_SHARE: f32 = 0.7;
 
@@ -237,8 +236,6 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let mut region_of = vec![u32::MAX; standing.len()];
     let mut sizes: Vec<usize> = Vec::new();
     let mut roofish: Vec<usize> = Vec::new();
-    // Cells with a ceiling above, per region.
-    let mut covered: Vec<usize> = Vec::new();
     let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
     for k in 0..standing.len() {
         let r = roots[k] as usize;
@@ -246,7 +243,6 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             region_of[r] = sizes.len() as u32;
             sizes.push(0);
             roofish.push(0);
-            covered.push(0);
         }
         let g = region_of[r] as usize;
         region_of[k] = g as u32;
@@ -255,15 +251,10 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - rise {
             roofish[g] += 1;
         }
-        if c.headroom.is_finite() {
-            covered[g] += 1;
-        }
     }
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
-    let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
-    let room = |g: usize| 2 * covered[g] > sizes[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2;
-    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && (sizes[g] as f32 >= REGION_SHARE * largest as f32 || room(g))).collect();
+    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
