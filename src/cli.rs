@@ -194,8 +194,9 @@ pub struct PlanArgs {
     /// Eye height above the floor in metres when walking.
     #[arg(long, default_value_t = 1.6)]
     pub eye_height_m: f32,
-    /// Voxels on the longest side of the free-space grid. Memory stays at most about
-    /// 0.5 GiB for any scene: the grid never exceeds 40 million cells of 13 bytes.
+    /// Voxels on the longest side of the free-space grid; walking refines them to at
+    /// most 0.4 m so doors stay open. Memory stays at most about 0.5 GiB for any
+    /// scene: the grid never exceeds 40 million cells of 13 bytes.
     #[arg(long, default_value_t = 256)]
     pub max_cells: usize,
     /// Area-uniform surface samples of the coverage metric.

@@ -288,6 +288,10 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
         bar.set_position(done as u64);
     })?;
     bar.finish_and_clear();
+    if let Some(proxy) = &graph.proxy {
+        let levels: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {:.0} KB ({})", l.triangles, l.bytes as f64 / 1024.0, l.file)).collect();
+        println!("  proxy       {}; {}", levels.join(", "), proxy.glb.as_deref().unwrap_or("no GLB"));
+    }
     match web_dir() {
         Some(web) => {
             exploremaps_builder::bundle::install_web_viewer(bundle, &web)?;
@@ -295,10 +299,11 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
         None => tracing::warn!("the web viewer is not built, so the bundle has none; run web/build.sh, then `exploremaps render` again (it only adds what is missing)"),
     }
     println!(
-        "{}: rendered {} probes and {} paths, {} already there ({:.1} s{})",
+        "{}: rendered {} probes and {} paths{}, {} already there ({:.1} s{})",
         bundle.display(),
         report.probes_rendered,
         report.paths_rendered,
+        if report.proxy_rendered { " and the 3D proxy" } else { "" },
         report.skipped,
         report.seconds,
         report.video_encoder.map(|e| format!(", videos by {e}")).unwrap_or_default()

@@ -271,10 +271,24 @@ fn render_fills_in_assets_resumably_and_in_shards() {
         assert_eq!((frames[0].width, frames[0].height), (128, 64));
         assert!(one.join(p.assets.poster.as_ref().unwrap()).exists());
     }
+    // The 3D proxy: coded levels with a colour per vertex, and a GLB another parser reads.
+    let proxy = graph.proxy.as_ref().expect("graph.json lists the proxy");
+    assert!(!proxy.levels.is_empty());
+    for level in &proxy.levels {
+        let bytes = std::fs::read(one.join(&level.file)).unwrap();
+        assert_eq!(bytes.len() as u64, level.bytes, "{}", level.file);
+        let mesh = exploremaps_format::meshcode::decode(&bytes).unwrap();
+        assert_eq!((mesh.triangles.len() as u64, mesh.colours.len()), (level.triangles, mesh.positions.len()), "{}", level.file);
+    }
+    let (document, buffers, _) = gltf::import(one.join(proxy.glb.as_ref().expect("a GLB"))).unwrap();
+    let primitive = document.meshes().next().unwrap().primitives().next().unwrap();
+    let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+    assert_eq!(reader.read_indices().unwrap().into_u32().count() as u64, 3 * proxy.levels[0].triangles);
+    assert_eq!(reader.read_colors(0).expect("vertex colours").into_rgb_f32().count(), reader.read_positions().unwrap().count());
     // Resuming renders nothing new and leaves the files untouched.
     let before = std::fs::metadata(one.join("probes/0/pano.jpg")).unwrap().modified().unwrap();
     let run = render(&one, &[]);
-    assert!(stdout(&run).contains("rendered 0 probes and 0 paths"), "{}", stdout(&run));
+    assert!(stdout(&run).contains("rendered 0 probes and 0 paths,"), "{}", stdout(&run));
     assert_eq!(std::fs::metadata(one.join("probes/0/pano.jpg")).unwrap().modified().unwrap(), before);
     // After a kill mid-way (simulated: assets deleted, a stray temporary file left), only the missing ones are redone.
     std::fs::remove_file(one.join("probes/1/64_pz.jpg")).unwrap();
@@ -297,6 +311,10 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     }
     for p in &graph.paths {
         let name = p.assets.video.as_ref().unwrap();
+        assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
+    }
+    assert_eq!(graph_sharded.proxy, graph.proxy, "one shard made the proxy, the other lists it");
+    for name in proxy.levels.iter().map(|l| &l.file).chain(&proxy.glb) {
         assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
     }
     // `build` is plan plus render.

@@ -254,7 +254,7 @@ fn main() {
 /// reused: (at half the samples, at all, seconds spent now).
 fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
-    assert!(spp % (2 * BATCH) == 0, "REF_SPP must be a multiple of {}", 2 * BATCH);
+    assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
     let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));

@@ -18,6 +18,8 @@ pub enum BundleError {
     Denoise { path: String, message: String },
     #[error("cannot encode the transition video {path}: {message}")]
     Video { path: String, message: String },
+    #[error("cannot code the proxy mesh {path}: {message}; this is a bug, please report it")]
+    Proxy { path: String, message: String },
     #[error(transparent)]
     Raycast(#[from] crate::raycast::RaycastError),
 }
@@ -124,6 +126,7 @@ pub struct Shard {
 pub struct RenderReport {
     pub probes_rendered: usize,
     pub paths_rendered: usize,
+    pub proxy_rendered: bool,
     /// Jobs of this shard whose files were all there already.
     pub skipped: usize,
     pub video_encoder: Option<String>,
@@ -148,6 +151,44 @@ fn path_files(id: usize) -> (String, String) {
     (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
 }
 
+const PROXY_GLB: &str = "proxy/proxy.glb";
+/// The proxy's entry for graph.json, written after its files: shards and
+/// resumed runs find it there whoever made it.
+const PROXY_LIST: &str = "proxy/proxy.json";
+
+/// The proxy's entry, if it and every file it lists are in the bundle.
+fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
+    let text = std::fs::read_to_string(dir.join(PROXY_LIST)).ok()?;
+    let proxy: exploremaps_format::Proxy = serde_json::from_str(&text).ok()?;
+    proxy.levels.iter().map(|l| &l.file).chain(&proxy.glb).all(|f| dir.join(f).exists()).then_some(proxy)
+}
+
+/// The proxy's levels simplified from the scene, coloured by the renderer's
+/// lighting, coded into `proxy/<level>.emmc`, the finest also as a GLB, then
+/// listed in `proxy/proxy.json`.
+fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
+    use exploremaps_format::{meshcode, Proxy, ProxyLevel};
+    let started = std::time::Instant::now();
+    let mut proxy = Proxy { levels: Vec::new(), glb: None };
+    for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
+        let colours = crate::proxy::bake::bake(renderer, &level.mesh, level.error, params.bake_samples, i as u64);
+        let file = format!("proxy/{i}.emmc");
+        let mut data = level.mesh.to_coded();
+        data.colours = colours.clone();
+        let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), message: e.to_string() })?;
+        write(dir, &file, &coded.bytes)?;
+        if i == 0 {
+            write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
+            proxy.glb = Some(PROXY_GLB.to_string());
+        }
+        let (triangles, vertices) = (level.mesh.triangles.len() as u64, level.mesh.positions.len() as u64);
+        proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes: coded.bytes.len() as u64 });
+    }
+    let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
+    tracing::info!("proxy: {} ({:.2} s)", sizes.join(", "), started.elapsed().as_secs_f64());
+    write(dir, PROXY_LIST, serde_json::to_string_pretty(&proxy).expect("JSON of plain values").as_bytes())
+}
+
 fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
     let mut bytes = Vec::new();
     image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality).encode_image(image).expect("JPEG encoding to memory");
@@ -156,7 +197,7 @@ fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
 
 /// Renders what the bundle is missing, for this shard: per probe the cube
 /// faces at every level, a photo-sphere equirectangular JPEG and a thumbnail;
-/// per path a 360° MP4 and its poster. A finished file is never redone and
+/// per path a 360° MP4 and its poster; once, the proxy (the last job). A finished file is never redone and
 /// every file is written atomically, so a killed run loses at most the asset
 /// in progress. graph.json then lists every asset whose files exist.
 pub fn render_missing(
@@ -182,8 +223,13 @@ pub fn render_missing(
         exists(&video) && exists(&poster)
     };
     let probes = graph.probes.len();
-    let jobs: Vec<usize> = (0..probes + graph.paths.len()).filter(|k| k % shard.count == shard.index).collect();
-    let todo: Vec<usize> = jobs.iter().copied().filter(|&k| if k < probes { !probe_done(k) } else { !path_done(k - probes) }).collect();
+    let proxy_job = probes + graph.paths.len();
+    let jobs: Vec<usize> = (0..=proxy_job).filter(|k| k % shard.count == shard.index).collect();
+    let todo: Vec<usize> = jobs
+        .iter()
+        .copied()
+        .filter(|&k| if k < probes { !probe_done(k) } else if k < proxy_job { !path_done(k - probes) } else { proxy_listed(dir).is_none() })
+        .collect();
     let mut report = RenderReport { skipped: jobs.len() - todo.len(), ..Default::default() };
     if !todo.is_empty() {
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
@@ -194,7 +240,10 @@ pub fn render_missing(
         report.video_encoder = Some(encoder.name());
         for (done, &k) in todo.iter().enumerate() {
             progress(done, todo.len());
-            if k < probes {
+            if k == proxy_job {
+                render_proxy(dir, scene, &renderer, &settings.proxy)?;
+                report.proxy_rendered = true;
+            } else if k < probes {
                 let probe = &graph.probes[k];
                 let eye = Vec3::from(probe.position);
                 let (cube, pano, thumb) = probe_files(k, &levels);
@@ -264,6 +313,7 @@ pub fn render_missing(
         path.assets.video = exists(&video).then_some(video);
         path.assets.poster = exists(&poster).then_some(poster);
     }
+    graph.proxy = proxy_listed(dir);
     graph.validate()?;
     write(dir, GRAPH_FILE, graph.to_json().as_bytes())?;
     report.seconds = started.elapsed().as_secs_f64();

@@ -126,7 +126,15 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     // Phase 2, nearest pairs first: A* only where no two-arc detour already
     // beats the pruning bound (an A* route is never shorter than the straight line).
     searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
+    // A* between parts of the navigable space that never touch would search
+    // all of one part before giving up: such pairs are refused at once.
+    let (part, _) = if searches.is_empty() { (Vec::new(), Vec::new()) } else { crate::freespace::components_26(&space.grid, &space.navigable) };
+    let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
     for (i, j) in searches {
+        if part_of(probes[i]) != part_of(probes[j]) {
+            stats.unroutable += 1;
+            continue;
+        }
         let bound = params.prune_ratio * (probes[i] - probes[j]).length();
         let arc = |x: usize, y: usize| paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline));
         let detour = (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));

@@ -108,36 +108,20 @@ pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), ExportError> {
 
 /// A single binary glTF with embedded PNG textures, one primitive per material.
 pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
-    let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: Option<u32>| -> usize {
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        let mut view = json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len() });
-        if let Some(t) = target {
-            view["target"] = json!(t);
-        }
-        bin.extend_from_slice(bytes);
-        views.push(view);
-        views.len() - 1
-    };
+    let mut glb = Glb::default();
     let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
     let bounds = scene.bounds();
-    let view = push_view(&mut bin, &floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(34962));
-    accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.positions.len(), "type": "VEC3",
+    let view = glb.view(&floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
+    let positions = glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.positions.len(), "type": "VEC3",
         "min": bounds.min.to_array(), "max": bounds.max.to_array() }));
-    let mut attributes = json!({ "POSITION": 0 });
+    let mut attributes = json!({ "POSITION": positions });
     if !scene.normals.is_empty() {
-        let view = push_view(&mut bin, &floats(&mut scene.normals.iter().flat_map(|n| n.to_array())), Some(34962));
-        accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.normals.len(), "type": "VEC3" }));
-        attributes["NORMAL"] = json!(accessors.len() - 1);
+        let view = glb.view(&floats(&mut scene.normals.iter().flat_map(|n| n.to_array())), Some(ARRAY_BUFFER));
+        attributes["NORMAL"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.normals.len(), "type": "VEC3" })));
     }
     if !scene.uvs.is_empty() {
-        let view = push_view(&mut bin, &floats(&mut scene.uvs.iter().flat_map(|t| t.to_array())), Some(34962));
-        accessors.push(json!({ "bufferView": view, "componentType": 5126, "count": scene.uvs.len(), "type": "VEC2" }));
-        attributes["TEXCOORD_0"] = json!(accessors.len() - 1);
+        let view = glb.view(&floats(&mut scene.uvs.iter().flat_map(|t| t.to_array())), Some(ARRAY_BUFFER));
+        attributes["TEXCOORD_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.uvs.len(), "type": "VEC2" })));
     }
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
@@ -151,13 +135,13 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         if indices.is_empty() {
             continue;
         }
-        let view = push_view(&mut bin, &indices, Some(34963));
-        accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": indices.len() / 4, "type": "SCALAR" }));
-        primitives.push(json!({ "attributes": attributes, "indices": accessors.len() - 1, "material": m }));
+        let view = glb.view(&indices, Some(ELEMENT_ARRAY_BUFFER));
+        let accessor = glb.accessor(json!({ "bufferView": view, "componentType": UNSIGNED_INT, "count": indices.len() / 4, "type": "SCALAR" }));
+        primitives.push(json!({ "attributes": attributes, "indices": accessor, "material": m }));
     }
     let mut images = Vec::new();
     for i in 0..scene.textures.len() {
-        let view = push_view(&mut bin, &png(scene, i)?, None);
+        let view = glb.view(&png(scene, i)?, None);
         images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": scene.textures[i].name }));
     }
     let materials: Vec<_> = scene
@@ -188,9 +172,6 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
             out
         })
         .collect();
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
     let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
     let document = json!({
         "asset": { "version": "2.0", "generator": "ExploreMaps" },
@@ -202,24 +183,99 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         "materials": materials,
         "textures": textures,
         "images": images,
-        "accessors": accessors,
-        "bufferViews": views,
-        "buffers": [{ "byteLength": bin.len() }],
     });
-    let mut text = serde_json::to_vec(&document).expect("JSON of plain values");
-    while !text.len().is_multiple_of(4) {
-        text.push(b' ');
+    write_atomic(path, &glb.finish(document)).map_err(io(path))
+}
+
+/// A proxy level as a glTF binary: positions, linear vertex colours
+/// (`COLOR_0`, from the baked sRGB ones), triangles, one unlit material
+/// (`KHR_materials_unlit`: the colours already hold the lighting).
+pub fn proxy_glb(name: &str, mesh: &crate::proxy::Mesh, colours: &[[u8; 3]]) -> Vec<u8> {
+    let mut glb = Glb::default();
+    let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
+    let (lo, hi) = mesh.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = if mesh.positions.is_empty() { (glam::Vec3::ZERO, glam::Vec3::ZERO) } else { (lo, hi) };
+    let view = glb.view(&floats(&mut mesh.positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
+    let positions = glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": mesh.positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }));
+    let mut attributes = json!({ "POSITION": positions });
+    if colours.len() == mesh.positions.len() {
+        let linear = floats(&mut colours.iter().flat_map(|c| c.map(crate::render::srgb_to_linear)));
+        let view = glb.view(&linear, Some(ARRAY_BUFFER));
+        attributes["COLOR_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": colours.len(), "type": "VEC3" })));
     }
-    let total = 12 + 8 + text.len() + 8 + bin.len();
-    let mut glb = Vec::with_capacity(total);
-    glb.extend_from_slice(b"glTF");
-    glb.extend_from_slice(&2u32.to_le_bytes());
-    glb.extend_from_slice(&(total as u32).to_le_bytes());
-    glb.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"JSON");
-    glb.extend_from_slice(&text);
-    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"BIN\0");
-    glb.extend_from_slice(&bin);
-    write_atomic(path, &glb).map_err(io(path))
+    let indices: Vec<u8> = mesh.triangles.iter().flat_map(|t| t.iter().flat_map(|i| i.to_le_bytes())).collect();
+    let view = glb.view(&indices, Some(ELEMENT_ARRAY_BUFFER));
+    let accessor = glb.accessor(json!({ "bufferView": view, "componentType": UNSIGNED_INT, "count": mesh.triangles.len() * 3, "type": "SCALAR" }));
+    let document = json!({
+        "asset": { "version": "2.0", "generator": "ExploreMaps" },
+        "extensionsUsed": ["KHR_materials_unlit"],
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0, "name": name }],
+        "meshes": [{ "primitives": [{ "attributes": attributes, "indices": accessor, "material": 0 }] }],
+        "materials": [{ "name": "baked", "pbrMetallicRoughness": { "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 },
+            "extensions": { "KHR_materials_unlit": {} } }],
+    });
+    glb.finish(document)
+}
+
+const FLOAT: u32 = 5126;
+const UNSIGNED_INT: u32 = 5125;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+
+/// A glTF binary being put together: buffer views and accessors over one
+/// binary chunk. (The `gltf` crate reads GLB; writing one is a few lines.)
+#[derive(Default)]
+struct Glb {
+    bin: Vec<u8>,
+    views: Vec<serde_json::Value>,
+    accessors: Vec<serde_json::Value>,
+}
+
+impl Glb {
+    /// Appends `bytes` as a buffer view, 4-byte aligned; returns its index.
+    fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let mut view = json!({ "buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len() });
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        self.bin.extend_from_slice(bytes);
+        self.views.push(view);
+        self.views.len() - 1
+    }
+
+    fn accessor(&mut self, accessor: serde_json::Value) -> usize {
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    /// The file: `document` with the accessors, views and buffer added.
+    fn finish(mut self, mut document: serde_json::Value) -> Vec<u8> {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        document["accessors"] = json!(self.accessors);
+        document["bufferViews"] = json!(self.views);
+        document["buffers"] = json!([{ "byteLength": self.bin.len() }]);
+        let mut text = serde_json::to_vec(&document).expect("JSON of plain values");
+        while !text.len().is_multiple_of(4) {
+            text.push(b' ');
+        }
+        let total = 12 + 8 + text.len() + 8 + self.bin.len();
+        let mut glb = Vec::with_capacity(total);
+        glb.extend_from_slice(b"glTF");
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&(total as u32).to_le_bytes());
+        glb.extend_from_slice(&(text.len() as u32).to_le_bytes());
+        glb.extend_from_slice(b"JSON");
+        glb.extend_from_slice(&text);
+        glb.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+        glb.extend_from_slice(b"BIN\0");
+        glb.extend_from_slice(&self.bin);
+        glb
+    }
 }

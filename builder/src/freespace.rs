@@ -42,7 +42,10 @@
 //! particular scene is shaped beyond these measures: which way the surface faces
 //! (out of the box or into it), and whether floors and a trustworthy scale exist.
 //!
-//! Parameters (defaults): at most 256 cells on the long axis (`max_cells`);
+//! Parameters (defaults): at most 256 cells on the long axis (`max_cells`),
+//! and voxels of at most 0.4 m when walking (`walk_voxel_m`: a door 0.8 m wide
+//! stays open; a large scene is planned again on the finer grid once walking
+//! is chosen);
 //! r = 0.5 % of the bounding-box diagonal L (`near_rel`) unless given in metres,
 //! and at most 0.3 m when walking or when the scale is stated or plausibly
 //! guessed (a probe must pass any door a person passes); the
@@ -863,6 +866,16 @@ const NONE: u32 = u32::MAX;
 /// joined (union-find) with the overlapping runs of the rows below and behind:
 /// a fine grid's open air is a few runs a row, far fewer unions than voxels.
 fn components(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
+    components_by(grid, marked, false)
+}
+
+/// 26-connected components (voxels touching by a face, an edge or a corner),
+/// labelled as [`components`]: the parts a path through voxel centres can join.
+pub(crate) fn components_26(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
+    components_by(grid, marked, true)
+}
+
+fn components_by(grid: &Grid, marked: &[bool], diagonal: bool) -> (Vec<u32>, Vec<usize>) {
     let [nx, ny, nz] = grid.dims;
     let row_runs: Vec<Vec<(u32, u32)>> = (0..ny * nz)
         .into_par_iter()
@@ -895,14 +908,20 @@ fn components(grid: &Grid, marked: &[bool]) -> (Vec<u32>, Vec<usize>) {
         }
         x
     }
+    // Rows met before this one in grid order: below, behind, and with
+    // diagonals the two behind it one up and one down. Diagonally, runs that
+    // only touch end to end meet too.
+    let reach = diagonal as u32;
     for r in 0..ny * nz {
         let (y, z) = (r % ny, r / ny);
-        for q in [(y > 0).then(|| r - 1), (z > 0).then(|| r - ny)].into_iter().flatten() {
+        let behind = [(y > 0).then(|| r - 1), (z > 0).then(|| r - ny)];
+        let corners = [(diagonal && y > 0 && z > 0).then(|| r - ny - 1), (diagonal && y + 1 < ny && z > 0).then(|| r - ny + 1)];
+        for q in behind.into_iter().chain(corners).flatten() {
             let (mine, theirs) = (&row_runs[r], &row_runs[q]);
             let (mut i, mut j) = (0, 0);
             while i < mine.len() && j < theirs.len() {
                 let (a, b) = (mine[i], theirs[j]);
-                if a.0 < b.1 && b.0 < a.1 {
+                if a.0 < b.1 + reach && b.0 < a.1 + reach {
                     let (ra, rb) = (find(&mut parent, (first[r] + i) as u32), find(&mut parent, (first[q] + j) as u32));
                     parent[ra.max(rb) as usize] = ra.min(rb);
                 }
@@ -1022,37 +1041,51 @@ mod tests {
     #[test]
     fn components_match_a_flood_fill_and_are_labelled_in_grid_order() {
         // Random grids of various densities (sparse: many small parts; dense:
-        // runs that meet in U shapes, which union-find must merge late).
+        // runs that meet in U shapes, which union-find must merge late), by
+        // faces and by faces, edges and corners.
         let grid = Grid { origin: Vec3::ZERO, voxel: 1.0, dims: [13, 9, 7] };
-        for density in [3usize, 5, 8, 12] {
-            let marked: Vec<bool> = (0..grid.len()).map(|i| (i * 2_654_435_761usize >> 7) % 16 < density).collect();
-            let (labels, sizes) = components(&grid, &marked);
-            // Reference: breadth-first flood fill from each unlabelled voxel in grid order.
-            let mut reference = vec![NONE; grid.len()];
-            let mut ref_sizes = Vec::new();
-            for seed in 0..grid.len() {
-                if !marked[seed] || reference[seed] != NONE {
-                    continue;
-                }
-                let label = ref_sizes.len() as u32;
-                let mut stack = vec![seed];
-                reference[seed] = label;
-                let mut size = 0;
-                while let Some(i) = stack.pop() {
-                    size += 1;
-                    for n in grid.neighbours(grid.coords(i)) {
-                        let j = grid.index(n);
-                        if marked[j] && reference[j] == NONE {
-                            reference[j] = label;
-                            stack.push(j);
+        for diagonal in [false, true] {
+            let densities: &[usize] = if diagonal { &[1, 2, 3] } else { &[3, 5, 8, 12] };
+            for &density in densities {
+                let marked: Vec<bool> = (0..grid.len()).map(|i| ((i * 2_654_435_761usize) >> 7) % 16 < density).collect();
+                let (labels, sizes) = if diagonal { components_26(&grid, &marked) } else { components(&grid, &marked) };
+                // Reference: a flood fill from each unlabelled voxel in grid order.
+                let mut reference = vec![NONE; grid.len()];
+                let mut ref_sizes = Vec::new();
+                for seed in 0..grid.len() {
+                    if !marked[seed] || reference[seed] != NONE {
+                        continue;
+                    }
+                    let label = ref_sizes.len() as u32;
+                    let mut stack = vec![seed];
+                    reference[seed] = label;
+                    let mut size = 0;
+                    while let Some(i) = stack.pop() {
+                        size += 1;
+                        let c = grid.coords(i).map(|v| v as i64);
+                        for d in 0..27i64 {
+                            let o = [d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1];
+                            let steps = o.iter().filter(|&&v| v != 0).count();
+                            if steps == 0 || (!diagonal && steps > 1) {
+                                continue;
+                            }
+                            let n = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
+                            if n.iter().zip(grid.dims).any(|(&v, d)| v < 0 || v >= d as i64) {
+                                continue;
+                            }
+                            let j = grid.index(n.map(|v| v as usize));
+                            if marked[j] && reference[j] == NONE {
+                                reference[j] = label;
+                                stack.push(j);
+                            }
                         }
                     }
+                    ref_sizes.push(size);
                 }
-                ref_sizes.push(size);
+                assert!(ref_sizes.len() > 1, "density {density}: the grid must have several parts to test");
+                assert_eq!(labels, reference, "density {density}, diagonal {diagonal}");
+                assert_eq!(sizes, ref_sizes, "density {density}, diagonal {diagonal}");
             }
-            assert!(ref_sizes.len() > 1, "density {density}: the grid must have several parts to test");
-            assert_eq!(labels, reference, "density {density}");
-            assert_eq!(sizes, ref_sizes, "density {density}");
         }
     }
 

@@ -34,6 +34,9 @@ pub struct Graph {
     pub bar_order: Vec<u32>,
     #[serde(default)]
     pub coverage: Option<Coverage>,
+    /// A light 3D stand-in of the scene (absent until rendered).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proxy: Option<Proxy>,
     /// Per-stage statistics (times, counts), free-form per stage.
     #[serde(default)]
     pub stats: BTreeMap<String, serde_json::Value>,
@@ -63,6 +66,29 @@ pub struct SceneInfo {
     /// Attribution to show wherever the scene is shown.
     #[serde(default)]
     pub credits: Vec<String>,
+}
+
+/// The scene simplified for an overview and point-to-go: levels coded whole
+/// (the `EMMC` format of [`meshcode`]), each with colour baked from the same
+/// lighting as the panoramas.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Proxy {
+    /// Finest first.
+    pub levels: Vec<ProxyLevel>,
+    /// The finest level as a standard glTF binary (vertex colours, unlit).
+    #[serde(default)]
+    pub glb: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProxyLevel {
+    pub file: String,
+    pub triangles: u64,
+    pub vertices: u64,
+    /// Largest distance from the scene's surface the simplification allowed,
+    /// scene units (an estimate from its quadrics, summed over levels).
+    pub error: f32,
+    pub bytes: u64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -214,6 +240,7 @@ impl Graph {
             paths: Vec::new(),
             bar_order: Vec::new(),
             coverage: None,
+            proxy: None,
             stats: BTreeMap::new(),
         }
     }
@@ -305,6 +332,17 @@ impl Graph {
             }
             if seen.iter().any(|s| !s) {
                 return bad("bar_order leaves out some probes".into());
+            }
+        }
+        if let Some(proxy) = &self.proxy {
+            for level in &proxy.levels {
+                check_asset_name(&level.file).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
+                if !(level.error.is_finite() && level.error >= 0.0) {
+                    return bad(format!("proxy level {} has a negative or non-finite error", level.file));
+                }
+            }
+            if let Some(name) = &proxy.glb {
+                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
             }
         }
         if let Some(c) = &self.coverage {

@@ -8,14 +8,70 @@
 //!   recording every collapse.
 //! - `progressive`: the collapses as vertex splits (Hoppe 1996), so a base
 //!   mesh and an ordered stream of splits rebuild every level exactly.
+//! - `bake`: colour per vertex from the render's lighting, so the proxy looks
+//!   like the panoramas.
 //! - Coding (Edgebreaker connectivity, predicted positions) lives in the format
 //!   crate (`exploremaps_format::meshcode`), so the viewer decodes it in wasm.
+//!
+//! The stage ([`levels`], then [`bake::bake`] per level): the welded scene
+//! simplified to a detail level (25 k triangles by default) and from that to
+//! a base level (2.5 k); `render` writes both into the bundle, coded, and the
+//! detail level as a GLB too.
 
+pub mod bake;
 pub mod progressive;
 pub mod simplify;
 pub mod weld;
 
+use exploremaps_scenes::Scene;
 use glam::Vec3;
+use simplify::{simplify, SimplifyParams};
+
+/// How the bundle's proxy is made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProxyParams {
+    pub detail_triangles: usize,
+    pub base_triangles: usize,
+    /// Quantization of coded positions, bits per axis of the proxy's box.
+    pub bits: u32,
+    /// Lighting samples per vertex when baking colour.
+    pub bake_samples: u32,
+}
+
+impl Default for ProxyParams {
+    fn default() -> Self {
+        ProxyParams { detail_triangles: 25_000, base_triangles: 2_500, bits: 14, bake_samples: 16 }
+    }
+}
+
+/// One level of the proxy: its mesh, and the largest distance from the scene
+/// its simplification allowed (scene units, summed over the levels above it).
+pub struct Level {
+    pub mesh: Mesh,
+    pub error: f32,
+}
+
+/// The proxy's levels, finest first: the welded scene simplified to
+/// `detail_triangles` (or kept whole when smaller), then to `base_triangles`
+/// (left out when the detail level is that small already).
+pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
+    let (welded, _) = weld::weld_scene(scene, 1e-5 * scene.bounds().diagonal());
+    let down = |from: &Level, target: usize| {
+        let s = simplify(&from.mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
+        Level { mesh: s.compact(), error: from.error + s.error }
+    };
+    let whole = Level { mesh: welded, error: 0.0 };
+    let detail = if whole.mesh.triangles.len() > params.detail_triangles { down(&whole, params.detail_triangles) } else { whole };
+    let mut out = Vec::new();
+    if detail.mesh.triangles.len() > 2 * params.base_triangles {
+        let base = down(&detail, params.base_triangles);
+        out.push(detail);
+        out.push(base);
+    } else {
+        out.push(detail);
+    }
+    out
+}
 
 /// An indexed triangle mesh with a group (material) per triangle.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -35,7 +35,7 @@ mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::denoise;
-pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN};
+pub use surface::{srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN};
 pub use gather::GatherParams;
 pub use trace::{Frame, TraceParams, Tracer};
 
@@ -87,6 +87,8 @@ pub struct Settings {
     /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
     /// real bounces or few samples; the cache alone leaves little noise).
     pub denoise: bool,
+    /// The light 3D stand-in written with the panoramas.
+    pub proxy: crate::proxy::ProxyParams,
     pub seed: u64,
 }
 
@@ -104,6 +106,7 @@ impl Settings {
                 video_width: 512,
                 video_keys: 1,
                 denoise: false,
+                proxy: crate::proxy::ProxyParams { bake_samples: 4, ..Default::default() },
                 seed,
             },
             Quality::Final => Settings {
@@ -117,6 +120,7 @@ impl Settings {
                 video_width: 1024,
                 video_keys: 8,
                 denoise: false,
+                proxy: crate::proxy::ProxyParams::default(),
                 seed,
             },
         }
@@ -237,6 +241,35 @@ impl<'a> Renderer<'a> {
         let tan = (0.5 * fov_y).tan();
         let aspect = width as f32 / height as f32;
         self.tracer.render(params, eye, width, height, image, |s, t| (forward + right * ((2.0 * s - 1.0) * tan * aspect) + up * ((1.0 - 2.0 * t) * tan)).normalize())
+    }
+
+    /// The mean radiance leaving the scene's surface around `p`, seen from the
+    /// side `n` points to, lit as the panoramas are (direct light by shadow
+    /// rays, indirect light from the cache): for baking colour onto a
+    /// simplified stand-in whose point `p` lies within `reach` of the surface
+    /// along `n`. Samples are spread over a disc of `radius` across `n`;
+    /// `None` when none finds a surface. Random stream `image`.
+    pub fn surface_radiance(&self, p: Vec3, n: Vec3, radius: f32, reach: f32, samples: u32, image: u64) -> Option<Vec3> {
+        let mut rng = trace::sampler(self.settings.seed, image, 0);
+        let (t1, t2) = n.any_orthonormal_pair();
+        let (mut sum, mut found) = (Vec3::ZERO, 0);
+        for k in 0..samples {
+            // A Fibonacci spiral over the disc: even cover with few samples.
+            let r = radius * ((k as f32 + 0.5) / samples as f32).sqrt();
+            let a = k as f32 * std::f32::consts::PI * (3.0 - 5f32.sqrt());
+            let q = p + (t1 * a.cos() + t2 * a.sin()) * r;
+            let mut ray = crate::raycast::Ray { t_max: 2.0 * reach, ..crate::raycast::Ray::new(q + n * reach, -n) };
+            let Some(hit) = self.tracer.intersect(&mut ray) else { continue };
+            let s = self.tracer.materials.surface(&ray, &hit);
+            let indirect = self.tracer.cache.as_ref().map_or(Vec3::ZERO, |c| c.irradiance(s.position, s.geometric, false));
+            let e = self.tracer.direct(&s, surface::Which::All, &mut rng) + indirect;
+            let c = s.emission + s.albedo / std::f32::consts::PI * e;
+            if c.is_finite() {
+                sum += c;
+                found += 1;
+            }
+        }
+        (found > 0).then(|| sum / found as f32)
     }
 
     /// Tone-mapped sRGB image of linear radiance.
