@@ -2,6 +2,12 @@
 //! (relative) indices resolved, `map_Kd` textures and `map_d` cut-outs loaded
 //! with case-insensitive paths, `Ke` read as emission. Texture coordinates are
 //! flipped to the image convention (v down) used by the whole pipeline.
+//!
+//! MTL colour statements with fewer than three numbers (`Kd 0.5`, which the
+//! MTL format allows: g and b default to r) make tobj 4.0.5 panic (an
+//! `unwrap` in its `parse_float3`): they are completed before tobj reads the
+//! file, and any other panic inside tobj's MTL parser becomes a material
+//! error (the scene then loads grey, with a warning naming the file).
 
 use super::{decode_texture, require_text, resolve_path, LoadError};
 use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
@@ -15,7 +21,7 @@ pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |mtl| match resolve_path(&dir, &mtl.to_string_lossy()) {
-        Some(found) => tobj::load_mtl(found),
+        Some(found) => load_mtl(&found),
         None => Err(tobj::LoadError::OpenFileFailed),
     })
     .map_err(|e| LoadError::malformed(path, format!("not a valid OBJ file ({e}); it may be truncated or corrupt")))?;
@@ -60,6 +66,35 @@ pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     }
     scene.stats.missing_textures = count_missing(&obj_materials, &scene.materials);
     Ok(scene)
+}
+
+/// Reads a material library through tobj, with short colour statements
+/// completed first and tobj's panics caught.
+fn load_mtl(path: &Path) -> tobj::MTLLoadResult {
+    let text = std::fs::read(path).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+    let text = complete_colours(path, &String::from_utf8_lossy(&text));
+    std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut std::io::Cursor::new(text.as_bytes()))).unwrap_or(Err(tobj::LoadError::MaterialParseError))
+}
+
+/// `Ka`, `Kd`, `Ks`, `Ke` (and `Tf`) with one or two numbers get the last one
+/// repeated to three (the MTL format's rule for one number, g = b = r).
+fn complete_colours(path: &Path, text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 16);
+    for (number, line) in text.lines().enumerate() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let colour = matches!(words.first(), Some(&("Ka" | "Kd" | "Ks" | "Ke" | "Tf")));
+        let values = words.len().saturating_sub(1);
+        if colour && (1..3).contains(&values) && words[1..].iter().all(|w| w.parse::<f32>().is_ok()) {
+            let last = words[values];
+            let completed = format!("{} {}", line.trim(), vec![last; 3 - values].join(" "));
+            tracing::warn!("{} line {}: `{}` has {values} of 3 colour numbers; read as `{completed}`", path.display(), number + 1, line.trim());
+            out.push_str(&completed);
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// An empty scene to fill, with the scale left to be guessed.

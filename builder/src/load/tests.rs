@@ -87,6 +87,19 @@ fn undecodable_texture_warns_and_keeps_the_colour() {
 }
 
 #[test]
+fn short_mtl_colours_are_completed_instead_of_crashing_tobj() {
+    // tobj 4.0.5 panics on a colour with fewer than three numbers.
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "m.mtl", b"newmtl grey\nKa 0.1\nKd 0.5 0.25\nnewmtl lamp\nKd 0.2\nKe 3\n");
+    let path = write(dir.path(), "t.obj", format!("mtllib m.mtl\n{}usemtl grey\nf 1 2 3\nusemtl lamp\nf 1 3 4\n", QUAD_OBJ.replace("f 1 2 3 4\n", "")).as_bytes());
+    let scene = load_default(&path).unwrap();
+    let material = |t: usize| &scene.materials[scene.triangle_material[t] as usize];
+    assert_eq!(material(0).base_color, [0.5, 0.25, 0.25, 1.0], "two numbers: the last repeated");
+    assert_eq!(material(1).base_color, [0.2, 0.2, 0.2, 1.0], "one number: grey, as the MTL format says");
+    assert_eq!(material(1).emissive, glam::Vec3::splat(3.0));
+}
+
+#[test]
 fn missing_material_library_warns_and_loads_grey() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "t.obj", format!("mtllib nowhere.mtl\nusemtl x\n{QUAD_OBJ}").as_bytes());
