@@ -202,10 +202,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
     let result = pipeline::plan(&scene, &source, &params);
     spinner.finish_and_clear();
-    let mut plan = result.map_err(|e| match e {
-        pipeline::PlanError::FreeSpace(e) => anyhow::Error::new(BadInput(e.to_string())),
-        other => other.into(),
-    })?;
+    let mut plan = result.map_err(|e| plan_error(e, ""))?;
     // What `exploremaps coverage` needs to measure this bundle again.
     plan.graph.stats.insert(
         "plan".into(),
@@ -323,6 +320,15 @@ fn web_dir() -> Option<std::path::PathBuf> {
 }
 
 /// `exploremaps coverage`: measure a planned bundle's probes again.
+/// Free-space errors come from what the user gave (a start point, a probe, a
+/// near distance): exit code 2, like every bad input.
+fn plan_error(e: pipeline::PlanError, from: &str) -> anyhow::Error {
+    match e {
+        pipeline::PlanError::FreeSpace(e) => anyhow::Error::new(BadInput(format!("{from}{e}"))),
+        other => other.into(),
+    }
+}
+
 fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     let (graph, scene, recorded) = open_bundle(bundle)?;
     let seed = recorded["seed"].as_u64().unwrap_or(1);
@@ -346,7 +352,8 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     let spinner = spinner(format!("measuring coverage of {} probes", graph.probes.len()));
     let result = pipeline::remeasure(&scene, graph, &params);
     spinner.finish_and_clear();
-    let plan = result.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let from = format!("{} (its probes): ", bundle.join(GRAPH_FILE).display());
+    let plan = result.map_err(|e| plan_error(e, &from))?;
     exploremaps_builder::bundle::write_plan(bundle, &plan)?;
     print_plan(&scene, bundle, &plan);
     Ok(())

@@ -232,6 +232,13 @@ fn plan_user_probes_and_bad_planning_arguments() {
     let run = exploremaps(&["render", o]);
     assert_eq!(run.status.code(), Some(2));
     assert!(stderr(&run).contains("graph.json"), "{}", stderr(&run));
+    // A probe moved into the floor slab: a bad bundle (exit 2), not a failure of the program.
+    let mut graph = exploremaps_format::Graph::from_json(&text).unwrap();
+    graph.probes[0].position[1] = graph.scene.bounds_min[1] + 0.01;
+    std::fs::write(out.join("graph.json"), graph.to_json()).unwrap();
+    let run = exploremaps(&["coverage", o]);
+    assert_eq!(run.status.code(), Some(2), "{}", stderr(&run));
+    assert!(stderr(&run).contains("graph.json") && stderr(&run).contains("start point"), "{}", stderr(&run));
 }
 
 #[test]
