@@ -2,6 +2,11 @@
 //! bundle and the web viewer. It serves only files inside the bundle folder (after resolving
 //! symbolic links), answers byte ranges (browsers seek videos with them),
 //! and falls back to the built web viewer for a bundle written without it.
+//!
+//! Limits, so no client can hold the server: a request line of at most 8 KiB
+//! (else 414), headers of at most 8 KiB a line, 100 lines and 64 KiB in all
+//! (else 431), the whole request within 10 s (else 408), and at most 64
+//! connections at once (the next get 503 at once).
 
 use anyhow::{Context, Result};
 use exploremaps_builder::bundle::WEB_VIEWER_FILES;
@@ -137,28 +142,60 @@ fn reason(status: u16) -> &'static str {
         403 => "Forbidden",
         404 => "Not Found",
         405 => "Method Not Allowed",
+        408 => "Request Timeout",
+        414 => "URI Too Long",
         416 => "Range Not Satisfiable",
+        431 => "Request Header Fields Too Large",
+        503 => "Service Unavailable",
         _ => "Internal Server Error",
     }
 }
 
-/// Reads one request from a connection, answers it and closes the connection.
-/// One request a connection (`Connection: close`): no keep-alive bookkeeping,
-/// which is where a browser can end up waiting for an answer that never comes.
-fn handle(stream: std::net::TcpStream, root: &Path, web: Option<&Path>) -> std::io::Result<()> {
-    use std::io::{BufRead, BufReader, Write};
-    stream.set_read_timeout(Some(std::time::Duration::from_secs(10)))?;
-    let mut reader = BufReader::new(stream.try_clone()?);
-    let mut line = String::new();
-    reader.read_line(&mut line)?;
+const MAX_LINE: usize = 8 * 1024;
+const MAX_HEADER_LINES: usize = 100;
+const MAX_HEADER_BYTES: usize = 64 * 1024;
+const REQUEST_TIME: std::time::Duration = std::time::Duration::from_secs(10);
+const MAX_CONNECTIONS: usize = 64;
+
+/// A request's method, URL and `Range` header, or the status refusing it.
+struct Request {
+    method: String,
+    url: String,
+    range: Option<String>,
+}
+
+/// Reads the request line and headers within the limits (module header).
+fn read_request(stream: &std::net::TcpStream) -> Result<Request, u16> {
+    use std::io::{BufRead, BufReader, Read};
+    let started = std::time::Instant::now();
+    let mut reader = BufReader::new(stream.try_clone().map_err(|_| 500u16)?);
+    // One line, at most `MAX_LINE` bytes, before the deadline.
+    let mut next_line = |too_long: u16| -> Result<String, u16> {
+        let left = REQUEST_TIME.checked_sub(started.elapsed()).filter(|d| !d.is_zero()).ok_or(408u16)?;
+        stream.set_read_timeout(Some(left)).map_err(|_| 500u16)?;
+        let mut line = Vec::new();
+        match reader.by_ref().take(MAX_LINE as u64 + 1).read_until(b'\n', &mut line) {
+            Ok(_) if line.len() > MAX_LINE => Err(too_long),
+            Ok(_) => String::from_utf8(line).map_err(|_| 400),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => Err(408),
+            Err(_) => Err(400),
+        }
+    };
+    let line = next_line(414)?;
     let mut parts = line.split_whitespace();
     let (method, url) = (parts.next().unwrap_or("").to_string(), parts.next().unwrap_or("").to_string());
-    let mut range = None;
-    // Headers, up to a sane number and the blank line.
-    for _ in 0..100 {
-        let mut header = String::new();
-        if reader.read_line(&mut header)? == 0 || header.trim().is_empty() {
+    if url.is_empty() {
+        return Err(400);
+    }
+    let (mut range, mut bytes) = (None, 0);
+    for count in 0.. {
+        let header = next_line(431)?;
+        if header.trim().is_empty() {
             break;
+        }
+        bytes += header.len();
+        if count >= MAX_HEADER_LINES || bytes > MAX_HEADER_BYTES {
+            return Err(431);
         }
         if let Some((name, value)) = header.split_once(':') {
             if name.trim().eq_ignore_ascii_case("range") {
@@ -166,8 +203,27 @@ fn handle(stream: std::net::TcpStream, root: &Path, web: Option<&Path>) -> std::
             }
         }
     }
-    let response = if url.is_empty() { text(400, "bad request") } else { respond(root, web, &method, &url, range.as_deref()) };
-    tracing::debug!("{method} {url} -> {}", response.status);
+    Ok(Request { method, url, range })
+}
+
+/// Reads one request from a connection, answers it and closes the connection.
+/// One request a connection (`Connection: close`): no keep-alive bookkeeping,
+/// which is where a browser can end up waiting for an answer that never comes.
+fn handle(stream: std::net::TcpStream, root: &Path, web: Option<&Path>) -> std::io::Result<()> {
+    let (method, response) = match read_request(&stream) {
+        Ok(r) => {
+            let response = respond(root, web, &r.method, &r.url, r.range.as_deref());
+            tracing::debug!("{} {} -> {}", r.method, r.url, response.status);
+            (r.method, response)
+        }
+        Err(status) => (String::new(), text(status, reason(status))),
+    };
+    answer(stream, &method, &response)
+}
+
+fn answer(stream: std::net::TcpStream, method: &str, response: &Response) -> std::io::Result<()> {
+    use std::io::Write;
+    stream.set_write_timeout(Some(REQUEST_TIME))?;
     let mut head = format!(
         "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nConnection: close\r\n",
         response.status,
@@ -208,13 +264,21 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     use std::io::Write;
     let _ = std::io::stdout().flush();
     let web = web.map(Path::to_path_buf);
+    let open = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     for stream in listener.incoming() {
         let Ok(stream) = stream else { continue };
-        let (root, web) = (root.clone(), web.clone());
+        use std::sync::atomic::Ordering;
+        if open.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
+            open.fetch_sub(1, Ordering::SeqCst);
+            let _ = answer(stream, "GET", &text(503, "too many connections; try again"));
+            continue;
+        }
+        let (root, web, open) = (root.clone(), web.clone(), open.clone());
         std::thread::spawn(move || {
             if let Err(e) = handle(stream, &root, web.as_deref()) {
                 tracing::debug!("connection: {e}");
             }
+            open.fetch_sub(1, Ordering::SeqCst);
         });
     }
     Ok(())
@@ -244,5 +308,62 @@ mod tests {
         assert_eq!(byte_range("bytes=5-1", 100), None);
         assert_eq!(byte_range("bytes=0-1,5-6", 100), None);
         assert_eq!(byte_range("items=0-1", 100), None);
+    }
+
+    /// Sends `request` (from another thread: the server may stop reading) and
+    /// returns the status of the answer.
+    fn status_of(address: std::net::SocketAddr, request: Vec<u8>, stall: bool) -> u16 {
+        use std::io::{Read, Write};
+        let mut client = std::net::TcpStream::connect(address).unwrap();
+        let mut writer = client.try_clone().unwrap();
+        let sender = std::thread::spawn(move || {
+            let _ = writer.write_all(&request);
+            if stall {
+                std::thread::sleep(REQUEST_TIME + std::time::Duration::from_secs(2));
+            }
+        });
+        let mut answer = Vec::new();
+        let _ = client.read_to_end(&mut answer);
+        drop(sender);
+        let text = String::from_utf8_lossy(&answer);
+        text.split_whitespace().nth(1).and_then(|s| s.parse().ok()).unwrap_or(0)
+    }
+
+    #[test]
+    fn oversized_slow_and_excess_requests_are_refused() {
+        let bundle = tempfile::tempdir().unwrap();
+        std::fs::write(bundle.path().join("graph.json"), "{}").unwrap();
+        std::fs::write(bundle.path().join("a.txt"), "hello").unwrap();
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let address = listener.local_addr().unwrap();
+        drop(listener);
+        let root = bundle.path().to_path_buf();
+        std::thread::spawn(move || serve(&root, &address.to_string(), None));
+        // Wait until it listens.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while std::net::TcpStream::connect(address).is_err() {
+            assert!(std::time::Instant::now() < deadline, "serve did not start");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        assert_eq!(status_of(address, b"GET /a.txt HTTP/1.1\r\nHost: x\r\n\r\n".to_vec(), false), 200);
+        let huge_header = [b"GET /a.txt HTTP/1.1\r\nX-Big: ".to_vec(), vec![b'a'; 10 << 20], b"\r\n\r\n".to_vec()].concat();
+        assert_eq!(status_of(address, huge_header, false), 431, "a 10 MB header line");
+        let many: String = (0..200).map(|i| format!("X-{i}: 1\r\n")).collect();
+        assert_eq!(status_of(address, format!("GET /a.txt HTTP/1.1\r\n{many}\r\n").into_bytes(), false), 431, "200 header lines");
+        let long_url = format!("GET /{} HTTP/1.1\r\n\r\n", "a".repeat(20_000));
+        assert_eq!(status_of(address, long_url.into_bytes(), false), 414);
+        // Clients that send half a request and stall: each gets 408 after the
+        // request time; while they hold every slot, one more gets 503 at once.
+        // (A moment first, for the threads of the requests above to end.)
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let stalled: Vec<_> = (0..MAX_CONNECTIONS).map(|_| std::thread::spawn(move || status_of(address, b"GET /a.txt HTTP/1.1\r\n".to_vec(), true))).collect();
+        std::thread::sleep(std::time::Duration::from_secs(2));
+        let started = std::time::Instant::now();
+        assert_eq!(status_of(address, b"GET /a.txt HTTP/1.1\r\n\r\n".to_vec(), false), 503, "every slot is held");
+        assert!(started.elapsed() < std::time::Duration::from_secs(2), "refused at once");
+        for s in stalled {
+            assert_eq!(s.join().unwrap(), 408);
+        }
+        assert_eq!(status_of(address, b"GET /a.txt HTTP/1.1\r\n\r\n".to_vec(), false), 200, "slots free again");
     }
 }
