@@ -402,7 +402,7 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
             c["pairs_sharing_view"],
             c["pruned"],
             c["components"],
-            m["ms_per_path"].as_f64().unwrap_or(0.0),
+            1000.0 * m["seconds_per_path"].as_f64().unwrap_or(0.0),
             num(m["min_clearance"].as_f64().unwrap_or(0.0)),
             num(m["near_distance"].as_f64().unwrap_or(0.0)),
             c["seconds"].as_f64().unwrap_or(0.0) + m["seconds"].as_f64().unwrap_or(0.0)

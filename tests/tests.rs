@@ -350,6 +350,43 @@ fn render_fills_in_assets_resumably_and_in_shards() {
 }
 
 #[test]
+fn a_bundle_is_byte_identical_at_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let build = |threads: &str| {
+        let out = dir.path().join(format!("t{threads}"));
+        let args = ["build", "maze:3", "-o", out.to_str().unwrap(), "--samples", "5000", "--quality", "preview", "--face", "64", "--video-width", "128", "--threads", threads];
+        let run = exploremaps(&args);
+        assert!(run.status.success(), "{}", stderr(&run));
+        out
+    };
+    let (one, two) = (build("1"), build("2"));
+    fn files(root: &std::path::Path, dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                files(root, &path, out);
+            } else {
+                out.push(path.strip_prefix(root).unwrap().to_path_buf());
+            }
+        }
+    }
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    files(&one, &one, &mut a);
+    files(&two, &two, &mut b);
+    a.sort();
+    b.sort();
+    assert_eq!(a, b, "the same files");
+    for name in ["graph.json", "coverage.json", "proxy/0.emmc", "paths/0.mp4", "probes/0/pano.jpg", "timings.json"] {
+        assert!(a.contains(&std::path::PathBuf::from(name)), "{name} is written");
+    }
+    let text = std::fs::read_to_string(one.join("graph.json")).unwrap();
+    assert!(!text.contains("\"seconds"), "graph.json holds no timings");
+    for name in a.iter().filter(|n| n.as_os_str() != "timings.json") {
+        assert!(std::fs::read(one.join(name)).unwrap() == std::fs::read(two.join(name)).unwrap(), "{} differs between 1 and 2 threads", name.display());
+    }
+}
+
+#[test]
 fn a_killed_render_leaves_only_whole_files_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let b = dir.path().join("b");

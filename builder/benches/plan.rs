@@ -53,7 +53,7 @@ fn main() {
             stages[5],
             stages[6],
             planning,
-            s["smooth"]["ms_per_path"].as_f64().unwrap_or(0.0),
+            1000.0 * s["smooth"]["seconds_per_path"].as_f64().unwrap_or(0.0),
         );
     }
     println!("paper, Sponza      262267     -     36       10    29 |   exploration 23 s, smoothing 122 s, total planning 189 s (i7 + GTX 670)");

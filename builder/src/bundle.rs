@@ -1,7 +1,9 @@
 //! Writes a bundle folder: `graph.json` (the format crate's schema),
 //! `coverage.json` and the report pictures. Every file is written under a
 //! temporary name and renamed, and graph.json last, so a bundle with a
-//! graph.json is complete.
+//! graph.json is complete. The stages' timings go to `timings.json`, not
+//! graph.json: the same seed gives byte-identical bundles at any thread
+//! count, timings apart.
 
 use crate::files::write_atomic;
 use crate::pipeline::Plan;
@@ -111,7 +113,34 @@ pub fn write_plan(dir: &Path, plan: &Plan) -> Result<(), BundleError> {
     }
     let coverage = serde_json::to_string_pretty(&coverage_json(plan)).expect("JSON of plain values");
     write(dir, "coverage.json", coverage.as_bytes())?;
-    write(dir, GRAPH_FILE, plan.graph.to_json().as_bytes())
+    write_graph(dir, &plan.graph)
+}
+
+/// What varies from run to run, kept out of graph.json.
+pub const TIMINGS_FILE: &str = "timings.json";
+
+/// Writes graph.json without the stages' timings (`seconds`, `seconds_*`),
+/// which are merged into timings.json (written first).
+fn write_graph(dir: &Path, graph: &exploremaps_format::Graph) -> Result<(), BundleError> {
+    let mut graph = graph.clone();
+    let mut timings: serde_json::Map<String, serde_json::Value> =
+        std::fs::read_to_string(dir.join(TIMINGS_FILE)).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or_default();
+    let mut moved = false;
+    for (stage, value) in graph.stats.iter_mut() {
+        let Some(fields) = value.as_object_mut() else { continue };
+        let keys: Vec<String> = fields.keys().filter(|k| *k == "seconds" || k.starts_with("seconds_")).cloned().collect();
+        for key in keys {
+            let entry = timings.entry(stage.clone()).or_insert_with(|| serde_json::json!({}));
+            if let (Some(entry), Some(v)) = (entry.as_object_mut(), fields.remove(&key)) {
+                entry.insert(key, v);
+                moved = true;
+            }
+        }
+    }
+    if moved {
+        write(dir, TIMINGS_FILE, serde_json::to_string_pretty(&timings).expect("JSON of plain values").as_bytes())?;
+    }
+    write(dir, GRAPH_FILE, graph.to_json().as_bytes())
 }
 
 /// Which assets a shard renders: job `k` (probes first, then paths) belongs
@@ -315,7 +344,7 @@ pub fn render_missing(
     }
     graph.proxy = proxy_listed(dir);
     graph.validate()?;
-    write(dir, GRAPH_FILE, graph.to_json().as_bytes())?;
+    write_graph(dir, graph)?;
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
 }

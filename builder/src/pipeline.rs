@@ -170,7 +170,7 @@ fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, graph: &mut format::
         serde_json::json!({
             "paths": smoothed.len(),
             "seconds": smoothing_s,
-            "ms_per_path": 1000.0 * smoothing_s / n,
+            "seconds_per_path": smoothing_s / n,
             "iterations_max": smoothed.iter().map(|s| s.1.iterations).max().unwrap_or(0),
             "blocked_segments": smoothed.iter().map(|s| s.1.blocked_segments).sum::<usize>(),
             "min_clearance": smoothed.iter().map(|s| s.1.min_clearance).fold(f32::INFINITY, f32::min),
