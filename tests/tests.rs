@@ -387,6 +387,73 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
 }
 
 #[test]
+fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
+    use rand::{Rng, SeedableRng};
+    let dir = tempfile::tempdir().unwrap();
+    let planned = dir.path().join("planned");
+    let run = exploremaps(&["plan", "maze:3", "-o", planned.to_str().unwrap(), "--samples", "5000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let render_args = |b: &std::path::Path| -> Vec<String> {
+        ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "64", "--video-width", "128"].map(str::to_string).to_vec()
+    };
+    let copy = |to: &std::path::Path| {
+        std::fs::create_dir_all(to).unwrap();
+        for name in ["graph.json", "coverage.json"] {
+            std::fs::copy(planned.join(name), to.join(name)).unwrap();
+        }
+    };
+    fn files(root: &std::path::Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+        let mut out = Vec::new();
+        let mut stack = vec![root.to_path_buf()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.file_name().unwrap() != "timings.json" {
+                    out.push((p.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&p).unwrap()));
+                }
+            }
+        }
+        out.sort();
+        out
+    }
+    // The uninterrupted run, timed.
+    let whole = dir.path().join("whole");
+    copy(&whole);
+    let started = std::time::Instant::now();
+    let run = exploremaps(&render_args(&whole).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(run.status.success(), "{}", stderr(&run));
+    let duration = started.elapsed();
+    let reference = files(&whole);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(19);
+    let (mut interrupted, mut temporaries) = (0, 0);
+    for kill in 0..20 {
+        let b = dir.path().join(format!("k{kill}"));
+        copy(&b);
+        let at = duration.mul_f64(rng.random_range(0.05..0.95));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(render_args(&b)).env("RUST_LOG", "error").stdout(std::process::Stdio::null()).spawn().unwrap();
+        std::thread::sleep(at);
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        let before = files(&b);
+        interrupted += usize::from(before.len() < reference.len());
+        temporaries += before.iter().filter(|(n, _)| n.file_name().unwrap().to_string_lossy().ends_with(".tmp")).count();
+        let run = exploremaps(&render_args(&b).iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(run.status.success(), "kill {kill} at {at:?}: {}", stderr(&run));
+        let got = files(&b);
+        let names = |f: &[(std::path::PathBuf, Vec<u8>)]| f.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&got), names(&reference), "kill {kill} at {at:?}: the same files, no temporaries left");
+        for ((name, a), (_, b)) in got.iter().zip(&reference) {
+            assert!(a == b, "kill {kill} at {at:?}: {} differs from the uninterrupted run's", name.display());
+        }
+        std::fs::remove_dir_all(&b).unwrap();
+    }
+    println!("{interrupted} of 20 kills interrupted the render, leaving {temporaries} temporary files in all");
+    assert!(interrupted >= 15, "the kills must land mid-render: {interrupted} of 20 did");
+}
+
+#[test]
 fn a_killed_render_leaves_only_whole_files_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let b = dir.path().join("b");

@@ -240,6 +240,10 @@ pub fn render_missing(
     use crate::render::{downsample, equirect_from_cube, photo_sphere_jpeg, Renderer};
     use glam::Vec3;
     let started = std::time::Instant::now();
+    let abandoned = crate::files::remove_abandoned(dir);
+    if abandoned > 0 {
+        tracing::info!("removed {abandoned} temporary files a killed run left behind");
+    }
     let levels = settings.face_levels();
     let pano_width = settings.face.max(1024);
     let exists = |name: &String| dir.join(name).exists();

@@ -1,6 +1,9 @@
 //! Atomic file writes: every output is written under a temporary name in the
 //! same folder and renamed into place, so a crash or a kill never leaves a
-//! half-written file under the real name.
+//! half-written file under the real name. A temporary's name says which
+//! process wrote it (`.<name>.<host>-<pid>.<random>.tmp`), so the leftovers of
+//! a killed run can be told from a running shard's files and removed
+//! ([`remove_abandoned`]).
 
 use std::io::Write;
 use std::path::Path;
@@ -9,7 +12,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut tmp = tempfile::Builder::new().prefix(&format!(".{file_name}.")).suffix(".tmp").tempfile_in(dir)?;
+    let mut tmp = tempfile::Builder::new().prefix(&format!(".{file_name}.{}.", writer())).suffix(".tmp").tempfile_in(dir)?;
     tmp.write_all(bytes)?;
     // Temporary files are private; bundles are meant to be served and shared.
     #[cfg(unix)]
@@ -20,6 +23,45 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     tmp.as_file().sync_data()?;
     tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
+}
+
+/// `<host>-<pid>` of this process.
+fn writer() -> String {
+    format!("{}-{}", host(), std::process::id())
+}
+
+fn host() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname").map(|h| h.trim().replace(['.', '/'], "_")).unwrap_or_else(|_| "host".into())
+}
+
+/// Removes, under `dir`, the temporaries of writers on this host that are no
+/// longer running (a killed render's). Others' are left alone: another
+/// shard may be writing them. Returns how many were removed.
+pub fn remove_abandoned(dir: &Path) -> usize {
+    let ours = format!(".{}-", host());
+    let alive = |pid: &str| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()) && Path::new("/proc").join(pid).exists();
+    let mut removed = 0;
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                stack.push(path);
+                continue;
+            }
+            if !(name.starts_with('.') && name.ends_with(".tmp")) {
+                continue;
+            }
+            // `.<file>.<host>-<pid>.<random>.tmp`: the pid follows our host's marker.
+            let Some(at) = name.rfind(&ours) else { continue };
+            let pid = name[at + ours.len()..].split('.').next().unwrap_or("");
+            if !alive(pid) && pid != std::process::id().to_string() && std::fs::remove_file(&path).is_ok() {
+                removed += 1;
+            }
+        }
+    }
+    removed
 }
 
 #[cfg(test)]
@@ -35,5 +77,22 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap(), b"two");
         let names: Vec<_> = std::fs::read_dir(path.parent().unwrap()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names, vec![std::ffi::OsString::from("out.txt")]);
+    }
+
+    #[test]
+    fn only_the_temporaries_of_dead_writers_on_this_host_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("sub")).unwrap();
+        let (host, me) = (host(), std::process::id());
+        // A pid no process has (above the kernel's largest), this process, another host.
+        let dead = dir.path().join(format!("sub/.a.jpg.{host}-4194304999.x1.tmp"));
+        let running = dir.path().join(format!(".b.jpg.{host}-{me}.x2.tmp"));
+        let elsewhere = dir.path().join(".c.jpg.otherhost-1.x3.tmp");
+        let plain = dir.path().join("d.jpg");
+        for p in [&dead, &running, &elsewhere, &plain] {
+            std::fs::write(p, b"x").unwrap();
+        }
+        assert_eq!(remove_abandoned(dir.path()), 1);
+        assert!(!dead.exists() && running.exists() && elsewhere.exists() && plain.exists());
     }
 }
