@@ -360,30 +360,37 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
         out
     };
     let (one, two) = (build("1"), build("2"));
-    fn files(root: &std::path::Path, dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
+    let (a, b) = (bundle_files(&one), bundle_files(&two));
+    let names = |f: &[(PathBuf, Vec<u8>)]| f.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&a), names(&b), "the same files");
+    for name in ["graph.json", "coverage.json", "proxy/0.emmc", "paths/0.mp4", "probes/0/pano.jpg"] {
+        assert!(names(&a).contains(&PathBuf::from(name)), "{name} is written");
+    }
+    assert!(one.join("timings.json").exists() && two.join("timings.json").exists());
+    let text = std::fs::read_to_string(one.join("graph.json")).unwrap();
+    assert!(!text.contains("\"seconds"), "graph.json holds no timings");
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{} differs between 1 and 2 threads", name.display());
+    }
+}
+
+/// Every file of a bundle but timings.json (which varies by design), with
+/// its bytes, by path.
+fn bundle_files(root: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap().flatten() {
+            let path = entry.path();
             if path.is_dir() {
-                files(root, &path, out);
-            } else {
-                out.push(path.strip_prefix(root).unwrap().to_path_buf());
+                stack.push(path);
+            } else if path.file_name().unwrap() != "timings.json" {
+                out.push((path.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&path).unwrap()));
             }
         }
     }
-    let (mut a, mut b) = (Vec::new(), Vec::new());
-    files(&one, &one, &mut a);
-    files(&two, &two, &mut b);
-    a.sort();
-    b.sort();
-    assert_eq!(a, b, "the same files");
-    for name in ["graph.json", "coverage.json", "proxy/0.emmc", "paths/0.mp4", "probes/0/pano.jpg", "timings.json"] {
-        assert!(a.contains(&std::path::PathBuf::from(name)), "{name} is written");
-    }
-    let text = std::fs::read_to_string(one.join("graph.json")).unwrap();
-    assert!(!text.contains("\"seconds"), "graph.json holds no timings");
-    for name in a.iter().filter(|n| n.as_os_str() != "timings.json") {
-        assert!(std::fs::read(one.join(name)).unwrap() == std::fs::read(two.join(name)).unwrap(), "{} differs between 1 and 2 threads", name.display());
-    }
+    out.sort();
+    out
 }
 
 #[test]
@@ -402,22 +409,6 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
             std::fs::copy(planned.join(name), to.join(name)).unwrap();
         }
     };
-    fn files(root: &std::path::Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
-        let mut out = Vec::new();
-        let mut stack = vec![root.to_path_buf()];
-        while let Some(d) = stack.pop() {
-            for e in std::fs::read_dir(&d).unwrap().flatten() {
-                let p = e.path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.file_name().unwrap() != "timings.json" {
-                    out.push((p.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&p).unwrap()));
-                }
-            }
-        }
-        out.sort();
-        out
-    }
     // The uninterrupted run, timed.
     let whole = dir.path().join("whole");
     copy(&whole);
@@ -425,7 +416,7 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
     let run = exploremaps(&render_args(&whole).iter().map(String::as_str).collect::<Vec<_>>());
     assert!(run.status.success(), "{}", stderr(&run));
     let duration = started.elapsed();
-    let reference = files(&whole);
+    let reference = bundle_files(&whole);
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(19);
     let (mut interrupted, mut temporaries) = (0, 0);
     for kill in 0..20 {
@@ -436,13 +427,13 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
         std::thread::sleep(at);
         child.kill().unwrap(); // SIGKILL
         child.wait().unwrap();
-        let before = files(&b);
+        let before = bundle_files(&b);
         interrupted += usize::from(before.len() < reference.len());
         temporaries += before.iter().filter(|(n, _)| n.file_name().unwrap().to_string_lossy().ends_with(".tmp")).count();
         let run = exploremaps(&render_args(&b).iter().map(String::as_str).collect::<Vec<_>>());
         assert!(run.status.success(), "kill {kill} at {at:?}: {}", stderr(&run));
-        let got = files(&b);
-        let names = |f: &[(std::path::PathBuf, Vec<u8>)]| f.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+        let got = bundle_files(&b);
+        let names = |f: &[(PathBuf, Vec<u8>)]| f.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
         assert_eq!(names(&got), names(&reference), "kill {kill} at {at:?}: the same files, no temporaries left");
         for ((name, a), (_, b)) in got.iter().zip(&reference) {
             assert!(a == b, "kill {kill} at {at:?}: {} differs from the uninterrupted run's", name.display());

@@ -38,6 +38,10 @@ fn host() -> String {
 /// longer running (a killed render's). Others' are left alone: another
 /// shard may be writing them. Returns how many were removed.
 pub fn remove_abandoned(dir: &Path) -> usize {
+    // Liveness is read from /proc: without it (not Linux), nothing is removed.
+    if !Path::new("/proc/self").exists() {
+        return 0;
+    }
     let ours = format!(".{}-", host());
     let alive = |pid: &str| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()) && Path::new("/proc").join(pid).exists();
     let mut removed = 0;
