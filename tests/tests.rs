@@ -377,15 +377,24 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
 /// Every file of a bundle but timings.json (which varies by design), with
 /// its bytes, by path.
 fn bundle_files(root: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
+    bundle_names(root).into_iter().map(|name| {
+        let bytes = std::fs::read(root.join(&name)).unwrap();
+        (name, bytes)
+    }).collect()
+}
+
+/// The paths of a bundle's files but timings.json, sorted. Safe to call while
+/// a render writes into the bundle (entries that vanish are skipped).
+fn bundle_names(root: &std::path::Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap().flatten() {
+        for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
             let path = entry.path();
-            if path.is_dir() {
+            if entry.file_type().is_ok_and(|t| t.is_dir()) {
                 stack.push(path);
             } else if path.file_name().unwrap() != "timings.json" {
-                out.push((path.strip_prefix(root).unwrap().to_path_buf(), std::fs::read(&path).unwrap()));
+                out.push(path.strip_prefix(root).unwrap().to_path_buf());
             }
         }
     }
@@ -418,17 +427,28 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
     let duration = started.elapsed();
     let reference = bundle_files(&whole);
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(19);
-    let (mut interrupted, mut temporaries) = (0, 0);
+    let (mut interrupted, mut unfinished, mut temporaries) = (0, 0, 0);
     for kill in 0..20 {
         let b = dir.path().join(format!("k{kill}"));
         copy(&b);
-        let at = duration.mul_f64(rng.random_range(0.05..0.95));
+        // Kill once a seeded number of the files is out, plus a seeded part
+        // of one file's time: mid-render whatever the machine's load.
+        // (Files come in bursts and the last burst ends the run, so the
+        // count is drawn from the first two thirds.)
+        let files = rng.random_range(2..reference.len() * 2 / 3);
+        let extra = duration.mul_f64(rng.random_range(0.0..0.5) / reference.len() as f64);
         let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(render_args(&b)).env("RUST_LOG", "error").stdout(std::process::Stdio::null()).spawn().unwrap();
-        std::thread::sleep(at);
+        let started = std::time::Instant::now();
+        while bundle_names(&b).iter().filter(|n| !n.to_string_lossy().ends_with(".tmp")).count() < files && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        std::thread::sleep(extra);
+        let at = started.elapsed();
+        interrupted += usize::from(child.try_wait().unwrap().is_none());
         child.kill().unwrap(); // SIGKILL
         child.wait().unwrap();
         let before = bundle_files(&b);
-        interrupted += usize::from(before.len() < reference.len());
+        unfinished += usize::from(before.len() < reference.len());
         temporaries += before.iter().filter(|(n, _)| n.file_name().unwrap().to_string_lossy().ends_with(".tmp")).count();
         let run = exploremaps(&render_args(&b).iter().map(String::as_str).collect::<Vec<_>>());
         assert!(run.status.success(), "kill {kill} at {at:?}: {}", stderr(&run));
@@ -440,7 +460,7 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
         }
         std::fs::remove_dir_all(&b).unwrap();
     }
-    println!("{interrupted} of 20 kills interrupted the render, leaving {temporaries} temporary files in all");
+    println!("{interrupted} of 20 kills interrupted the render, {unfinished} before its last file, leaving {temporaries} temporary files in all");
     assert!(interrupted >= 15, "the kills must land mid-render: {interrupted} of 20 did");
 }
 

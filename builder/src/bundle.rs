@@ -264,7 +264,9 @@ pub fn render_missing(
         .filter(|&k| if k < probes { !probe_done(k) } else if k < proxy_job { !path_done(k - probes) } else { proxy_listed(dir).is_none() })
         .collect();
     let mut report = RenderReport { skipped: jobs.len() - todo.len(), ..Default::default() };
-    if !todo.is_empty() {
+    // The renderer also states its settings in graph.json: a run killed after
+    // its last asset but before graph.json leaves them to the next run.
+    if !todo.is_empty() || !graph.stats.contains_key("render") {
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
         let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
         viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
