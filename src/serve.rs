@@ -74,11 +74,11 @@ fn byte_range(header: &str, len: u64) -> Option<(u64, u64)> {
 }
 
 /// A response: status, content type, extra headers, body.
-struct Response {
-    status: u16,
-    content_type: &'static str,
-    headers: Vec<String>,
-    body: Vec<u8>,
+pub struct Response {
+    pub status: u16,
+    pub content_type: &'static str,
+    pub headers: Vec<String>,
+    pub body: Vec<u8>,
 }
 
 fn text(status: u16, body: &str) -> Response {
@@ -103,7 +103,8 @@ fn locate(root: &Path, web: Option<&Path>, rel: &Path) -> Result<PathBuf, u16> {
     }
 }
 
-fn respond(root: &Path, web: Option<&Path>, method: &str, url: &str, range: Option<&str>) -> Response {
+/// The answer to a parsed request; `root` is the canonical bundle folder.
+pub fn respond(root: &Path, web: Option<&Path>, method: &str, url: &str, range: Option<&str>) -> Response {
     if method != "GET" && method != "HEAD" {
         return text(405, "only GET and HEAD are served");
     }
@@ -158,21 +159,31 @@ const REQUEST_TIME: std::time::Duration = std::time::Duration::from_secs(10);
 const MAX_CONNECTIONS: usize = 64;
 
 /// A request's method, URL and `Range` header, or the status refusing it.
-struct Request {
-    method: String,
-    url: String,
-    range: Option<String>,
+pub struct Request {
+    pub method: String,
+    pub url: String,
+    pub range: Option<String>,
 }
 
-/// Reads the request line and headers within the limits (module header).
+/// Reads the request line and headers from a connection within the limits
+/// (module header).
 fn read_request(stream: &std::net::TcpStream) -> Result<Request, u16> {
-    use std::io::{BufRead, BufReader, Read};
     let started = std::time::Instant::now();
-    let mut reader = BufReader::new(stream.try_clone().map_err(|_| 500u16)?);
-    // One line, at most `MAX_LINE` bytes, before the deadline.
-    let mut next_line = |too_long: u16| -> Result<String, u16> {
+    let mut reader = std::io::BufReader::new(stream.try_clone().map_err(|_| 500u16)?);
+    read_head(&mut reader, || {
         let left = REQUEST_TIME.checked_sub(started.elapsed()).filter(|d| !d.is_zero()).ok_or(408u16)?;
-        stream.set_read_timeout(Some(left)).map_err(|_| 500u16)?;
+        stream.set_read_timeout(Some(left)).map_err(|_| 500u16)
+    })
+}
+
+/// Parses a request's head from `reader` within the size limits; `before_line`
+/// runs before each line is read (the connection sets its deadline there).
+/// Apart from the socket, this is all the parsing a client's bytes reach.
+pub fn read_head(reader: &mut impl std::io::BufRead, mut before_line: impl FnMut() -> Result<(), u16>) -> Result<Request, u16> {
+    use std::io::{BufRead, Read};
+    // One line, at most `MAX_LINE` bytes.
+    let mut next_line = |too_long: u16| -> Result<String, u16> {
+        before_line()?;
         let mut line = Vec::new();
         match reader.by_ref().take(MAX_LINE as u64 + 1).read_until(b'\n', &mut line) {
             Ok(_) if line.len() > MAX_LINE => Err(too_long),
@@ -252,8 +263,10 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     if !root.join(exploremaps_format::GRAPH_FILE).is_file() {
         anyhow::bail!("{}: no graph.json here; is this a bundle folder written by `exploremaps build`?", root.display());
     }
-    if let Err(e) = exploremaps_viewer::native::read_graph(&root) {
-        tracing::warn!("{e}");
+    let graph_file = root.join(exploremaps_format::GRAPH_FILE);
+    let graph = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
+    if let Err(e) = graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| e.to_string())) {
+        tracing::warn!("{}: {e}", graph_file.display());
     }
     let listener = std::net::TcpListener::bind(address).map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;
     let shown = listener.local_addr().map_or(address.to_string(), |a| a.to_string());

@@ -118,9 +118,13 @@ fn render(rays: &RayScene, reachable: &[bool], probes: &[Vec3], width: u32, heig
 }
 
 fn dot(img: &mut RgbImage, x: f32, y: f32, colour: Rgb<u8>) {
+    // A flat scene's view can place a point at infinity.
+    if !(x.is_finite() && y.is_finite()) {
+        return;
+    }
     for dy in -2i32..=2 {
         for dx in -2i32..=2 {
-            let (px, py) = (x as i32 + dx, y as i32 + dy);
+            let (px, py) = ((x as i32).saturating_add(dx), (y as i32).saturating_add(dy));
             if dx * dx + dy * dy <= 5 && px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
                 img.put_pixel(px as u32, py as u32, colour);
             }
@@ -254,5 +258,17 @@ mod tests {
         assert!(greens > 100, "{greens}");
         // The curve ends at 100 % at the right edge: top-right of the plot area.
         assert_eq!(img.get_pixel(200 - 24, 24).0, [0, 160, 0]);
+    }
+
+    #[test]
+    fn dots_at_infinity_or_far_outside_are_left_out() {
+        // A flat scene's top view divides by a zero extent: `plan` on one
+        // triangle overflowed here.
+        let mut img = RgbImage::new(8, 8);
+        for (x, y) in [(f32::INFINITY, 1.0), (f32::NAN, 1.0), (1e30, -1e30), (i32::MAX as f32, 3.0)] {
+            dot(&mut img, x, y, PROBE);
+        }
+        dot(&mut img, 4.0, 4.0, PROBE);
+        assert_eq!(img.get_pixel(4, 4), &PROBE);
     }
 }

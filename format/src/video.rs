@@ -46,11 +46,58 @@ fn frame(yuv: &openh264::decoder::DecodedYUV) -> Frame {
     Frame { width: w as u32, height: h as u32, rgb }
 }
 
+/// Runs a call into `mp4` 0.14, whose sample tables divide by counts a file
+/// may give as zero and index past their ends: such a panic becomes an error.
+fn guarded<T>(call: impl FnOnce() -> T + std::panic::UnwindSafe) -> Result<T, DecodeError> {
+    std::panic::catch_unwind(call).map_err(|_| DecodeError::Container("its sample tables are inconsistent".into()))
+}
+
+/// Checks the sizes of the boxes `mp4` 0.14 walks. It loops forever on a box
+/// smaller than its own header (its skip seeks back to the box's start; size
+/// 0, "to the end of the file", is such a box to it): those are refused here,
+/// as are boxes past their parent's end. Containers are entered as `mp4`
+/// enters them, past the fields that come before their children.
+fn check_boxes(data: &[u8], depth: u32) -> Result<(), String> {
+    if depth > 16 {
+        return Err("boxes nested deeper than 16 levels".into());
+    }
+    let mut at = 0;
+    while data.len() - at >= 8 {
+        let word = |i: usize| u32::from_be_bytes(data[i..i + 4].try_into().unwrap());
+        let name = &data[at + 4..at + 8];
+        let (size, header) = match word(at) {
+            1 if data.len() - at >= 16 => ((u64::from(word(at + 8)) << 32) | u64::from(word(at + 12)), 16),
+            1 => return Err(format!("box at byte {at} is cut off")),
+            s => (u64::from(s), 8),
+        };
+        let name_text = String::from_utf8_lossy(name);
+        if size < header as u64 || size > (data.len() - at) as u64 {
+            return Err(format!("box '{name_text}' at byte {at} claims {size} bytes, with {} left", data.len() - at));
+        }
+        let skip = match name {
+            b"moov" | b"trak" | b"mdia" | b"minf" | b"dinf" | b"edts" | b"mvex" | b"udta" | b"stbl" => Some(0),
+            b"meta" => Some(4),
+            b"stsd" => Some(8),
+            b"avc1" | b"avc3" | b"hev1" | b"hvc1" | b"vp09" => Some(78),
+            b"mp4a" => Some(28),
+            b"tx3g" => Some(38),
+            _ => None,
+        };
+        let body = &data[at + header..at + size as usize];
+        if let Some(skip) = skip.filter(|&k| k <= body.len()) {
+            check_boxes(&body[skip..], depth + 1)?;
+        }
+        at += size as usize;
+    }
+    Ok(())
+}
+
 impl Mp4Decoder {
     pub fn new(bytes: Vec<u8>) -> Result<Mp4Decoder, DecodeError> {
         let err = |e: mp4::Error| DecodeError::Container(e.to_string());
+        check_boxes(&bytes, 0).map_err(DecodeError::Container)?;
         let size = bytes.len() as u64;
-        let reader = mp4::Mp4Reader::read_header(std::io::Cursor::new(bytes), size).map_err(err)?;
+        let reader = guarded(|| mp4::Mp4Reader::read_header(std::io::Cursor::new(bytes), size))?.map_err(err)?;
         let track = reader.tracks().values().find(|t| t.media_type().ok() == Some(mp4::MediaType::H264)).ok_or(DecodeError::NoVideo)?;
         let mut header = Vec::new();
         for ps in [track.sequence_parameter_set().map_err(err)?, track.picture_parameter_set().map_err(err)?] {
@@ -58,7 +105,9 @@ impl Mp4Decoder {
             header.extend_from_slice(ps);
         }
         let (id, samples) = (track.track_id(), track.sample_count());
-        let fps = track.frame_rate() as f32;
+        // Not mp4's `frame_rate`, which divides by a zero timescale.
+        let (timescale, duration) = (track.timescale(), track.trak.mdia.mdhd.duration);
+        let fps = if timescale > 0 && duration > 0 { (samples as f64 * timescale as f64 / duration as f64) as f32 } else { 0.0 };
         // No sync-sample table means every sample is one.
         let key_frames = match &track.trak.mdia.minf.stbl.stss {
             Some(stss) => stss.entries.iter().filter(|&&s| s >= 1 && s <= samples).map(|s| s - 1).collect(),
@@ -98,7 +147,10 @@ impl Mp4Decoder {
         while self.next_sample <= self.samples {
             let sample = self.next_sample;
             self.next_sample += 1;
-            let Some(s) = self.reader.read_sample(self.track, sample).map_err(|e| DecodeError::Container(e.to_string()))? else { continue };
+            let (reader, track) = (&mut self.reader, self.track);
+            let read = guarded(std::panic::AssertUnwindSafe(|| reader.read_sample(track, sample)));
+            let read = read.inspect_err(|_| self.next_sample = self.samples + 1)?;
+            let Some(s) = read.map_err(|e| DecodeError::Container(e.to_string()))? else { continue };
             // MP4 stores NAL units with 4-byte lengths; the decoder wants start codes.
             let mut annex_b = std::mem::take(&mut self.header);
             let mut data: &[u8] = &s.bytes;
@@ -129,4 +181,41 @@ pub fn decode_mp4(bytes: Vec<u8>) -> Result<Vec<Frame>, DecodeError> {
         frames.push(f);
     }
     Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn boxes_smaller_than_their_header_are_refused_not_looped_on() {
+        // Found by fuzzing: mp4 0.14 seeks back to the start of such a box forever.
+        let boxed = |name: &[u8], size: u32, body: &[u8]| [&size.to_be_bytes()[..], name, body].concat();
+        let files = [
+            boxed(b"moov", 16, &boxed(b"free", 0, &[])),
+            boxed(b"moov", 8, &[]).into_iter().chain(boxed(b"free", 4, &[])).collect(),
+            boxed(b"ftyp", 0, b"isom"),
+            boxed(b"moov", 40, &boxed(b"trak", 32, &boxed(b"mdia", 24, &boxed(b"minf", 16, &boxed(b"stbl", 8, &[]))))).into_iter().chain(boxed(b"mdat", 99, &[])).collect(),
+        ];
+        for (i, bytes) in files.into_iter().enumerate() {
+            match Mp4Decoder::new(bytes) {
+                Err(DecodeError::Container(m)) => assert!(m.contains("claims"), "file {i}: {m}"),
+                Err(e) => panic!("file {i}: {e}"),
+                Ok(_) => panic!("file {i} opened"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_zero_timescale_is_an_error_or_a_default_rate_not_a_panic() {
+        // mp4's `frame_rate` divides by the media timescale (found by fuzzing).
+        let mut bytes = include_bytes!("../../fuzz/seeds/mp4/maze.mp4").to_vec();
+        assert_eq!(Mp4Decoder::new(bytes.clone()).unwrap().fps, 25.0);
+        let mdhd = bytes.windows(4).position(|w| w == b"mdhd").unwrap();
+        bytes[mdhd + 16..mdhd + 20].copy_from_slice(&[0; 4]); // version 0: timescale after two times
+        if let Ok(mut video) = Mp4Decoder::new(bytes) {
+            assert_eq!(video.fps, 25.0);
+            while let Ok(Some(_)) = video.next_frame() {}
+        }
+    }
 }

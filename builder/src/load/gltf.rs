@@ -8,12 +8,20 @@ use super::obj::empty_scene;
 use super::LoadError;
 use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The largest buffer or image file a glTF may name (`gltf` reads it whole).
+const MAX_EXTERNAL_BYTES: u64 = 4 << 30;
 
 pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
     let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(bad)?;
+    // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
+    // before checking it exists (mesh.rs:151): that panic is a malformed file.
+    let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
+        .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
+    let gltf::Gltf { document, blob } = parsed.map_err(bad)?;
     let dir = path.parent().unwrap_or(Path::new("."));
+    check_external_files(path, dir, &document)?;
     let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
 
     let textures: Vec<Option<Texture>> = document
@@ -87,6 +95,7 @@ pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
                     tracing::warn!("{}: skipping a {:?} primitive in mesh {}; only triangles are scenes", path.display(), primitive.mode(), mesh.index());
                     continue;
                 }
+                check_attribute_types(path, &primitive)?;
                 let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                 let Some(positions) = reader.read_positions() else { continue };
                 let base = scene.positions.len() as u32;
@@ -142,4 +151,70 @@ fn to_rgba(data: &gltf::image::Data) -> Option<image::RgbaImage> {
         _ => return None,
     };
     image::RgbaImage::from_raw(data.width, data.height, rgba)
+}
+
+/// Checks the files a glTF's buffers and images name before `gltf` reads them
+/// whole: each must be a regular file (a URI naming /dev/zero or a pipe would
+/// never end) of at most `MAX_EXTERNAL_BYTES`, and its name must decode to
+/// UTF-8 (gltf 1.4 panics on one that does not). Missing files are left to
+/// `gltf`, whose error names them.
+fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> Result<(), LoadError> {
+    let buffers = document.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some((format!("buffer {}", b.index()), uri)),
+        gltf::buffer::Source::Bin => None,
+    });
+    let images = document.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some((format!("image {}", i.index()), uri)),
+        gltf::image::Source::View { .. } => None,
+    });
+    for (what, uri) in buffers.chain(images) {
+        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+            PathBuf::from(rest)
+        } else if uri.contains(':') {
+            continue; // data: URIs are decoded in memory; other schemes are refused by gltf
+        } else {
+            match urlencoding::decode(uri) {
+                Ok(name) => dir.join(&*name),
+                Err(_) => return Err(LoadError::malformed(path, format!("{what}'s URI '{uri}' does not decode to a UTF-8 file name"))),
+            }
+        };
+        match std::fs::metadata(&file) {
+            Ok(m) if !m.is_file() => {
+                return Err(LoadError::malformed(path, format!("{what} names {}, which is not a regular file", file.display())));
+            }
+            Ok(m) if m.len() > MAX_EXTERNAL_BYTES => {
+                return Err(LoadError::malformed(
+                    path,
+                    format!("{what} names {}, of {:.1} GiB; buffers and images of at most {} GiB are read", file.display(), m.len() as f64 / (1u64 << 30) as f64, MAX_EXTERNAL_BYTES >> 30),
+                ));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The component types and shapes the glTF specification allows for the
+/// attributes read here. gltf 1.4 does not validate them, and its readers
+/// reach `unreachable!()` on others (indices of floats, found by fuzzing).
+fn check_attribute_types(path: &Path, primitive: &gltf::Primitive) -> Result<(), LoadError> {
+    use gltf::accessor::{DataType::*, Dimensions::*};
+    use gltf::Semantic;
+    // `None` is the index list.
+    let allowed = |semantic: Option<&Semantic>, a: &gltf::Accessor| match semantic {
+        None => matches!((a.data_type(), a.dimensions()), (U8 | U16 | U32, Scalar)),
+        Some(Semantic::Positions | Semantic::Normals) => matches!((a.data_type(), a.dimensions()), (F32, Vec3)),
+        Some(Semantic::TexCoords(_)) => matches!((a.data_type(), a.dimensions()), (F32 | U8 | U16, Vec2)),
+        Some(Semantic::Colors(_)) => matches!((a.data_type(), a.dimensions()), (F32 | U8 | U16, Vec3 | Vec4)),
+        Some(Semantic::Joints(_)) => matches!(a.data_type(), U8 | U16),
+        Some(_) => true,
+    };
+    let indices = primitive.indices().map(|a| (None, a));
+    for (semantic, a) in indices.into_iter().chain(primitive.attributes().map(|(s, a)| (Some(s), a))) {
+        if !allowed(semantic.as_ref(), &a) {
+            let what = semantic.map_or("indices".to_string(), |s| format!("{s:?}"));
+            return Err(LoadError::malformed(path, format!("accessor {} ({what}) holds {:?} {:?}, which glTF does not allow there", a.index(), a.dimensions(), a.data_type())));
+        }
+    }
+    Ok(())
 }

@@ -150,11 +150,32 @@ pub(crate) fn resolve_path(dir: &Path, relative: &str) -> Option<PathBuf> {
     current.is_file().then_some(current)
 }
 
+/// The largest texture side decoded: 16384² RGBA is 1 GiB, and panoramas of
+/// 4096² faces never need more.
+pub(crate) const MAX_TEXTURE_SIDE: u32 = 16384;
+
 /// Decodes an image file into a texture; on failure logs a warning naming both
-/// files and returns `None`, so the material keeps its colour.
+/// files and returns `None`, so the material keeps its colour. Images over
+/// `MAX_TEXTURE_SIDE` are refused from their header, before any allocation.
 pub(crate) fn decode_texture(scene_path: &Path, texture_path: &Path) -> Option<Texture> {
-    match image::open(texture_path) {
+    let decoded = image::ImageReader::open(texture_path).and_then(|r| r.with_guessed_format()).map_err(image::ImageError::IoError).and_then(|mut reader| {
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+        limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+        limits.max_alloc = Some(2 * (MAX_TEXTURE_SIDE as u64).pow(2) * 4);
+        reader.limits(limits);
+        reader.decode()
+    });
+    match decoded {
         Ok(img) => Some(Texture { name: texture_path.display().to_string(), image: img.to_rgba8() }),
+        Err(image::ImageError::Limits(_)) => {
+            tracing::warn!(
+                "{}: texture {} is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes; using the material's colour (scale the image down to use it)",
+                scene_path.display(),
+                texture_path.display()
+            );
+            None
+        }
         Err(e) => {
             tracing::warn!("{}: texture {} cannot be decoded ({e}); using the material's colour", scene_path.display(), texture_path.display());
             None

@@ -4,9 +4,9 @@
 //! flipped to the image convention (v down) used by the whole pipeline.
 //!
 //! MTL colour statements with fewer than three numbers (`Kd 0.5`, which the
-//! MTL format allows: g and b default to r) make tobj 4.0.5 panic (an
-//! `unwrap` in its `parse_float3`): they are completed before tobj reads the
-//! file, and any other panic inside tobj's MTL parser becomes a material
+//! MTL format allows: g and b default to r; or a bare `Kd`) make tobj 4.0.5
+//! panic (an `unwrap` in its `parse_float3`): they are completed, or left out,
+//! before tobj reads the file, and any other panic inside tobj's MTL parser becomes a material
 //! error (the scene then loads grey, with a warning naming the file).
 
 use super::{decode_texture, require_text, resolve_path, LoadError};
@@ -77,14 +77,18 @@ fn load_mtl(path: &Path) -> tobj::MTLLoadResult {
 }
 
 /// `Ka`, `Kd`, `Ks`, `Ke` (and `Tf`) with one or two numbers get the last one
-/// repeated to three (the MTL format's rule for one number, g = b = r).
+/// repeated to three (the MTL format's rule for one number, g = b = r); with
+/// none, the statement is left out.
 fn complete_colours(path: &Path, text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 16);
     for (number, line) in text.lines().enumerate() {
         let words: Vec<&str> = line.split_whitespace().collect();
         let colour = matches!(words.first(), Some(&("Ka" | "Kd" | "Ks" | "Ke" | "Tf")));
         let values = words.len().saturating_sub(1);
-        if colour && (1..3).contains(&values) && words[1..].iter().all(|w| w.parse::<f32>().is_ok()) {
+        if colour && values == 0 {
+            tracing::warn!("{} line {}: `{}` has no colour numbers; left out", path.display(), number + 1, line.trim());
+            continue;
+        } else if colour && (1..3).contains(&values) && words[1..].iter().all(|w| w.parse::<f32>().is_ok()) {
             let last = words[values];
             let completed = format!("{} {}", line.trim(), vec![last; 3 - values].join(" "));
             tracing::warn!("{} line {}: `{}` has {values} of 3 colour numbers; read as `{completed}`", path.display(), number + 1, line.trim());

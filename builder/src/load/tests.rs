@@ -304,3 +304,63 @@ fn hostile_gltf_accessors_are_errors_not_panics() {
         assert!(result.is_err(), "case {i} loaded");
     }
 }
+
+#[test]
+fn gltf_uris_naming_devices_or_undecodable_names_are_errors_not_hangs() {
+    // gltf reads a named file whole (/dev/zero never ends) and panics on a
+    // URI whose %-escapes are not UTF-8.
+    let dir = tempfile::tempdir().unwrap();
+    let data = format!("data:application/octet-stream;base64,{}", base64_encode(&[0u8; 36]));
+    let gltf = |buffer_uri: &str, image_uri: Option<&str>| {
+        let mut json = serde_json::json!({
+            "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [0.0,0.0,0.0]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "buffers": [{"byteLength": 36, "uri": buffer_uri}]
+        });
+        if let Some(uri) = image_uri {
+            json["images"] = serde_json::json!([{"uri": uri}]);
+        }
+        json.to_string()
+    };
+    let cases = [
+        (gltf("../../../../../../../../../dev/zero", None), "not a regular file"),
+        (gltf("file:///dev/zero", None), "not a regular file"),
+        (gltf(&data, Some("../../../../../../../../../dev/zero")), "not a regular file"),
+        (gltf("%FF%FE.bin", None), "UTF-8"),
+    ];
+    for (i, (text, expected)) in cases.iter().enumerate() {
+        let path = write(dir.path(), &format!("u{i}.gltf"), text.as_bytes());
+        let message = error_text(&path);
+        assert!(message.contains(expected), "case {i}: {message}");
+    }
+}
+
+#[test]
+fn textures_over_the_side_limit_are_refused_before_decoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.obj");
+    for (side, decodes) in [(MAX_TEXTURE_SIDE, true), (MAX_TEXTURE_SIDE + 1, false)] {
+        let file = dir.path().join(format!("{side}.png"));
+        image::GrayImage::new(side, 1).save(&file).unwrap();
+        assert_eq!(decode_texture(&scene, &file).is_some(), decodes, "a texture {side} pixels wide");
+    }
+}
+
+#[test]
+fn gltf_accessors_of_the_wrong_type_are_errors_not_panics() {
+    // gltf 1.4 reads float indices into `unreachable!()` (found by fuzzing).
+    let dir = tempfile::tempdir().unwrap();
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let uri = format!("data:application/octet-stream;base64,{}", base64_encode(&positions));
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 0}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": uri}]
+    });
+    let path = write(dir.path(), "float_indices.gltf", json.to_string().as_bytes());
+    assert!(error_text(&path).contains("(indices) holds Vec3 F32"), "{}", error_text(&path));
+}
