@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs every fuzz target (or those named) for SECONDS each, one after the
-# other, and prints executions and crashes per target.
+# Runs every fuzz target (or those named) for SECONDS each or 10 million
+# executions, whichever comes first, one after the other, and prints
+# executions and crashes per target.
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      (default 60 s, all targets)
 # Needs the nightly toolchain and cargo-fuzz (installed here when missing).
 # New inputs go to fuzz/corpus/TARGET, crashes to fuzz/artifacts/TARGET; the
@@ -30,7 +31,7 @@ for t in "${targets[@]}"; do
   log="fuzz/artifacts/$t/last-run.log"
   echo "fuzz: $t for ${seconds} s"
   cargo +nightly fuzz run "${flags[@]}" "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
-    -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 >"$log" 2>&1 || true
+    -max_total_time="$seconds" -runs="${RUNS:-10000000}" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 >"$log" 2>&1 || true
   runs="$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)"
   crashes="$(find "fuzz/artifacts/$t" -type f \( -name 'crash-*' -o -name 'oom-*' -o -name 'timeout-*' -o -name 'slow-unit-*' \) | wc -l)"
   peak="$(grep -o 'stat::peak_rss_mb: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo '?')"

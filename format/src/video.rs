@@ -105,6 +105,10 @@ impl Mp4Decoder {
             header.extend_from_slice(ps);
         }
         let (id, samples) = (track.track_id(), track.sample_count());
+        // Every sample takes at least a byte of the file.
+        if samples as u64 > size {
+            return Err(DecodeError::Container(format!("it claims {samples} frames in {size} bytes")));
+        }
         // Not mp4's `frame_rate`, which divides by a zero timescale.
         let (timescale, duration) = (track.timescale(), track.trak.mdia.mdhd.duration);
         let fps = if timescale > 0 && duration > 0 { (samples as f64 * timescale as f64 / duration as f64) as f32 } else { 0.0 };
@@ -216,6 +220,18 @@ mod tests {
         if let Ok(mut video) = Mp4Decoder::new(bytes) {
             assert_eq!(video.fps, 25.0);
             while let Ok(Some(_)) = video.next_frame() {}
+        }
+    }
+
+    #[test]
+    fn a_frame_count_larger_than_the_file_is_refused_before_allocating() {
+        // A constant sample size lets a tiny file claim 4 billion frames (found by fuzzing).
+        let mut bytes = include_bytes!("../../fuzz/seeds/mp4/maze.mp4").to_vec();
+        let stsz = bytes.windows(4).position(|w| w == b"stsz").unwrap();
+        bytes[stsz + 8..stsz + 16].copy_from_slice(&[0, 0, 0, 1, 0xff, 0xff, 0xff, 0xf0]);
+        match Mp4Decoder::new(bytes) {
+            Err(DecodeError::Container(m)) => assert!(m.contains("4294967280 frames"), "{m}"),
+            other => panic!("{:?}", other.err()),
         }
     }
 }
