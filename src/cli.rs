@@ -133,6 +133,9 @@ pub struct SceneArgs {
     /// Metres per scene unit, when the file does not say (OBJ and PLY never do; it is guessed otherwise).
     #[arg(long)]
     pub metres_per_unit: Option<f32>,
+    /// The most triangles a scene file may hold, checked before its data is read.
+    #[arg(long, default_value_t = exploremaps_builder::load::MAX_TRIANGLES)]
+    pub max_triangles: u64,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

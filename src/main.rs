@@ -123,7 +123,7 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
     if builtin_name.is_none() && (path.exists() || path.extension().is_some()) {
         let spinner = spinner(format!("loading {}", path.display()));
         let started = Instant::now();
-        let scene = load::load(path, &LoadOptions { up, metres_per_unit: args.metres_per_unit })?;
+        let scene = load::load(path, &LoadOptions { up, metres_per_unit: args.metres_per_unit, max_triangles: args.max_triangles })?;
         spinner.finish_and_clear();
         tracing::info!("loaded {} in {:.2} s", path.display(), started.elapsed().as_secs_f64());
         let source = std::fs::canonicalize(path).unwrap_or(path.to_path_buf()).display().to_string();
@@ -210,6 +210,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
             "seed": seed,
             "up": scene_args.up,
             "metres_per_unit": scene_args.metres_per_unit,
+            "max_triangles": scene_args.max_triangles,
             "space": format!("{:?}", planning.space).to_lowercase(),
             "strategy": format!("{:?}", planning.strategy).to_lowercase(),
             "coverage_target": planning.coverage,
@@ -236,6 +237,7 @@ fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
         scene: graph.scene.source.clone(),
         up: recorded["up"].as_str().unwrap_or("y").to_string(),
         metres_per_unit: recorded["metres_per_unit"].as_f64().map(|m| m as f32),
+        max_triangles: recorded["max_triangles"].as_u64().unwrap_or(load::MAX_TRIANGLES),
     };
     let (scene, _) = load_scene(&scene_args, recorded["seed"].as_u64().unwrap_or(1)).map_err(|e| BadInput(format!("the bundle's scene {}: {e:#}", graph.scene.source)))?;
     Ok((graph, scene, recorded))

@@ -5,7 +5,7 @@
 //! image is a warning, not a failed load.
 
 use super::obj::empty_scene;
-use super::LoadError;
+use super::{check_triangle_count, LoadError};
 use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 /// The largest buffer or image file a glTF may name (`gltf` reads it whole).
 const MAX_EXTERNAL_BYTES: u64 = 4 << 30;
 
-pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
     let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
     // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
     // before checking it exists (mesh.rs:151): that panic is a malformed file.
@@ -80,6 +80,12 @@ pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
         Some(s) => s.nodes().collect(),
         None => document.nodes().collect(),
     };
+    let mut memo = vec![None; document.nodes().len()];
+    let mut count = 0u64;
+    for node in &roots {
+        count = count.saturating_add(instanced_triangles(path, node, 0, &mut memo)?.0);
+    }
+    check_triangle_count(path, count, max_triangles)?;
     let mut with_normals = true;
     let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
@@ -192,6 +198,35 @@ fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> R
         }
     }
     Ok(())
+}
+
+/// The most node instances a scene's hierarchy may make.
+const MAX_NODE_INSTANCES: u64 = 1 << 24;
+
+/// The triangles and node instances a node and its descendants make, from
+/// the accessors' counts, before any data is read; saturating and memoized
+/// per node, as a hierarchy can name the same child many times at every level.
+fn instanced_triangles(path: &Path, node: &gltf::Node, depth: usize, memo: &mut [Option<(u64, u64)>]) -> Result<(u64, u64), LoadError> {
+    if depth > 64 {
+        return Err(LoadError::malformed(path, "node hierarchy deeper than 64 levels (a cycle?)"));
+    }
+    if let Some(counts) = memo[node.index()] {
+        return Ok(counts);
+    }
+    let own: u64 = node.mesh().map_or(0, |mesh| {
+        let triangles = mesh.primitives().filter(|p| p.mode() == gltf::mesh::Mode::Triangles);
+        triangles.map(|p| p.indices().or_else(|| p.get(&gltf::Semantic::Positions)).map_or(0, |a| a.count() as u64 / 3)).sum()
+    });
+    let (mut triangles, mut instances) = (own, 1u64);
+    for child in node.children() {
+        let (t, i) = instanced_triangles(path, &child, depth + 1, memo)?;
+        (triangles, instances) = (triangles.saturating_add(t), instances.saturating_add(i));
+    }
+    if instances > MAX_NODE_INSTANCES {
+        return Err(LoadError::malformed(path, format!("its node hierarchy makes more than {MAX_NODE_INSTANCES} node instances (children named many times over)")));
+    }
+    memo[node.index()] = Some((triangles, instances));
+    Ok((triangles, instances))
 }
 
 /// The component types and shapes the glTF specification allows for the

@@ -21,11 +21,17 @@ pub struct LoadOptions {
     pub up: Vec3,
     /// Metres per scene unit; `None` keeps the file's (glTF: metres) or guesses.
     pub metres_per_unit: Option<f32>,
+    /// The most triangles a file may hold, checked from its header or a scan
+    /// before its data is decoded.
+    pub max_triangles: u64,
 }
+
+/// The default of [`LoadOptions::max_triangles`], about 200 times the Crytek Sponza.
+pub const MAX_TRIANGLES: u64 = 50_000_000;
 
 impl Default for LoadOptions {
     fn default() -> LoadOptions {
-        LoadOptions { up: Vec3::Y, metres_per_unit: None }
+        LoadOptions { up: Vec3::Y, metres_per_unit: None, max_triangles: MAX_TRIANGLES }
     }
 }
 
@@ -55,6 +61,8 @@ pub enum LoadError {
     Malformed { path: PathBuf, detail: String },
     #[error("{path} holds no usable triangles{dropped}; check that it is a triangle or polygon mesh (point clouds and lines are not scenes)")]
     Empty { path: PathBuf, dropped: String },
+    #[error("{path} holds {count} triangles, more than the limit of {limit}; --max-triangles {count} loads it anyway (memory grows with the count)")]
+    TooLarge { path: PathBuf, count: u64, limit: u64 },
 }
 
 impl LoadError {
@@ -63,14 +71,22 @@ impl LoadError {
     }
 }
 
+/// Refuses a file that holds (or claims) more than `limit` triangles.
+fn check_triangle_count(path: &Path, count: u64, limit: u64) -> Result<(), LoadError> {
+    if count > limit {
+        return Err(LoadError::TooLarge { path: path.to_path_buf(), count, limit });
+    }
+    Ok(())
+}
+
 /// Loads a scene file, choosing the format by extension.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, LoadError> {
     let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io { path: path.to_path_buf(), source })?;
     let mut scene = match extension.as_str() {
-        "obj" => obj::load(path, &bytes)?,
-        "gltf" | "glb" => gltf::load(path, &bytes)?,
-        "ply" => ply::load(path, &bytes)?,
+        "obj" => obj::load(path, &bytes, options.max_triangles)?,
+        "gltf" | "glb" => gltf::load(path, &bytes, options.max_triangles)?,
+        "ply" => ply::load(path, &bytes, options.max_triangles)?,
         _ => return Err(LoadError::UnknownFormat { path: path.to_path_buf(), extension }),
     };
     scene.name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();

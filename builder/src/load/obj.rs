@@ -9,15 +9,16 @@
 //! before tobj reads the file, and any other panic inside tobj's MTL parser becomes a material
 //! error (the scene then loads grey, with a warning naming the file).
 
-use super::{decode_texture, require_text, resolve_path, LoadError};
+use super::{check_triangle_count, decode_texture, require_text, resolve_path, LoadError};
 use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
     require_text(path, bytes, "OBJ")?;
+    check_triangle_count(path, count_triangles(bytes), max_triangles)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |mtl| match resolve_path(&dir, &mtl.to_string_lossy()) {
@@ -99,6 +100,17 @@ fn complete_colours(path: &Path, text: &str) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The triangles the `f` statements make once fan-triangulated, counted
+/// before tobj reads the file (a few hundred MB a second).
+fn count_triangles(bytes: &[u8]) -> u64 {
+    bytes
+        .split(|&b| b == b'\n')
+        .map(|line| line.trim_ascii_start())
+        .filter(|line| line.len() > 1 && line[0] == b'f' && line[1].is_ascii_whitespace())
+        .map(|line| (line[1..].split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty()).count() as u64).saturating_sub(2))
+        .sum()
 }
 
 /// An empty scene to fill, with the scale left to be guessed.

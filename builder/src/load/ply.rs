@@ -3,7 +3,7 @@
 //! elements with a `vertex_indices` (or `vertex_index`) list, fan-triangulated.
 
 use super::obj::empty_scene;
-use super::LoadError;
+use super::{check_triangle_count, LoadError};
 use exploremaps_scenes::{Material, Scene};
 use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::Parser;
@@ -36,13 +36,22 @@ fn index_list(p: &Property) -> Option<Vec<i64>> {
     })
 }
 
-pub(super) fn load(path: &Path, bytes: &[u8]) -> Result<Scene, LoadError> {
+pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
     let parser = Parser::<DefaultElement>::new();
-    let ply = parser
-        .read_ply(&mut std::io::Cursor::new(bytes))
-        .map_err(|e| LoadError::malformed(path, format!("not a valid PLY file ({e}); it may be truncated or corrupt")))?;
-    let vertices = ply.payload.get("vertex").ok_or_else(|| LoadError::malformed(path, "no 'vertex' element in the header"))?;
-    let faces = ply.payload.get("face").map(Vec::as_slice).unwrap_or(&[]);
+    let bad = |e: ply_rs_bw::parser::ParseError| LoadError::malformed(path, format!("not a valid PLY file ({e}); it may be truncated or corrupt"));
+    let mut reader = ply_rs_bw::parser::Reader::new(std::io::BufReader::new(std::io::Cursor::new(bytes)));
+    let header = parser.read_header(&mut reader).map_err(bad)?;
+    // The header's counts, checked before the payload is read: every element
+    // takes at least a byte, and every face makes at least one triangle.
+    for element in header.elements.values() {
+        if element.count > bytes.len() {
+            return Err(LoadError::malformed(path, format!("its header declares {} '{}' elements in a file of {} bytes; the file is truncated or its header is wrong", element.count, element.name, bytes.len())));
+        }
+    }
+    check_triangle_count(path, header.elements.get("face").map_or(0, |f| f.count as u64), max_triangles)?;
+    let payload = parser.read_payload(&mut reader, &header).map_err(bad)?;
+    let vertices = payload.get("vertex").ok_or_else(|| LoadError::malformed(path, "no 'vertex' element in the header"))?;
+    let faces = payload.get("face").map(Vec::as_slice).unwrap_or(&[]);
     let get = |e: &DefaultElement, key: &str| e.get(key).and_then(scalar);
 
     let mut scene = empty_scene(vec![Material::diffuse("default", [0.75, 0.75, 0.75])], Vec::new());

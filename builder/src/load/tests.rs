@@ -176,7 +176,7 @@ fn ply_ascii_and_binary_load_the_same_mesh() {
 fn up_axis_z_is_rotated_to_y() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "z.obj", b"v 0 0 0\nv 1 0 0\nv 0 0 5\nf 1 2 3\n");
-    let options = LoadOptions { up: parse_up_axis("z").unwrap(), metres_per_unit: Some(0.2) };
+    let options = LoadOptions { up: parse_up_axis("z").unwrap(), metres_per_unit: Some(0.2), ..Default::default() };
     let scene = load(&path, &options).unwrap();
     let b = scene.bounds();
     assert!((b.max.y - 5.0).abs() < 1e-5 && b.max.z.abs() < 1e-5, "{b:?}");
@@ -363,4 +363,44 @@ fn gltf_accessors_of_the_wrong_type_are_errors_not_panics() {
     });
     let path = write(dir.path(), "float_indices.gltf", json.to_string().as_bytes());
     assert!(error_text(&path).contains("(indices) holds Vec3 F32"), "{}", error_text(&path));
+}
+
+#[test]
+fn files_over_the_triangle_limit_or_claiming_absurd_counts_fail_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let limit = |n| LoadOptions { max_triangles: n, ..Default::default() };
+    let quad = write(dir.path(), "quad.obj", QUAD_OBJ.as_bytes());
+    assert!(load(&quad, &limit(2)).is_ok());
+    let message = load(&quad, &limit(1)).unwrap_err().to_string();
+    assert!(message.contains("holds 2 triangles") && message.contains("--max-triangles 2"), "{message}");
+    // A PLY header may claim anything; its counts are checked before the payload.
+    let header = |vertices: u64, faces: u64| format!("ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n");
+    let huge = write(dir.path(), "huge.ply", header(1 << 31, 1).as_bytes());
+    assert!(error_text(&huge).contains("declares 2147483648 'vertex' elements"), "{}", error_text(&huge));
+    let mut many = header(3, 40).into_bytes();
+    many.resize(many.len() + 36 + 40 * 13, 0);
+    let many = write(dir.path(), "many.ply", &many);
+    assert!(load(&many, &limit(39)).unwrap_err().to_string().contains("holds 40 triangles"));
+    // glTF: a node graph naming one child ten times at each of 30 levels
+    // instances its triangle 10^30 times; counted without walking it.
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let uri = format!("data:application/octet-stream;base64,{}", base64_encode(&positions));
+    let mut nodes: Vec<serde_json::Value> = (0..30).map(|i| serde_json::json!({"children": vec![i + 1; 10]})).collect();
+    nodes.push(serde_json::json!({"mesh": 0}));
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": nodes,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": uri}]
+    });
+    let nested = write(dir.path(), "nested.gltf", json.to_string().as_bytes());
+    let started = std::time::Instant::now();
+    assert!(error_text(&nested).contains("node instances"), "{}", error_text(&nested));
+    assert!(started.elapsed().as_secs() < 5);
+    let mut json = json;
+    json["nodes"] = serde_json::json!([{"children": vec![1; 100]}, {"mesh": 0}]);
+    let hundred = write(dir.path(), "hundred.gltf", json.to_string().as_bytes());
+    assert_eq!(load(&hundred, &limit(100)).unwrap().triangles.len(), 100);
+    assert!(load(&hundred, &limit(99)).unwrap_err().to_string().contains("holds 100 triangles"));
 }
