@@ -44,10 +44,16 @@ pub enum Command {
         bundle: PathBuf,
         #[command(flatten)]
         render: RenderArgs,
-        /// Render only shard i of n (i/n, 0-based) of the probes and paths; shards
-        /// share the folder and need no other coordination.
+        /// Render only shard i of n (i/n, 0-based) of the probes, paths and proxy;
+        /// shards share the folder and need no other coordination, and leave
+        /// graph.json to --finalize. `auto` reads i and n from Slurm's job-array
+        /// variables or a Kubernetes indexed Job's (`auto/N`: n is N).
         #[arg(long, value_parser = parse_shard)]
-        shard: Option<(usize, usize)>,
+        shard: Option<ShardArg>,
+        /// After the shards of a split render: check that every asset exists and
+        /// decodes, then write graph.json; exits 1 listing what is missing otherwise.
+        #[arg(long, conflicts_with = "shard")]
+        finalize: bool,
     },
     /// Measure again how much reachable surface a bundle's probes see; rewrites
     /// coverage.json and the coverage pictures.
@@ -252,11 +258,84 @@ pub enum QualityArg {
     Final,
 }
 
-fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+/// `--shard`: given, or to be read from the scheduler's environment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShardArg {
+    Given(usize, usize),
+    Auto(Option<usize>),
+}
+
+fn parse_shard(text: &str) -> Result<ShardArg, String> {
+    if let Some(rest) = text.strip_prefix("auto") {
+        return match rest.strip_prefix('/') {
+            None if rest.is_empty() => Ok(ShardArg::Auto(None)),
+            Some(n) => match n.trim().parse::<usize>() {
+                Ok(n) if n > 0 => Ok(ShardArg::Auto(Some(n))),
+                _ => Err(format!("{text}: expected auto or auto/N with N >= 1")),
+            },
+            None => Err(format!("{text}: expected auto or auto/N")),
+        };
+    }
+    let (i, n) = parse_fraction(text)?;
+    Ok(ShardArg::Given(i, n))
+}
+
+/// The shard a scheduler gave this process, from its environment (`var`
+/// looks a variable up): Slurm job arrays (`SLURM_ARRAY_TASK_ID` with
+/// `SLURM_ARRAY_TASK_COUNT`, or with `_MIN` and `_MAX`), then Kubernetes
+/// indexed Jobs (`JOB_COMPLETION_INDEX`, the count given as `auto/N`).
+/// Returns the index, the count and where they came from.
+pub fn shard_from_env(count: Option<usize>, var: impl Fn(&str) -> Option<String>) -> Result<(usize, usize, &'static str), String> {
+    let number = |name: &str| -> Result<Option<usize>, String> {
+        var(name).map(|v| v.trim().parse::<usize>().map_err(|_| format!("{name}={v} is not a number"))).transpose()
+    };
+    let checked = |i: usize, n: usize, from: &'static str| if i < n { Ok((i, n, from)) } else { Err(format!("{from}: shard {i} of {n} is out of range")) };
+    if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        let (min, max) = (number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0), number("SLURM_ARRAY_TASK_MAX")?);
+        let n = count.or(number("SLURM_ARRAY_TASK_COUNT")?).or(max.and_then(|m| (m + 1).checked_sub(min)));
+        let n = n.ok_or("SLURM_ARRAY_TASK_ID is set but not SLURM_ARRAY_TASK_COUNT nor _MAX; give the count as --shard auto/N")?;
+        return checked(id.checked_sub(min).ok_or(format!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"))?, n, "Slurm job array");
+    }
+    if let Some(index) = number("JOB_COMPLETION_INDEX")? {
+        let n = count.ok_or("JOB_COMPLETION_INDEX is set (a Kubernetes indexed Job); give the Job's completions as --shard auto/N")?;
+        return checked(index, n, "Kubernetes indexed Job");
+    }
+    Err("--shard auto: neither SLURM_ARRAY_TASK_ID (a Slurm job array) nor JOB_COMPLETION_INDEX (a Kubernetes indexed Job) is set; give the shard as i/n".into())
+}
+
+fn parse_fraction(text: &str) -> Result<(usize, usize), String> {
     let (i, n) = text.split_once('/').ok_or_else(|| format!("{text}: expected i/n, e.g. 0/4"))?;
     let (i, n): (usize, usize) = (i.trim().parse().map_err(|e| format!("{text}: {e}"))?, n.trim().parse().map_err(|e| format!("{text}: {e}"))?);
     if n == 0 || i >= n {
         return Err(format!("{text}: need 0 <= i < n"));
     }
     Ok((i, n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn shards_come_from_slurm_arrays_and_kubernetes_indexed_jobs() {
+        assert_eq!(parse_shard("auto"), Ok(ShardArg::Auto(None)));
+        assert_eq!(parse_shard("auto/8"), Ok(ShardArg::Auto(Some(8))));
+        assert_eq!(parse_shard("1/4"), Ok(ShardArg::Given(1, 4)));
+        assert!(parse_shard("auto/0").is_err() && parse_shard("autox").is_err() && parse_shard("4/4").is_err());
+        let slurm = [("SLURM_ARRAY_TASK_ID", "2"), ("SLURM_ARRAY_TASK_COUNT", "4")];
+        assert_eq!(shard_from_env(None, env(&slurm)), Ok((2, 4, "Slurm job array")));
+        // `--array=1-4`: ids from 1, shards from 0.
+        let from_one = [("SLURM_ARRAY_TASK_ID", "4"), ("SLURM_ARRAY_TASK_MIN", "1"), ("SLURM_ARRAY_TASK_MAX", "4")];
+        assert_eq!(shard_from_env(None, env(&from_one)), Ok((3, 4, "Slurm job array")));
+        let kubernetes = [("JOB_COMPLETION_INDEX", "5")];
+        assert_eq!(shard_from_env(Some(8), env(&kubernetes)), Ok((5, 8, "Kubernetes indexed Job")));
+        assert!(shard_from_env(None, env(&kubernetes)).unwrap_err().contains("auto/N"));
+        assert!(shard_from_env(Some(4), env(&[("JOB_COMPLETION_INDEX", "4")])).unwrap_err().contains("out of range"));
+        assert!(shard_from_env(None, env(&[("SLURM_ARRAY_TASK_ID", "x")])).unwrap_err().contains("not a number"));
+        assert!(shard_from_env(None, env(&[])).unwrap_err().contains("neither"));
+    }
 }

@@ -7,7 +7,7 @@ mod serve;
 
 use anyhow::{bail, Result};
 use clap::Parser;
-use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs};
+use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs, ShardArg};
 use exploremaps_builder::render::{Quality, Settings};
 use exploremaps_builder::explore::{ExploreParams, Strategy};
 use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
@@ -92,7 +92,19 @@ fn run(cli: &Cli) -> Result<()> {
             plan(job, cli.seed)?;
             render(&job.output, &settings, None)
         }
-        Command::Render { bundle, render: args, shard } => render(bundle, &render_settings(args, cli.seed)?, *shard),
+        Command::Render { bundle, finalize: true, .. } => finalize(bundle),
+        Command::Render { bundle, render: args, shard, .. } => {
+            let shard = match shard {
+                None => None,
+                Some(ShardArg::Given(i, n)) => Some((*i, *n)),
+                Some(ShardArg::Auto(count)) => {
+                    let (i, n, from) = cli::shard_from_env(*count, |name| std::env::var(name).ok()).map_err(BadInput)?;
+                    tracing::info!("shard {i}/{n}, from the {from}'s environment");
+                    Some((i, n))
+                }
+            };
+            render(bundle, &render_settings(args, cli.seed)?, shard)
+        }
         Command::View { bundle, probe, yaw, pitch, fov, link, tour, benchmark } => {
             use exploremaps_viewer::{native, ui::Link};
             let link = match link {
@@ -307,6 +319,19 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
         report.seconds,
         report.video_encoder.map(|e| format!(", videos by {e}")).unwrap_or_default()
     );
+    if count > 1 {
+        println!("shard {index}/{count} done; when every shard is, `exploremaps render {} --finalize` writes graph.json", bundle.display());
+    }
+    Ok(())
+}
+
+/// `render --finalize`: completes a split render (see `bundle::finalize`).
+fn finalize(bundle: &Path) -> Result<()> {
+    let graph_path = bundle.join(GRAPH_FILE);
+    let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
+    let mut graph = Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?;
+    let checked = exploremaps_builder::bundle::finalize(bundle, &mut graph)?;
+    println!("{}: complete, {checked} files checked; graph.json written", bundle.display());
     Ok(())
 }
 

@@ -249,7 +249,9 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     assert!(run.status.success(), "{}", stderr(&run));
     let sharded = dir.path().join("sharded");
     std::fs::create_dir_all(&sharded).unwrap();
-    std::fs::copy(one.join("graph.json"), sharded.join("graph.json")).unwrap();
+    for entry in std::fs::read_dir(&one).unwrap().flatten() {
+        std::fs::copy(entry.path(), sharded.join(entry.file_name())).unwrap();
+    }
     let small = ["--quality", "preview", "--face", "64", "--video-width", "128"];
     let render = |bundle: &std::path::Path, extra: &[&str]| {
         let mut args = vec!["render", bundle.to_str().unwrap()];
@@ -304,25 +306,29 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let run = render(&one, &[]);
     assert!(stdout(&run).contains("rendered 1 probes and 1 paths"), "{}", stdout(&run));
     assert!(one.join("probes/1/64_pz.jpg").exists() && one.join("paths/0.mp4").exists());
-    // Two shards produce the same files as one run.
-    for shard in ["0/2", "1/2"] {
-        let run = render(&sharded, &["--shard", shard]);
-        assert!(run.status.success(), "{}", stderr(&run));
-    }
-    let graph_sharded = exploremaps_format::Graph::from_json(&std::fs::read_to_string(sharded.join("graph.json")).unwrap()).unwrap();
-    for (a, b) in graph.probes.iter().zip(&graph_sharded.probes) {
-        assert_eq!(a.assets, b.assets, "the last shard lists every asset");
-        for name in a.assets.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.assets.equirect).chain(&a.assets.thumbnail) {
-            assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
-        }
-    }
-    for p in &graph.paths {
-        let name = p.assets.video.as_ref().unwrap();
-        assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
-    }
-    assert_eq!(graph_sharded.proxy, graph.proxy, "one shard made the proxy, the other lists it");
-    for name in proxy.levels.iter().map(|l| &l.file).chain(&proxy.glb) {
-        assert_eq!(std::fs::read(one.join(name)).unwrap(), std::fs::read(sharded.join(name)).unwrap(), "{name}");
+    // Two shards produce the same files as one run; they leave graph.json to
+    // --finalize, which refuses until every shard is done and every file decodes.
+    let planned = std::fs::read(sharded.join("graph.json")).unwrap();
+    let finalize = || exploremaps(&["render", sharded.to_str().unwrap(), "--finalize"]);
+    let run = render(&sharded, &["--shard", "0/2"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), planned, "a shard does not touch graph.json");
+    let run = finalize();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(stderr(&run).contains("shard 1/2 has not finished") && stderr(&run).contains("probes/1/pano.jpg (shard 1/2): missing"), "{}", stderr(&run));
+    let run = render(&sharded, &["--shard", "1/2"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    std::fs::write(sharded.join("probes/2/64_px.jpg"), b"\xff\xd8 torn").unwrap();
+    let run = finalize();
+    assert!(stderr(&run).contains("probes/2/64_px.jpg (shard 0/2): does not decode") && stderr(&run).contains("removed"), "{}", stderr(&run));
+    assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), planned);
+    let run = render(&sharded, &["--shard", "0/2"]);
+    assert!(stdout(&run).contains("rendered 1 probes and 0 paths"), "{}", stdout(&run));
+    let run = finalize();
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), std::fs::read(one.join("graph.json")).unwrap(), "finalize writes the graph one run writes");
+    for (name, bytes) in bundle_files(&one).into_iter().filter(|(n, _)| !n.to_string_lossy().ends_with(".tmp")) {
+        assert!(std::fs::read(sharded.join(&name)).is_ok_and(|b| b == bytes), "{} differs", name.display());
     }
     // `build` is plan plus render.
     let built = dir.path().join("built");

@@ -24,6 +24,17 @@ pub enum BundleError {
     Proxy { path: String, message: String },
     #[error(transparent)]
     Raycast(#[from] crate::raycast::RaycastError),
+    #[error("{dir} is not complete; {} problems:\n  {}\nrun the shards named again (`exploremaps render {dir} --shard i/n`), then --finalize", problems.len(), list_some(problems))]
+    Incomplete { dir: String, problems: Vec<String> },
+}
+
+/// The first 20 lines of a list, and how many more there are.
+fn list_some(lines: &[String]) -> String {
+    let mut shown = lines.iter().take(20).cloned().collect::<Vec<_>>().join("\n  ");
+    if lines.len() > 20 {
+        shown.push_str(&format!("\n  … and {} more", lines.len() - 20));
+    }
+    shown
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
@@ -143,12 +154,21 @@ fn write_graph(dir: &Path, graph: &exploremaps_format::Graph) -> Result<(), Bund
     write(dir, GRAPH_FILE, graph.to_json().as_bytes())
 }
 
-/// Which assets a shard renders: job `k` (probes first, then paths) belongs
-/// to shard `k % count`.
+/// Which assets a shard renders: job `k` (probes first, then paths, then the
+/// proxy) belongs to shard `k % count`. Shards of a split render (count > 1)
+/// never touch graph.json: each writes its assets and then its manifest,
+/// `shards/<index>-of-<count>.json`; [`finalize`] checks the whole and writes
+/// graph.json once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
     pub index: usize,
     pub count: usize,
+}
+
+impl Shard {
+    fn manifest(&self) -> String {
+        format!("shards/{}-of-{}.json", self.index, self.count)
+    }
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -264,9 +284,12 @@ pub fn render_missing(
         .filter(|&k| if k < probes { !probe_done(k) } else if k < proxy_job { !path_done(k - probes) } else { proxy_listed(dir).is_none() })
         .collect();
     let mut report = RenderReport { skipped: jobs.len() - todo.len(), ..Default::default() };
-    // The renderer also states its settings in graph.json: a run killed after
-    // its last asset but before graph.json leaves them to the next run.
-    if !todo.is_empty() || !graph.stats.contains_key("render") {
+    // The renderer also states its settings (in graph.json, or a shard's
+    // manifest): a run killed after its last asset but before that file
+    // leaves them to the next run.
+    let split = shard.count > 1;
+    let stated = if split { exists(&shard.manifest()) } else { graph.stats.contains_key("render") };
+    if !todo.is_empty() || !stated {
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
         let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
         viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
@@ -322,9 +345,7 @@ pub fn render_missing(
             }
         }
         progress(todo.len(), todo.len());
-        graph.stats.insert(
-            "render".into(),
-            serde_json::json!({
+        let stats = serde_json::json!({
                 "quality": settings.quality.name(),
                 "lighting": renderer.tracer.lighting.description,
                 "exposure": renderer.exposure,
@@ -334,11 +355,28 @@ pub fn render_missing(
                 "bounces": settings.panorama.bounces,
                 "denoised": settings.denoise,
                 "seed": settings.seed,
-            }),
-        );
+        });
+        if split {
+            let manifest = serde_json::json!({ "shard": shard.index, "count": shard.count, "levels": levels, "render": stats });
+            write(dir, &shard.manifest(), serde_json::to_string_pretty(&manifest).expect("JSON of plain values").as_bytes())?;
+        } else {
+            graph.stats.insert("render".into(), stats);
+        }
     }
+    if !split {
+        list_assets(dir, graph, &levels);
+        graph.validate()?;
+        write_graph(dir, graph)?;
+    }
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// Lists in graph.json every asset whose files exist.
+fn list_assets(dir: &Path, graph: &mut exploremaps_format::Graph, levels: &[u32]) {
+    let exists = |name: &String| dir.join(name).exists();
     for (id, probe) in graph.probes.iter_mut().enumerate() {
-        let (cube, pano, thumb) = probe_files(id, &levels);
+        let (cube, pano, thumb) = probe_files(id, levels);
         probe.assets.cube_levels = cube.into_iter().filter(|l| l.faces.iter().all(exists)).collect();
         probe.assets.equirect = exists(&pano).then_some(pano);
         probe.assets.thumbnail = exists(&thumb).then_some(thumb);
@@ -349,8 +387,97 @@ pub fn render_missing(
         path.assets.poster = exists(&poster).then_some(poster);
     }
     graph.proxy = proxy_listed(dir);
+}
+
+/// Completes a split render: reads the shards' manifests, checks that every
+/// shard finished and every asset exists and decodes (JPEGs whole, each
+/// video's first frame, each proxy level), then writes graph.json. Otherwise
+/// an error lists each problem with the shard that owns it, and graph.json is
+/// not written; files that do not decode are removed, so running their
+/// shard again redoes them. Running it again is harmless. Returns the files
+/// checked.
+pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usize, BundleError> {
+    let incomplete = |problems: Vec<String>| BundleError::Incomplete { dir: dir.display().to_string(), problems };
+    let mut manifests: Vec<serde_json::Value> = Vec::new();
+    for entry in std::fs::read_dir(dir.join("shards")).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if path.extension().is_some_and(|e| e == "json") {
+            let parsed = std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+            manifests.push(parsed.ok_or_else(|| incomplete(vec![format!("{}: not a shard manifest; delete it and run its shard again", path.display())]))?);
+        }
+    }
+    let Some(first) = manifests.first() else {
+        return Err(incomplete(vec!["no shard has finished (shards/ holds no manifest)".into()]));
+    };
+    let count = first["count"].as_u64().unwrap_or(0) as usize;
+    let (render, levels) = (first["render"].clone(), first["levels"].clone());
+    let mut problems = Vec::new();
+    if let Some(odd) = manifests.iter().find(|m| m["count"] != first["count"] || m["render"] != render || m["levels"] != levels) {
+        problems.push(format!("shard {}/{} rendered with other settings or another shard count than shard {}/{count}; render every shard with the same options", odd["shard"], odd["count"], first["shard"]));
+    }
+    let levels: Vec<u32> = serde_json::from_value(levels).unwrap_or_default();
+    let finished: std::collections::BTreeSet<u64> = manifests.iter().filter_map(|m| m["shard"].as_u64()).collect();
+    for index in (0..count as u64).filter(|i| !finished.contains(i)) {
+        problems.push(format!("shard {index}/{count} has not finished (no shards/{index}-of-{count}.json)"));
+    }
+    // Every expected file, with its owner.
+    let probes = graph.probes.len();
+    let mut expected: Vec<(String, usize)> = Vec::new();
+    for id in 0..probes {
+        let (cube, pano, thumb) = probe_files(id, &levels);
+        expected.extend(cube.into_iter().flat_map(|l| l.faces).chain([pano, thumb]).map(|f| (f, id)));
+    }
+    for id in 0..graph.paths.len() {
+        let (video, poster) = path_files(id);
+        expected.extend([(video, probes + id), (poster, probes + id)]);
+    }
+    let proxy_job = probes + graph.paths.len();
+    match proxy_listed(dir) {
+        Some(proxy) => expected.extend(proxy.levels.iter().map(|l| l.file.clone()).chain(proxy.glb.clone()).map(|f| (f, proxy_job))),
+        None => expected.push((PROXY_LIST.to_string(), proxy_job)),
+    }
+    let checked: Vec<Option<String>> = {
+        use rayon::prelude::*;
+        expected.par_iter().map(|(name, job)| check_asset(dir, name).err().map(|why| format!("{name} (shard {}/{count}): {why}", job % count.max(1)))).collect()
+    };
+    // A file that exists but does not decode goes, so its shard redoes it.
+    for problem in checked.iter().flatten().filter(|p| p.contains("does not")) {
+        let name = problem.split(" (shard").next().unwrap_or_default();
+        let _ = std::fs::remove_file(dir.join(name));
+    }
+    let checked: Vec<Option<String>> = {
+        checked.into_iter().map(|p| p.map(|p| if p.contains("does not") { format!("{p}; removed") } else { p })).collect()
+    };
+    problems.extend(checked.into_iter().flatten());
+    if !problems.is_empty() {
+        return Err(incomplete(problems));
+    }
+    graph.stats.insert("render".into(), render);
+    list_assets(dir, graph, &levels);
     graph.validate()?;
     write_graph(dir, graph)?;
-    report.seconds = started.elapsed().as_secs_f64();
-    Ok(report)
+    Ok(expected.len())
+}
+
+/// Whether a bundle file exists and decodes, by its kind.
+fn check_asset(dir: &Path, name: &str) -> Result<(), String> {
+    let bytes = std::fs::read(dir.join(name)).map_err(|_| "missing".to_string())?;
+    let kind = name.rsplit('.').next().unwrap_or("");
+    match kind {
+        "jpg" => image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg).map(drop).map_err(|e| format!("does not decode ({e})")),
+        "mp4" => {
+            let mut video = exploremaps_format::video::Mp4Decoder::new(bytes).map_err(|e| format!("does not decode ({e})"))?;
+            match video.next_frame() {
+                Ok(Some(_)) => Ok(()),
+                Ok(None) => Err("holds no frame".into()),
+                Err(e) => Err(format!("does not decode ({e})")),
+            }
+        }
+        "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| format!("does not decode ({e})")),
+        "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
+            Ok(parsed) => parsed.map(drop).map_err(|e| format!("does not parse ({e})")),
+            Err(_) => Err("does not parse".into()),
+        },
+        _ => Ok(()),
+    }
 }
