@@ -74,16 +74,18 @@ fn check_boxes(data: &[u8], depth: u32) -> Result<(), String> {
         if size < header as u64 || size > (data.len() - at) as u64 {
             return Err(format!("box '{name_text}' at byte {at} claims {size} bytes, with {} left", data.len() - at));
         }
+        let body = &data[at + header..at + size as usize];
         let skip = match name {
-            b"moov" | b"trak" | b"mdia" | b"minf" | b"dinf" | b"edts" | b"mvex" | b"udta" | b"stbl" => Some(0),
-            b"meta" => Some(4),
+            b"moov" | b"trak" | b"mdia" | b"minf" | b"dinf" | b"edts" | b"mvex" | b"udta" | b"stbl" | b"moof" | b"traf" | b"ilst" => Some(0),
+            b"\xa9nam" | b"\xa9day" | b"covr" | b"desc" => Some(0), // metadata items in ilst
+            // A full box, though some files leave out its version and flags.
+            b"meta" => Some(if body.get(4..8) == Some(b"hdlr") { 0 } else { 4 }),
             b"stsd" => Some(8),
             b"avc1" | b"avc3" | b"hev1" | b"hvc1" | b"vp09" => Some(78),
             b"mp4a" => Some(28),
             b"tx3g" => Some(38),
             _ => None,
         };
-        let body = &data[at + header..at + size as usize];
         if let Some(skip) = skip.filter(|&k| k <= body.len()) {
             check_boxes(&body[skip..], depth + 1)?;
         }
@@ -232,6 +234,19 @@ mod tests {
         match Mp4Decoder::new(bytes) {
             Err(DecodeError::Container(m)) => assert!(m.contains("4294967280 frames"), "{m}"),
             other => panic!("{:?}", other.err()),
+        }
+    }
+
+    #[test]
+    fn fragment_and_metadata_boxes_are_checked_too() {
+        // A `moof` holding a box smaller than its header looped mp4 0.14 (found by fuzzing).
+        let boxed = |name: &[u8], size: u32, body: &[u8]| [&size.to_be_bytes()[..], name, body].concat();
+        let files = [
+            boxed(b"moof", 16, &boxed(b"traf", 0, &[])),
+            boxed(b"moov", 36, &boxed(b"udta", 28, &boxed(b"meta", 20, &[0, 0, 0, 0, 0, 0, 0, 3, b'x', b'y', b'z', b'w']))),
+        ];
+        for (i, bytes) in files.into_iter().enumerate() {
+            assert!(matches!(Mp4Decoder::new(bytes), Err(DecodeError::Container(m)) if m.contains("claims")), "file {i}");
         }
     }
 }
