@@ -12,9 +12,10 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 # ffmpeg (libx264) for transition videos half the size of the built-in
 # encoder's; Mesa's lavapipe (Vulkan on the CPU) for the viewer's GPU tests;
 # Chromium, Xvfb, xdotool and ImageMagick for the viewer's browser and window
-# tests; Node for Playwright.
+# tests; Node for Playwright; Slurm and munge for scripts/slurm-test.sh (a
+# one-node cluster on localhost; bc for its timings).
 packages=(libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1
-          chromium xvfb xauth xdotool imagemagick)
+          chromium xvfb xauth xdotool imagemagick slurmctld slurmd slurm-client munge bc)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
@@ -26,6 +27,14 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${missing[*]}"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# The Kubernetes Job schema validator (PyPI), for the test of deploy/kubernetes.
+k8s_dir="$(cd "$(dirname "$0")/.." && pwd)/target/k8s-validate"
+if [ ! -d "$k8s_dir/kubernetes_validate" ]; then
+  echo "setup: fetching kubernetes-validate 1.37.0 (the Job schema, 23 MB)"
+  python3 -m pip install --quiet --disable-pip-version-check --target "$k8s_dir.part" kubernetes-validate==1.37.0
+  rm -rf "$k8s_dir" && mv "$k8s_dir.part" "$k8s_dir"
 fi
 
 # Intel Open Image Denoise has no Debian package: take the libraries of the

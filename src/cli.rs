@@ -47,7 +47,7 @@ pub enum Command {
         /// Render only shard i of n (i/n, 0-based) of the probes, paths and proxy;
         /// shards share the folder and need no other coordination, and leave
         /// graph.json to --finalize. `auto` reads i and n from Slurm's job-array
-        /// variables or a Kubernetes indexed Job's (`auto/N`: n is N).
+        /// variables or a Kubernetes indexed Job's (`auto/N`: n is N, and a Slurm task id is the shard).
         #[arg(long, value_parser = parse_shard)]
         shard: Option<ShardArg>,
         /// After the shards of a split render: check that every asset exists and
@@ -282,8 +282,9 @@ fn parse_shard(text: &str) -> Result<ShardArg, String> {
 
 /// The shard a scheduler gave this process, from its environment (`var`
 /// looks a variable up): Slurm job arrays (`SLURM_ARRAY_TASK_ID` with
-/// `SLURM_ARRAY_TASK_COUNT`, or with `_MIN` and `_MAX`), then Kubernetes
-/// indexed Jobs (`JOB_COMPLETION_INDEX`, the count given as `auto/N`).
+/// `SLURM_ARRAY_TASK_COUNT`, or with `_MIN` and `_MAX`; with the count given
+/// as `auto/N`, the task id itself), then Kubernetes indexed Jobs
+/// (`JOB_COMPLETION_INDEX`, the count given as `auto/N`).
 /// Returns the index, the count and where they came from.
 pub fn shard_from_env(count: Option<usize>, var: impl Fn(&str) -> Option<String>) -> Result<(usize, usize, &'static str), String> {
     let number = |name: &str| -> Result<Option<usize>, String> {
@@ -291,8 +292,13 @@ pub fn shard_from_env(count: Option<usize>, var: impl Fn(&str) -> Option<String>
     };
     let checked = |i: usize, n: usize, from: &'static str| if i < n { Ok((i, n, from)) } else { Err(format!("{from}: shard {i} of {n} is out of range")) };
     if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        // With the count given, the task id is the shard (so `--array=2`
+        // redoes shard 2 alone); else the array's own numbering is used.
+        if let Some(n) = count {
+            return checked(id, n, "Slurm job array");
+        }
         let (min, max) = (number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0), number("SLURM_ARRAY_TASK_MAX")?);
-        let n = count.or(number("SLURM_ARRAY_TASK_COUNT")?).or(max.and_then(|m| (m + 1).checked_sub(min)));
+        let n = number("SLURM_ARRAY_TASK_COUNT")?.or(max.and_then(|m| (m + 1).checked_sub(min)));
         let n = n.ok_or("SLURM_ARRAY_TASK_ID is set but not SLURM_ARRAY_TASK_COUNT nor _MAX; give the count as --shard auto/N")?;
         return checked(id.checked_sub(min).ok_or(format!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}"))?, n, "Slurm job array");
     }
@@ -331,6 +337,9 @@ mod tests {
         // `--array=1-4`: ids from 1, shards from 0.
         let from_one = [("SLURM_ARRAY_TASK_ID", "4"), ("SLURM_ARRAY_TASK_MIN", "1"), ("SLURM_ARRAY_TASK_MAX", "4")];
         assert_eq!(shard_from_env(None, env(&from_one)), Ok((3, 4, "Slurm job array")));
+        // One task resubmitted alone (`--array=2`) keeps its shard when the count is given.
+        let alone = [("SLURM_ARRAY_TASK_ID", "2"), ("SLURM_ARRAY_TASK_MIN", "2"), ("SLURM_ARRAY_TASK_MAX", "2"), ("SLURM_ARRAY_TASK_COUNT", "1")];
+        assert_eq!(shard_from_env(Some(4), env(&alone)), Ok((2, 4, "Slurm job array")));
         let kubernetes = [("JOB_COMPLETION_INDEX", "5")];
         assert_eq!(shard_from_env(Some(8), env(&kubernetes)), Ok((5, 8, "Kubernetes indexed Job")));
         assert!(shard_from_env(None, env(&kubernetes)).unwrap_err().contains("auto/N"));

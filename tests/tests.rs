@@ -508,3 +508,38 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some() && p.assets.cube_levels.len() == 1));
     assert!(graph.paths.iter().all(|p| p.assets.video.is_some()));
 }
+
+#[test]
+fn a_slurm_job_array_renders_what_one_process_does_and_finalize_names_what_is_missing() {
+    // scripts/slurm-test.sh starts a one-node cluster on localhost (it says
+    // SKIPPED where Slurm or root is missing).
+    let run = Command::new("scripts/slurm-test.sh").arg(env!("CARGO_BIN_EXE_exploremaps")).output().unwrap();
+    println!("{}", stdout(&run));
+    assert!(run.status.success(), "{}{}", stdout(&run), stderr(&run));
+    assert!(stdout(&run).contains("slurm-test: passed") || stdout(&run).contains("SKIPPED"), "{}", stdout(&run));
+}
+
+#[test]
+fn the_kubernetes_job_manifests_match_the_job_schema() {
+    let validator = std::path::Path::new("target/k8s-validate");
+    if !validator.join("kubernetes_validate").exists() {
+        println!("SKIPPED: target/k8s-validate is missing (scripts/setup.sh installs it)");
+        return;
+    }
+    let validate = |files: &[&std::path::Path]| {
+        let mut command = Command::new("python3");
+        command.env("PYTHONPATH", validator).args(["-m", "kubernetes_validate", "-k", "1.30.0", "--strict"]).args(files);
+        command.output().unwrap()
+    };
+    let (render, finalize) = (std::path::Path::new("deploy/kubernetes/render.yaml"), std::path::Path::new("deploy/kubernetes/finalize.yaml"));
+    let run = validate(&[render, finalize]);
+    assert!(run.status.success(), "{}{}", stdout(&run), stderr(&run));
+    // The shard count is given once and must be the Job's completions.
+    let text = std::fs::read_to_string(render).unwrap();
+    assert!(text.contains("completions: 8") && text.contains("parallelism: 8") && text.contains("\"auto/8\""));
+    // The check can fail: a completion count that is not a number.
+    let dir = tempfile::tempdir().unwrap();
+    let broken = dir.path().join("broken.yaml");
+    std::fs::write(&broken, text.replace("completions: 8", "completions: eight")).unwrap();
+    assert!(!validate(&[&broken]).status.success());
+}
