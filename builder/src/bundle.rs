@@ -290,13 +290,17 @@ pub fn render_missing(
     let split = shard.count > 1;
     let stated = if split { exists(&shard.manifest()) } else { graph.stats.contains_key("render") };
     if !todo.is_empty() || !stated {
+        let setup_started = std::time::Instant::now();
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
         let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
         viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
         let renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
         let encoder = crate::video::Encoder::detect();
         report.video_encoder = Some(encoder.name());
+        let seconds_setup = setup_started.elapsed().as_secs_f64();
+        let mut job_starts = Vec::with_capacity(todo.len() + 1);
         for (done, &k) in todo.iter().enumerate() {
+            job_starts.push(std::time::Instant::now());
             progress(done, todo.len());
             if k == proxy_job {
                 render_proxy(dir, scene, &renderer, &settings.proxy)?;
@@ -344,8 +348,9 @@ pub fn render_missing(
                 report.paths_rendered += 1;
             }
         }
+        job_starts.push(std::time::Instant::now());
         progress(todo.len(), todo.len());
-        let stats = serde_json::json!({
+        let mut stats = serde_json::json!({
                 "quality": settings.quality.name(),
                 "lighting": renderer.tracer.lighting.description,
                 "exposure": renderer.exposure,
@@ -360,6 +365,11 @@ pub fn render_missing(
             let manifest = serde_json::json!({ "shard": shard.index, "count": shard.count, "levels": levels, "render": stats });
             write(dir, &shard.manifest(), serde_json::to_string_pretty(&manifest).expect("JSON of plain values").as_bytes())?;
         } else {
+            // Timings (moved to timings.json): the renderer's set-up, which
+            // every shard repeats, and each job's time, for planning shards.
+            let jobs: Vec<(usize, f64)> = todo.iter().zip(job_starts.windows(2)).map(|(&k, w)| (k, (w[1] - w[0]).as_secs_f64())).collect();
+            stats["seconds_setup"] = seconds_setup.into();
+            stats["seconds_jobs"] = serde_json::json!(jobs);
             graph.stats.insert("render".into(), stats);
         }
     }
