@@ -230,8 +230,9 @@ fn instanced_triangles(path: &Path, node: &gltf::Node, depth: usize, memo: &mut 
 }
 
 /// The component types and shapes the glTF specification allows for the
-/// attributes read here. gltf 1.4 does not validate them, and its readers
-/// reach `unreachable!()` on others (indices of floats, found by fuzzing).
+/// attributes read here, and a count of at least one. gltf 1.4 does not
+/// validate them, and its readers reach `unreachable!()` on other types
+/// (indices of floats) and overflow on a count of 0 (both found by fuzzing).
 fn check_attribute_types(path: &Path, primitive: &gltf::Primitive) -> Result<(), LoadError> {
     use gltf::accessor::{DataType::*, Dimensions::*};
     use gltf::Semantic;
@@ -246,6 +247,10 @@ fn check_attribute_types(path: &Path, primitive: &gltf::Primitive) -> Result<(),
     };
     let indices = primitive.indices().map(|a| (None, a));
     for (semantic, a) in indices.into_iter().chain(primitive.attributes().map(|(s, a)| (Some(s), a))) {
+        // The specification's minimum; gltf's reader computes `count - 1`.
+        if a.count() == 0 {
+            return Err(LoadError::malformed(path, format!("accessor {} has a count of 0; glTF requires at least 1", a.index())));
+        }
         if !allowed(semantic.as_ref(), &a) {
             let what = semantic.map_or("indices".to_string(), |s| format!("{s:?}"));
             return Err(LoadError::malformed(path, format!("accessor {} ({what}) holds {:?} {:?}, which glTF does not allow there", a.index(), a.dimensions(), a.data_type())));

@@ -349,7 +349,7 @@ fn textures_over_the_side_limit_are_refused_before_decoding() {
 }
 
 #[test]
-fn gltf_accessors_of_the_wrong_type_are_errors_not_panics() {
+fn gltf_accessors_of_the_wrong_type_or_empty_are_errors_not_panics() {
     // gltf 1.4 reads float indices into `unreachable!()` (found by fuzzing).
     let dir = tempfile::tempdir().unwrap();
     let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
@@ -363,6 +363,12 @@ fn gltf_accessors_of_the_wrong_type_are_errors_not_panics() {
     });
     let path = write(dir.path(), "float_indices.gltf", json.to_string().as_bytes());
     assert!(error_text(&path).contains("(indices) holds Vec3 F32"), "{}", error_text(&path));
+    // A count of 0 overflowed gltf's reader.
+    let mut json = json;
+    json["meshes"][0]["primitives"][0].as_object_mut().unwrap().remove("indices");
+    json["accessors"][0]["count"] = 0.into();
+    let path = write(dir.path(), "no_positions.gltf", json.to_string().as_bytes());
+    assert!(error_text(&path).contains("count of 0"), "{}", error_text(&path));
 }
 
 #[test]
