@@ -21,11 +21,16 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     check_triangle_count(path, count_triangles(bytes), max_triangles)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |mtl| match resolve_path(&dir, &mtl.to_string_lossy()) {
-        Some(found) => load_mtl(&found),
-        None => Err(tobj::LoadError::OpenFileFailed),
+    // tobj 4.0.5 multiplies a face's indices unchecked (an index far out of
+    // range overflows, found by fuzzing): a panic there is a malformed file.
+    let parsed = std::panic::catch_unwind(|| {
+        tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |mtl| match resolve_path(&dir, &mtl.to_string_lossy()) {
+            Some(found) => load_mtl(&found),
+            None => Err(tobj::LoadError::OpenFileFailed),
+        })
     })
-    .map_err(|e| LoadError::malformed(path, format!("not a valid OBJ file ({e}); it may be truncated or corrupt")))?;
+    .map_err(|_| LoadError::malformed(path, "not a valid OBJ file (a face index is far out of range); it may be truncated or corrupt"))?;
+    let (models, materials) = parsed.map_err(|e| LoadError::malformed(path, format!("not a valid OBJ file ({e}); it may be truncated or corrupt")))?;
     let obj_materials = materials.unwrap_or_else(|e| {
         tracing::warn!("{}: its material library could not be read ({e}); every surface will be grey", path.display());
         Vec::new()

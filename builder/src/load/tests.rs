@@ -410,3 +410,12 @@ fn files_over_the_triangle_limit_or_claiming_absurd_counts_fail_before_reading()
     assert_eq!(load(&hundred, &limit(100)).unwrap().triangles.len(), 100);
     assert!(load(&hundred, &limit(99)).unwrap_err().to_string().contains("holds 100 triangles"));
 }
+
+#[test]
+fn obj_face_indices_far_out_of_range_are_errors_not_panics() {
+    // tobj 4.0.5 multiplies a normal index unchecked (found by fuzzing).
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "far.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-21 2//1 3//1\n");
+    let result = std::panic::catch_unwind(|| load_default(&path)).expect("no panic escapes the loader");
+    assert!(result.unwrap_err().to_string().contains("out of range"));
+}
