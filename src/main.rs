@@ -239,11 +239,16 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
     Ok(())
 }
 
-/// A planned bundle's graph and its scene, loaded as `plan` loaded it.
-fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
+/// A bundle's graph.json, read and validated; errors are the user's (exit 2).
+fn read_graph(bundle: &Path) -> Result<Graph> {
     let graph_path = bundle.join(GRAPH_FILE);
     let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
-    let graph = Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?;
+    Ok(Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?)
+}
+
+/// A planned bundle's graph and its scene, loaded as `plan` loaded it.
+fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
+    let graph = read_graph(bundle)?;
     let recorded = graph.stats.get("plan").cloned().unwrap_or_default();
     let scene_args = SceneArgs {
         scene: graph.scene.source.clone(),
@@ -327,9 +332,7 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
 
 /// `render --finalize`: completes a split render (see `bundle::finalize`).
 fn finalize(bundle: &Path) -> Result<()> {
-    let graph_path = bundle.join(GRAPH_FILE);
-    let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
-    let mut graph = Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?;
+    let mut graph = read_graph(bundle)?;
     let checked = exploremaps_builder::bundle::finalize(bundle, &mut graph)?;
     println!("{}: complete, {checked} files checked; graph.json written", bundle.display());
     Ok(())

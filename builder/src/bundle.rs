@@ -446,17 +446,23 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
         Some(proxy) => expected.extend(proxy.levels.iter().map(|l| l.file.clone()).chain(proxy.glb.clone()).map(|f| (f, proxy_job))),
         None => expected.push((PROXY_LIST.to_string(), proxy_job)),
     }
+    // A file that exists but does not decode goes, so its shard redoes it.
     let checked: Vec<Option<String>> = {
         use rayon::prelude::*;
-        expected.par_iter().map(|(name, job)| check_asset(dir, name).err().map(|why| format!("{name} (shard {}/{count}): {why}", job % count.max(1)))).collect()
-    };
-    // A file that exists but does not decode goes, so its shard redoes it.
-    for problem in checked.iter().flatten().filter(|p| p.contains("does not")) {
-        let name = problem.split(" (shard").next().unwrap_or_default();
-        let _ = std::fs::remove_file(dir.join(name));
-    }
-    let checked: Vec<Option<String>> = {
-        checked.into_iter().map(|p| p.map(|p| if p.contains("does not") { format!("{p}; removed") } else { p })).collect()
+        expected
+            .par_iter()
+            .map(|(name, job)| {
+                let owner = format!("{name} (shard {}/{count})", job % count.max(1));
+                match check_asset(dir, name) {
+                    Ok(()) => None,
+                    Err(None) => Some(format!("{owner}: missing")),
+                    Err(Some(why)) => {
+                        let _ = std::fs::remove_file(dir.join(name));
+                        Some(format!("{owner}: {why}; removed"))
+                    }
+                }
+            })
+            .collect()
     };
     problems.extend(checked.into_iter().flatten());
     if !problems.is_empty() {
@@ -469,24 +475,22 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     Ok(expected.len())
 }
 
-/// Whether a bundle file exists and decodes, by its kind.
-fn check_asset(dir: &Path, name: &str) -> Result<(), String> {
-    let bytes = std::fs::read(dir.join(name)).map_err(|_| "missing".to_string())?;
-    let kind = name.rsplit('.').next().unwrap_or("");
-    match kind {
-        "jpg" => image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg).map(drop).map_err(|e| format!("does not decode ({e})")),
-        "mp4" => {
-            let mut video = exploremaps_format::video::Mp4Decoder::new(bytes).map_err(|e| format!("does not decode ({e})"))?;
-            match video.next_frame() {
-                Ok(Some(_)) => Ok(()),
-                Ok(None) => Err("holds no frame".into()),
-                Err(e) => Err(format!("does not decode ({e})")),
-            }
-        }
-        "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| format!("does not decode ({e})")),
+/// Whether a bundle file exists and decodes, by its kind: `Err(None)` when
+/// it is missing, `Err(Some(why))` when it does not decode.
+fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
+    let bytes = std::fs::read(dir.join(name)).map_err(|_| None)?;
+    let bad = |e: &dyn std::fmt::Display| Some(format!("does not decode ({e})"));
+    match name.rsplit('.').next().unwrap_or("") {
+        "jpg" => image::load_from_memory_with_format(&bytes, image::ImageFormat::Jpeg).map(drop).map_err(|e| bad(&e)),
+        "mp4" => match exploremaps_format::video::Mp4Decoder::new(bytes).map_err(|e| bad(&e))?.next_frame() {
+            Ok(Some(_)) => Ok(()),
+            Ok(None) => Err(Some("does not decode (no frame)".into())),
+            Err(e) => Err(bad(&e)),
+        },
+        "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
-            Ok(parsed) => parsed.map(drop).map_err(|e| format!("does not parse ({e})")),
-            Err(_) => Err("does not parse".into()),
+            Ok(parsed) => parsed.map(drop).map_err(|e| bad(&e)),
+            Err(_) => Err(bad(&"a panic in gltf")),
         },
         _ => Ok(()),
     }
