@@ -1,5 +1,6 @@
 //! Shared by the scene targets: writes the input as scene files in one
-//! temporary folder (made once per process) and loads them as `plan` would.
+//! temporary folder (made once per process, in memory under /dev/shm where
+//! there is one, so no input goes to disk) and loads them as `plan` would.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use std::path::PathBuf;
@@ -7,7 +8,12 @@ use std::sync::OnceLock;
 
 fn folder() -> &'static PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| tempfile::Builder::new().prefix("exploremaps-fuzz").tempdir().unwrap().keep())
+    DIR.get_or_init(|| {
+        let mut b = tempfile::Builder::new();
+        b.prefix("exploremaps-fuzz");
+        let shm = std::path::Path::new("/dev/shm");
+        if shm.is_dir() { b.tempdir_in(shm) } else { b.tempdir() }.unwrap().keep()
+    })
 }
 
 /// Writes each `(name, bytes)` into the folder, then loads the first. A load
