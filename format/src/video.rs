@@ -142,18 +142,19 @@ impl Mp4Decoder {
         let container = |m: String| DecodeError::Container(m);
         check_boxes(&bytes, 0, bytes.len()).map_err(container)?;
         let context = mp4parse::read_mp4(&mut std::io::Cursor::new(&bytes)).map_err(|e| container(format!("{e:?}")))?;
-        let avc = |t: &&mp4parse::Track| {
-            let entry = t.stsd.as_ref()?.descriptions.first()?;
-            match entry {
+        // The first H.264 track and its avcC record.
+        let (track, avcc) = context
+            .tracks
+            .iter()
+            .find_map(|t| match t.stsd.as_ref()?.descriptions.first()? {
                 mp4parse::SampleEntry::Video(v) if v.codec_type == mp4parse::CodecType::H264 => match &v.codec_specific {
-                    mp4parse::VideoCodecSpecific::AVCConfig(avcc) => Some(avcc.to_vec()),
+                    mp4parse::VideoCodecSpecific::AVCConfig(avcc) => Some((t, avcc.as_slice())),
                     _ => None,
                 },
                 _ => None,
-            }
-        };
-        let (track, avcc) = context.tracks.iter().find_map(|t| avc(&t).map(|a| (t, a))).ok_or(DecodeError::NoVideo)?;
-        let (length_size, header) = avc_config(&avcc)?;
+            })
+            .ok_or(DecodeError::NoVideo)?;
+        let (length_size, header) = avc_config(avcc)?;
         // The samples the chunk tables add up to, counted before a table of them is made.
         let chunks = track.stco.as_ref().map_or(0, |c| c.offsets.len() as u64);
         let runs = track.stsc.as_ref().map_or(&[][..], |s| s.samples.as_slice());
