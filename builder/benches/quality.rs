@@ -20,7 +20,7 @@ use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
 use exploremaps_builder::render::{
-    downsample, psnr, to_image, Materials, Quality, Renderer, Settings, TraceParams, Tracer,
+    downsample, psnr, to_image, Quality, Renderer, Settings, TraceParams, Tracer,
 };
 use exploremaps_format::cube_direction;
 use exploremaps_scenes::{BuiltIn, Scene};
@@ -107,12 +107,7 @@ fn main() {
         };
 
         // The reference, at half and at all of its samples.
-        let pure = Tracer {
-            rays: &rays,
-            materials: Materials::new(scene),
-            lighting: renderer.tracer.lighting.clone(),
-            cache: None,
-        };
+        let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
         let (half_ref, full_ref, ref_s) = reference(&pure, &out, name, eye, face, ref_spp);
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);

@@ -180,7 +180,7 @@ fn cycles(scene: &Scene, obj: &Path, rays: &RayScene, viewpoints: &[Vec3], name:
     let ours_s = t.elapsed().as_secs_f64();
     let ref_spp = 256;
     let t = Instant::now();
-    let pure = Tracer { rays, materials: exploremaps_builder::render::Materials::new(scene), lighting: renderer.tracer.lighting.clone(), cache: None };
+    let pure = Tracer::path_traced(scene, rays, renderer.tracer.lighting.clone(), &[eye]);
     let reference = pure.render(&TraceParams { samples: ref_spp, bounces: 0, baked_points: false, gather: None, seed: 9 }, eye, 1024, 512, 1, equirect_direction);
     let ours_ref = renderer.to_image(1024, 512, &reference.color);
     let ours_ref_s = t.elapsed().as_secs_f64();

@@ -12,6 +12,8 @@
 //!   solved for all bounces; every panorama and video frame reuses it.
 //! - `trace`: the path tracer (packets, next-event estimation, Russian
 //!   roulette, the cache after `bounces` real bounces).
+//! - `lights`: the reference's light sampling (emissive triangles, sunlit
+//!   points) weighed against bounces by multiple importance sampling.
 //! - `gather`: `final`'s indirect light: a final gather on a grid coarser
 //!   than the pixels (one real bounce, the cache at the second hit), filtered
 //!   across surfaces and upsampled by geometry.
@@ -29,6 +31,7 @@
 mod cache;
 mod denoise;
 mod gather;
+mod lights;
 mod reuse;
 mod surface;
 mod trace;
@@ -151,7 +154,7 @@ impl<'a> Renderer<'a> {
     pub fn new(scene: &'a Scene, rays: &'a RayScene, viewpoints: &[Vec3], settings: Settings) -> Renderer<'a> {
         let lighting = Lighting::for_scene(scene, rays, viewpoints);
         tracing::info!("lighting {}: {}", scene.name, lighting.description);
-        let mut tracer = Tracer { rays, materials: surface::Materials::new(scene), lighting, cache: None };
+        let mut tracer = Tracer { rays, materials: surface::Materials::new(scene), lighting, cache: None, guide: None };
         let metre = 1.0 / scene.metres_per_unit.max(1e-9);
         // Cells no smaller than the scene's area allows within the cell budget (both sides of every surface).
         let area = 2.0 * scene.total_area() as f32;

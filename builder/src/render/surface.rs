@@ -138,6 +138,11 @@ impl<'a> Materials<'a> {
         self.base(hit).1 < cutoff
     }
 
+    /// The radiance a triangle emits (either side).
+    pub fn emission(&self, triangle: u32) -> Vec3 {
+        self.of(triangle).emissive
+    }
+
     /// The shading point of a hit seen along `ray`.
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
         let s = self.scene;
@@ -253,39 +258,45 @@ impl Lighting {
 
     /// The shadow rays of direct lighting at `s`, each with the irradiance it
     /// brings if unblocked: one per sun (a point on its disk from `u`) and one
-    /// per point light, as `which` says. Lights below the surface give none.
-    pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, mut emit: impl FnMut(Ray, Vec3)) {
+    /// per point light, as `which` says, each with its light's index (suns
+    /// first, then point lights). Lights below the surface give none.
+    pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, mut emit: impl FnMut(usize, Ray, Vec3)) {
         let from = s.lifted();
         let suns = if which == Which::Points { &[][..] } else { &self.suns[..] };
-        for &(dir, irradiance) in suns {
-            let (t1, t2) = dir.any_orthonormal_pair();
-            let r = SUN_RADIUS * u.x.sqrt();
-            let phi = std::f32::consts::TAU * u.y;
-            let d = (dir + (t1 * phi.cos() + t2 * phi.sin()) * r).normalize();
+        for (k, &(dir, irradiance)) in suns.iter().enumerate() {
+            let d = Lighting::sun_direction(dir, u);
             let cos = s.normal.dot(d);
             if cos > 0.0 && s.geometric.dot(d) > 0.0 {
-                emit(Ray::new(from, d), irradiance * cos);
+                emit(k, Ray::new(from, d), irradiance * cos);
             }
         }
         if which == Which::Suns {
             return;
         }
-        for &(position, intensity) in &self.points {
+        for (k, &(position, intensity)) in self.points.iter().enumerate() {
             let to = position - from;
             let r2 = to.length_squared().max(1e-12);
             let d = to / r2.sqrt();
             let cos = s.normal.dot(d);
             if cos > 0.0 && s.geometric.dot(d) > 0.0 {
-                emit(Ray { t_max: 1.0, ..Ray::new(from, to) }, intensity * cos / r2);
+                emit(self.suns.len() + k, Ray { t_max: 1.0, ..Ray::new(from, to) }, intensity * cos / r2);
             }
         }
+    }
+
+    /// A direction toward a point of the sun's disk around `dir`, from `u` in [0, 1)².
+    pub fn sun_direction(dir: Vec3, u: Vec2) -> Vec3 {
+        let (t1, t2) = dir.any_orthonormal_pair();
+        let r = SUN_RADIUS * u.x.sqrt();
+        let phi = std::f32::consts::TAU * u.y;
+        (dir + (t1 * phi.cos() + t2 * phi.sin()) * r).normalize()
     }
 
     /// Irradiance at a surface from the lights `which` names, one shadow test
     /// each (`visible` says whether a ray is clear).
     pub fn direct(&self, s: &Surface, u: Vec2, which: Which, visible: impl Fn(&Ray) -> bool) -> Vec3 {
         let mut e = Vec3::ZERO;
-        self.shadow_rays(s, u, which, |ray, irradiance| {
+        self.shadow_rays(s, u, which, |_, ray, irradiance| {
             if visible(&ray) {
                 e += irradiance;
             }

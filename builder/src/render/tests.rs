@@ -26,7 +26,7 @@ fn furnace_matches_the_analytic_radiance() {
     let eye = Vec3::new(0.1, 0.2, -0.3);
     let expected = 1.0 / (1.0 - 0.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
-    let path_traced = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: renderer.tracer.lighting.clone(), cache: None };
+    let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
     let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, seed: 1 }, eye, 32, 16, 0, equirect_direction);
     let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, seed: 1 }, eye, 32, 0);
     let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, seed: 1 }, eye, 32, 0);
@@ -113,7 +113,7 @@ fn cutout_holes_let_light_and_sight_through() {
     let mut scene = m.finish();
     scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new((p.x + 2.0) / 4.0 * 0.999, 0.5)).collect();
     let rays = ray_scene(&scene);
-    let tracer = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), cache: None };
+    let tracer = Tracer::path_traced(&scene, &rays, Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), &[Vec3::ZERO]);
     let params = TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, seed: 0 };
     let looking = |x: f32| tracer.render(&params, Vec3::new(x, 0.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Z).color[0];
     assert!(looking(-1.0).x > 0.99, "through the hole the glowing wall shows: {}", looking(-1.0));
@@ -216,7 +216,7 @@ fn denoising_brings_a_noisy_path_traced_image_closer_to_the_converged_one() {
     let rays = ray_scene(&scene);
     let eye = Vec3::new(3.0, 1.6, 2.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
-    let pure = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: renderer.tracer.lighting.clone(), cache: None };
+    let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
     let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, seed }, eye, 96, 64, 0, |s, t| {
         let d = Vec3::new(2.0 * s - 1.0, (1.0 - 2.0 * t) * 0.66, -1.0);
         d.normalize()
@@ -272,7 +272,7 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     let size = 64;
     // Straight up, 90° across: all ceiling.
     let up = |params: &TraceParams, tracer: &Tracer| tracer.render(params, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize());
-    let pure = Tracer { rays: &rays, materials: surface::Materials::new(&scene), lighting: renderer.tracer.lighting.clone(), cache: None };
+    let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
     let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, seed: 5 }, &pure);
     let ours = up(&renderer.settings.panorama, &renderer.tracer);
     let before = up(&TraceParams { gather: None, ..renderer.settings.panorama }, &renderer.tracer);
@@ -337,4 +337,44 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     assert!(!failed, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04), {f_between:.4} of pixels 25 % off (at most 0.018); images in target/render-failures");
     // The key frames are the frames lit in full.
     assert_eq!(frames[8].1.color, renderer.equirect(&video, eyes[8], width, 8).color);
+}
+
+#[test]
+fn sampling_the_lights_changes_the_noise_not_the_answer() {
+    // The sunroom's ceiling (lit by sunlight off the floor and by the sky) and a
+    // room lit by a small emissive panel: the reference's light sampling must
+    // agree with plain bounces on average, with less noise.
+    let sunroom = exploremaps_scenes::BuiltIn::Sunroom.generate(1);
+    let mut m = MeshBuilder::new("lamp room");
+    m.add_material(Material::diffuse("white", [0.7; 3]));
+    m.cuboid(Vec3::new(0.0, -0.1, 0.0), Vec3::new(4.0, 0.0, 4.0));
+    m.cuboid(Vec3::new(0.0, 3.0, 0.0), Vec3::new(4.0, 3.1, 4.0));
+    m.cuboid(Vec3::new(-0.1, 0.0, 0.0), Vec3::new(0.0, 3.0, 4.0));
+    m.cuboid(Vec3::new(4.0, 0.0, 0.0), Vec3::new(4.1, 3.0, 4.0));
+    m.cuboid(Vec3::new(0.0, 0.0, -0.1), Vec3::new(4.0, 3.0, 0.0));
+    m.cuboid(Vec3::new(0.0, 0.0, 4.0), Vec3::new(4.0, 3.0, 4.1));
+    let lamp = m.add_material(Material { emissive: Vec3::splat(20.0), ..Material::diffuse("lamp", [0.5; 3]) });
+    m.set_material(lamp);
+    m.cuboid(Vec3::new(0.3, 2.2, 0.3), Vec3::new(0.6, 2.25, 0.6));
+    let lamp_room = m.finish();
+    for (scene, eye) in [(&sunroom, Vec3::new(3.0, 1.6, 2.5)), (&lamp_room, Vec3::new(2.5, 1.2, 2.5))] {
+        let rays = ray_scene(scene);
+        let lighting = Lighting::for_scene(scene, &rays, &[eye]);
+        let guided = Tracer::path_traced(scene, &rays, lighting, &[eye]);
+        let plain = Tracer { guide: None, ..Tracer::path_traced(scene, &rays, guided.lighting.clone(), &[eye]) };
+        let size = 16;
+        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
+        let truth = up(&plain, 8192, 1);
+        let quarter_means = |img: &[Vec3]| -> Vec<f32> {
+            (0..4).map(|q| img.iter().enumerate().filter(|(i, _)| (i % 16 / 8) + 2 * (i / 16 / 8) == q).map(|(_, c)| luminance(*c)).sum::<f32>() / 64.0).collect()
+        };
+        let rms = |img: &[Vec3]| (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt() / luminance(mean(&truth));
+        let sampled = up(&guided, 2048, 2);
+        for (q, (a, b)) in quarter_means(&sampled).iter().zip(quarter_means(&truth)).enumerate() {
+            assert!((a / b - 1.0).abs() < 0.03, "{}: quarter {q} of the ceiling {a:.4} with light sampling, {b:.4} with bounces alone", scene.name);
+        }
+        let (noise_guided, noise_plain) = (rms(&up(&guided, 64, 3)), rms(&up(&plain, 64, 3)));
+        println!("{}: relative noise at 64 samples: {noise_guided:.3} with light sampling, {noise_plain:.3} without", scene.name);
+        assert!(noise_guided < 0.6 * noise_plain, "{}: light sampling should cut the noise: {noise_guided:.3} against {noise_plain:.3}", scene.name);
+    }
 }

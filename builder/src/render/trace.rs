@@ -9,9 +9,11 @@
 
 use super::cache::RadianceCache;
 use super::gather::{Field, GatherParams};
+use super::lights::LightSampler;
 use super::reuse::{Between, Lit};
 use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
+use exploremaps_scenes::Scene;
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
@@ -61,6 +63,9 @@ pub struct Tracer<'a> {
     pub materials: Materials<'a>,
     pub lighting: Lighting,
     pub cache: Option<RadianceCache>,
+    /// Light sampling toward emitters and sunlit points, for the reference
+    /// path tracer; used only when there is no cache.
+    pub guide: Option<LightSampler>,
 }
 
 const TILE: u32 = 8;
@@ -76,7 +81,20 @@ struct Pixel {
 /// Paths end here at the latest (Russian roulette ends nearly all long before).
 const MAX_DEPTH: u32 = 64;
 
-impl Tracer<'_> {
+impl<'a> Tracer<'a> {
+    /// The reference: a plain path tracer with no cache, sampling the lights
+    /// (emitters, the sky through openings and sunlit points too) by multiple
+    /// importance sampling, tuned to what `viewpoints` see.
+    pub fn path_traced(scene: &'a Scene, rays: &'a RayScene, lighting: Lighting, viewpoints: &[Vec3]) -> Tracer<'a> {
+        let mut tracer = Tracer { rays, materials: Materials::new(scene), lighting, cache: None, guide: None };
+        tracer.guide = Some(LightSampler::new(&tracer, scene, viewpoints));
+        tracer
+    }
+
+    fn guide(&self) -> Option<&LightSampler> {
+        self.guide.as_ref().filter(|_| self.cache.is_none())
+    }
+
     /// The closest hit that is not a hole in a cut-out; `ray.t_min` ends up past the holes.
     pub fn intersect(&self, ray: &mut Ray) -> Option<Hit> {
         let hit = self.rays.intersect(ray)?;
@@ -120,30 +138,51 @@ impl Tracer<'_> {
                 None => cache.irradiance(s.position, s.geometric, params.baked_points),
             },
             _ => {
+                let sampled = match self.guide() {
+                    Some(g) => g.irradiance(self, s, rng),
+                    None => Vec3::ZERO,
+                };
                 let d = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
                 if d.dot(s.geometric) <= 0.0 {
-                    return Vec3::ZERO;
+                    return sampled;
                 }
                 let mut ray = Ray::new(s.lifted(), d);
                 let hit = self.intersect(&mut ray);
-                PI * self.path(params, ray, hit, rng)
+                sampled + PI * self.path(params, ray, hit, *s, rng)
             }
         }
     }
 
-    /// Radiance arriving along a bounce ray whose hit is `hit`: next-event
-    /// estimation at every vertex, the cache once `bounces` are done, Russian
-    /// roulette from the third vertex on.
-    fn path(&self, params: &TraceParams, mut ray: Ray, mut hit: Option<Hit>, rng: &mut Pcg32) -> Vec3 {
+    /// Radiance arriving along a bounce ray from `from` whose hit is `hit`:
+    /// next-event estimation at every vertex, the cache once `bounces` are
+    /// done, Russian roulette from the third vertex on.
+    fn path(&self, params: &TraceParams, mut ray: Ray, mut hit: Option<Hit>, mut from: Surface, rng: &mut Pcg32) -> Vec3 {
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
+        let guide = self.guide();
         for depth in 1..=MAX_DEPTH {
             let Some(h) = hit else {
-                sum += weight * self.lighting.sky.radiance(ray.dir);
+                let w = guide.map_or(1.0, |g| g.bounce_weight_sky(&from, ray.dir));
+                sum += weight * w * self.lighting.sky.radiance(ray.dir);
                 break;
             };
             let s = self.materials.surface(&ray, &h);
             let brdf = s.albedo / PI;
-            sum += weight * (s.emission + brdf * self.direct(&s, Which::All, rng));
+            let (emission, direct) = match guide {
+                None => (s.emission, self.direct(&s, Which::All, rng)),
+                Some(g) => {
+                    // Suns' light here weighed against reaching a sunlit point by connection.
+                    let mut e = Vec3::ZERO;
+                    let u = Vec2::new(rng.random(), rng.random());
+                    self.lighting.shadow_rays(&s, u, Which::All, |k, r, irradiance| {
+                        if self.visible(&r) {
+                            e += if k < self.lighting.suns.len() { irradiance * g.bounce_weight_sun(k, &from, &s, r.dir) } else { irradiance };
+                        }
+                    });
+                    let emission = if s.emission == Vec3::ZERO { s.emission } else { s.emission * g.bounce_weight_emission(&from, &s, h.triangle) };
+                    (emission, e + g.irradiance(self, &s, rng))
+                }
+            };
+            sum += weight * (emission + brdf * direct);
             if let (Some(cache), true) = (&self.cache, depth >= params.bounces) {
                 sum += weight * brdf * cache.irradiance_jittered(s.position, s.geometric, rng);
                 break;
@@ -163,6 +202,7 @@ impl Tracer<'_> {
             }
             ray = Ray::new(s.lifted(), d);
             hit = self.intersect(&mut ray);
+            from = s;
         }
         sum
     }
@@ -267,7 +307,7 @@ impl Tracer<'_> {
                         }
                         let u = Vec2::new(rng.random(), rng.random());
                         let mut light = 0;
-                        self.lighting.shadow_rays(s, u, which, |r, e| {
+                        self.lighting.shadow_rays(s, u, which, |_, r, e| {
                             shadows.push((light, i, r, e));
                             light += 1;
                         });
