@@ -1,10 +1,14 @@
 //! Render quality against a converged reference (issue: render quality; the
 //! protocol is in docs/RENDER_QUALITY.md). For the `sunroom`, the gallery and
 //! the Crytek Sponza (when present), from the first probe of a default plan:
-//! - the reference: the project's path tracer with no cache, accumulated in
-//!   batches until REF_SPP samples (default 1024) and kept in target/bench-quality
-//!   (a rerun reuses it); its convergence is the mean FLIP between the image at
-//!   half the samples and at all of them (goal < 0.005);
+//! - the reference: the project's path tracer with no cache, sampling the
+//!   lights by multiple importance sampling (`Tracer::path_traced`),
+//!   accumulated in batches until REF_SPP samples (default 1024) and kept in
+//!   target/bench-quality (a rerun reuses it and a larger REF_SPP continues
+//!   it). Every row is scored against it and against its image at half the
+//!   samples: the reference is converged for that row when the score moves by
+//!   less than 0.005 ("doubling" column). The FLIP between the two reference
+//!   images themselves is printed too (a far stricter figure: noise against noise);
 //! - `final` panoramas (cube faces rendered at 2048², compared at 1024² as the
 //!   viewer's 1024 level), `final` video frames (1024 × 512 equirectangular,
 //!   resampled to 256² faces, their resolution), and the cache read at the first
@@ -73,6 +77,11 @@ fn main() {
         }
     }
     let mut table = Vec::new();
+    let mut summary = Vec::new();
+    // CYCLES_FACE: the face size both renderers render at for the comparison (0: none).
+    let has_bpy = std::process::Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
+    let cycles_face: u32 = std::env::var("CYCLES_FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(if has_bpy { 2048 } else { 0 });
+    let cycles_ref: u32 = std::env::var("CYCLES_REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
@@ -113,13 +122,18 @@ fn main() {
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
         let small_ref: Vec<Vec<Vec3>> = full_ref.iter().map(|f| shrink(f, face, 256)).collect();
         let small_ref_paths = save("reference-256", 256, &small_ref);
+        let small_half: Vec<Vec<Vec3>> = half_ref.iter().map(|f| shrink(f, face, 256)).collect();
+        let small_half_paths = save("reference-256-half", 256, &small_half);
 
-        let mut rows: Vec<(String, f64, Vec<PathBuf>, Vec<PathBuf>)> = Vec::new();
+        // (method, seconds, its images, the reference's, the reference's at half its samples).
+        type Row = (String, f64, Vec<PathBuf>, Vec<PathBuf>, Option<Vec<PathBuf>>);
+        let mut rows: Vec<Row> = Vec::new();
         rows.push((
             format!("reference at {} spp vs {ref_spp}", ref_spp / 2),
             ref_s,
-            half_paths,
+            half_paths.clone(),
             ref_paths.clone(),
+            None,
         ));
         let before = TraceParams {
             gather: None,
@@ -142,6 +156,7 @@ fn main() {
                 seconds,
                 save(&tag.replace(' ', "_"), face, &faces),
                 ref_paths.clone(),
+                Some(half_paths.clone()),
             ));
         }
         for (tag, params) in [
@@ -165,6 +180,7 @@ fn main() {
                 seconds,
                 save(&tag.replace([' ', ','], "_"), 256, &faces),
                 small_ref_paths.clone(),
+                Some(small_half_paths.clone()),
             ));
         }
         {
@@ -188,12 +204,48 @@ fn main() {
             let frame = middle.expect("the middle frame");
             let faces: Vec<Vec<Vec3>> = (0..6).map(|f| cube_from_equirect(&frame.color, settings.video_width, f, 256)).collect();
             let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
-            rows.push((tag, seconds, save("final_video_between_keys", 256, &faces), small_ref_paths.clone()));
+            rows.push((tag, seconds, save("final_video_between_keys", 256, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
         }
-        let flips: Vec<Option<f64>> = if has_flip {
+        // Cycles: its converged reference against ours, then its samples with OIDN.
+        let mut cycles_rows = Vec::new();
+        if cycles_face > 0 {
+            let dir = out.join(format!("cycles-{name}"));
+            let runs: Vec<(String, u32, bool)> = [1u32, 4, 16, 64]
+                .iter()
+                .map(|&n| (format!("{n}-oidn"), n, true))
+                .chain([(format!("{cycles_ref}-reference"), cycles_ref, false)])
+                .collect();
+            match cycles(&python, scene, &renderer, eye, cycles_face, &runs, &dir) {
+                Err(e) => println!("Cycles comparison failed: {e}"),
+                Ok(done) => {
+                    // Ours at the same face size, when that is not the bundle's 2048.
+                    if cycles_face != 2048 {
+                        let t = Instant::now();
+                        let faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, cycles_face, 0).into_iter().map(|f| shrink(&f.color, cycles_face, face)).collect();
+                        let seconds = t.elapsed().as_secs_f64();
+                        cycles_rows.push((rows.len(), 0, seconds));
+                        rows.push((format!("final panorama, {cycles_face}² faces"), seconds, save(&format!("final_{cycles_face}"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
+                    } else {
+                        cycles_rows.push((2, 0, rows[2].1));
+                    }
+                    for (tag, samples, faces, seconds) in done {
+                        let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, cycles_face, face)).collect();
+                        cycles_rows.push((rows.len(), samples, seconds));
+                        let tag = if tag.ends_with("reference") { format!("Cycles {samples} spp, no denoiser") } else { format!("Cycles {samples} spp + OIDN, {cycles_face}² faces") };
+                        rows.push((tag.clone(), seconds, save(&tag.replace([' ', ',', '²', '+'], "_"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
+                    }
+                }
+            }
+        }
+        // Mean FLIP of each row against the reference, and against the reference at half its samples.
+        let flips: Vec<Option<(f64, Option<f64>)>> = if has_flip {
             let args: Vec<&PathBuf> = rows
                 .iter()
-                .flat_map(|r| r.3.iter().zip(&r.2).flat_map(|(a, b)| [a, b]))
+                .flat_map(|r| {
+                    let full = r.3.iter().zip(&r.2).flat_map(|(a, b)| [a, b]);
+                    let half = r.4.iter().flat_map(|h| h.iter().zip(&r.2).flat_map(|(a, b)| [a, b]));
+                    full.chain(half)
+                })
                 .collect();
             let run = std::process::Command::new(&python)
                 .arg(&flip_script)
@@ -207,18 +259,20 @@ fn main() {
             if values.len() != args.len() / 2 {
                 println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
             }
+            let mut next = values.chunks(6).map(|v| v.iter().sum::<f64>() / 6.0);
+            let complete = values.len() == args.len() / 2;
             rows.iter()
-                .enumerate()
-                .map(|(i, _)| {
-                    (values.len() == args.len() / 2)
-                        .then(|| values[i * 6..i * 6 + 6].iter().sum::<f64>() / 6.0)
+                .map(|r| {
+                    let full = next.next();
+                    let half = if r.4.is_some() { next.next() } else { None };
+                    complete.then(|| (full.unwrap_or(f64::NAN), half))
                 })
                 .collect()
         } else {
             vec![None; rows.len()]
         };
         println!("\n{name}: eye {eye:.2}, {} triangles, cache bake {bake:.1} s ({}), exposure {exposure:.2}", scene.triangles.len(), renderer.tracer.lighting.description);
-        for ((tag, seconds, test, refs), flip) in rows.iter().zip(&flips) {
+        for ((tag, seconds, test, refs, _), flip) in rows.iter().zip(&flips) {
             let db: f64 = test
                 .iter()
                 .zip(refs)
@@ -230,15 +284,45 @@ fn main() {
                 })
                 .sum::<f64>()
                 / 6.0;
-            let flip = flip.map_or("-".to_string(), |f| format!("{f:.4}"));
-            println!("  {tag:<38} FLIP {flip:>7}   PSNR {db:>5.1} dB   {seconds:>7.2} s");
+            // How much the score moves when the reference's samples double.
+            let change = match flip {
+                Some((f, Some(h))) => format!("{:+.4}", f - h),
+                _ => "-".to_string(),
+            };
+            let flip = flip.map_or("-".to_string(), |f| format!("{:.4}", f.0));
+            println!("  {tag:<38} FLIP {flip:>7} ({change:>7} on doubling the reference)   PSNR {db:>5.1} dB   {seconds:>7.2} s");
             table.push(format!(
-                "{name:<8} {tag:<38} {flip:>7} {db:>5.1} {seconds:>7.2}"
+                "{name:<8} {tag:<38} {flip:>7} {change:>8} {db:>5.1} {seconds:>7.2}"
             ));
         }
+        if let Some(&(ours_row, _, ours_s)) = cycles_rows.first() {
+            // Seconds Cycles (with OIDN) needs to reach our panorama's FLIP, interpolated
+            // between its sample counts on log time; our side carries its share of the bake.
+            let flip_of = |row: usize| flips[row].map(|f| f.0);
+            let probes = graph.probes.len().max(1);
+            let ours = ours_s + bake / probes as f64;
+            let denoised: Vec<(f64, f64)> = cycles_rows[1..].iter().filter(|r| !rows[r.0].0.contains("no denoiser")).filter_map(|r| flip_of(r.0).map(|f| (r.2, f))).collect();
+            if let Some(target) = flip_of(ours_row) {
+                let reach = denoised.windows(2).find_map(|w| {
+                    let ((t0, f0), (t1, f1)) = (w[0], w[1]);
+                    (f1 <= target && f0 > target).then(|| (t0.ln() + (t1.ln() - t0.ln()) * (f0 - target) / (f0 - f1)).exp())
+                });
+                let reach = reach.or_else(|| denoised.first().filter(|d| d.1 <= target).map(|d| d.0));
+                let line = match reach {
+                    Some(t) => format!("{name}: Cycles + OIDN reaches our panorama's FLIP {target:.4} in {t:.1} s; ours {ours:.1} s ({ours_s:.1} s + the bake's {:.1} s shared by {probes} probes): {:.1}x (goal ≥ 5x)", bake / probes as f64, t / ours),
+                    None => format!("{name}: Cycles + OIDN did not reach our panorama's FLIP {target:.4} within its sweep: more than {:.1}x", denoised.last().map_or(0.0, |d| d.0) / ours),
+                };
+                println!("{line}");
+                summary.push(line);
+            }
+        }
     }
-    println!("\nscene    method                                  FLIP  PSNR  seconds   (goals: panorama ≤ 0.05, video ≤ 0.08; reference convergence < 0.005)");
+    println!("\nscene    method                                  FLIP  doubling  PSNR  seconds");
+    println!("(goals: panorama ≤ 0.05, video ≤ 0.08; the reference is converged for a row when doubling its samples moves the row's FLIP by < 0.005)");
     for line in table {
+        println!("{line}");
+    }
+    for line in summary {
         println!("{line}");
     }
     println!("images in {}", out.display());
@@ -324,4 +408,97 @@ fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Ve
                 + (at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx) * fy
         })
         .collect()
+}
+
+/// Renders the six faces from `eye` with Blender's Cycles (builder/benches/blender_cycles.py,
+/// the `bpy` wheel) for each run (tag, samples, denoise): the scene is written to
+/// `dir` in Blender's axes with the renderer's lights. Returns (tag, samples,
+/// linear faces, seconds of the six renders).
+#[allow(clippy::type_complexity)]
+fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u32, runs: &[(String, u32, bool)], dir: &Path) -> Result<Vec<(String, u32, Vec<Vec<Vec3>>, f64)>, String> {
+    use serde_json::json;
+    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    // ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
+    let z_up = |v: Vec3| [v.x, -v.z, v.y];
+    let mut mesh: Vec<u8> = Vec::new();
+    mesh.extend(scene.positions.iter().flat_map(|&p| z_up(p)).flat_map(f32::to_le_bytes));
+    mesh.extend(scene.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()));
+    mesh.extend((0..scene.triangles.len()).flat_map(|t| scene.triangle_material.get(t).copied().unwrap_or(u32::MAX).min(scene.materials.len() as u32).to_le_bytes()));
+    // Blender's texture rows run bottom to top.
+    mesh.extend(scene.uvs.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).flat_map(f32::to_le_bytes));
+    std::fs::write(dir.join("mesh.bin"), mesh).map_err(|e| e.to_string())?;
+    let mut textures = Vec::new();
+    for (i, t) in scene.textures.iter().enumerate() {
+        let path = dir.join(format!("texture-{i}.png"));
+        t.image.save(&path).map_err(|e| e.to_string())?;
+        textures.push(path);
+    }
+    let mut materials: Vec<serde_json::Value> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let cutoff = match m.alpha_mode {
+                exploremaps_scenes::AlphaMode::Opaque => None,
+                exploremaps_scenes::AlphaMode::Mask { cutoff } => Some(cutoff),
+                exploremaps_scenes::AlphaMode::Blend => Some(0.5),
+            };
+            json!({"albedo": &m.base_color[..3], "alpha": m.base_color[3], "texture": m.base_color_texture.map(|t| &textures[t]), "cutoff": cutoff.filter(|_| m.base_color_texture.is_some()), "emission": m.emissive.to_array()})
+        })
+        .collect();
+    // Triangles without a material: the renderer's default grey.
+    materials.push(json!({"albedo": [0.7, 0.7, 0.7], "alpha": 1.0, "texture": null, "cutoff": null, "emission": [0.0, 0.0, 0.0]}));
+    let lighting = &renderer.tracer.lighting;
+    let sky = lighting.sky;
+    let sky_rows: Vec<[f32; 3]> = (0..512).map(|j| sky.radiance(Vec3::new(0.0, (((j as f32 + 0.5) / 512.0 - 0.5) * std::f32::consts::PI).sin(), 1.0)).to_array()).collect();
+    let faces: Vec<serde_json::Value> = (0..6)
+        .map(|f| {
+            let at = |a: f32, b: f32| Vec3::from(cube_direction(f, a, b));
+            let forward = at(0.5, 0.5).normalize();
+            let right = (at(1.0, 0.5) - at(0.5, 0.5)).normalize();
+            let up = (at(0.5, 0.0) - at(0.5, 0.5)).normalize();
+            json!({"forward": z_up(forward), "right": z_up(right), "up": z_up(up)})
+        })
+        .collect();
+    let spec = json!({
+        "name": scene.name,
+        "vertices": scene.positions.len(),
+        "triangles": scene.triangles.len(),
+        "uvs": !scene.uvs.is_empty(),
+        "materials": materials,
+        "suns": lighting.suns.iter().map(|&(d, e)| json!({"direction": z_up(d), "irradiance": e.to_array(), "angle": 2.0 * 0.0047})).collect::<Vec<_>>(),
+        "points": lighting.points.iter().map(|&(p, i)| json!({"position": z_up(p), "intensity": i.to_array()})).collect::<Vec<_>>(),
+        "sky_rows": if sky.zenith == Vec3::ZERO && sky.horizon == Vec3::ZERO && sky.ground == Vec3::ZERO { serde_json::Value::Null } else { json!(sky_rows) },
+        "eye": z_up(eye),
+        "faces": faces,
+        "size": size,
+        "threads": rayon::current_num_threads(),
+        "runs": runs.iter().map(|(tag, samples, denoise)| json!({"tag": tag, "samples": samples, "denoise": denoise})).collect::<Vec<_>>(),
+    });
+    std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/blender_cycles.py");
+    eprintln!("Cycles: {} runs of six {size}² faces...", runs.len());
+    let run = std::process::Command::new(python).arg(&script).arg(dir).output().map_err(|e| e.to_string())?;
+    let log = String::from_utf8_lossy(&run.stdout);
+    if !run.status.success() {
+        return Err(String::from_utf8_lossy(&run.stderr).lines().rev().take(8).collect::<Vec<_>>().join(" | "));
+    }
+    let mut done = Vec::new();
+    for line in log.lines().filter(|l| l.starts_with('{')) {
+        let v: serde_json::Value = serde_json::from_str(line).map_err(|e| e.to_string())?;
+        if let Some(c) = v.get("calibration") {
+            println!("Cycles light units against ours (multipliers): {c}");
+        }
+        if let Some(o) = v.get("overhead") {
+            println!("Cycles: a 1-sample render of one face takes {o} s (scene sync and BVH, paid by each of the six renders)");
+        }
+        let Some(tag) = v.get("tag").and_then(|t| t.as_str()) else { continue };
+        let faces = (0..6)
+            .map(|f| {
+                let bytes = std::fs::read(dir.join(format!("cycles-{tag}-{f}.bin"))).map_err(|e| e.to_string())?;
+                Ok(bytes.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect())
+            })
+            .collect::<Result<Vec<Vec<Vec3>>, String>>()?;
+        done.push((tag.to_string(), v["samples"].as_u64().unwrap_or(0) as u32, faces, v["seconds"].as_f64().unwrap_or(0.0)));
+    }
+    Ok(done)
 }

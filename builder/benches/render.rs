@@ -1,10 +1,9 @@
 //! Rendering figures: radiance-cache bake, panoramas and video frames at both
 //! qualities, ray throughput against Embree's own packet limit on the same
-//! rays, one panorama against Blender Cycles (when `blender` is installed),
-//! and (with `BENCH_BUNDLE=1`) a whole final-quality bundle.
-//! `cargo bench -p exploremaps-builder --bench render`.
-//! Goals (issue: render): at least 5× faster than Cycles at equal quality; the
-//! whole Sponza bundle at `final` within 20 min on 2 cores.
+//! rays, and (with `BENCH_BUNDLE=1`) a whole final-quality bundle.
+//! `cargo bench -p exploremaps-builder --bench render`. The comparison with
+//! Cycles is in the quality bench (`CYCLES=1`), against a common reference.
+//! Goal (issue: render): the whole Sponza bundle at `final` within 20 min on 2 cores.
 
 use exploremaps_builder::coverage::CoverageParams;
 use exploremaps_builder::load::{load, LoadOptions};
@@ -109,7 +108,6 @@ fn main() {
     let whole = 5.0 * (w * h) as f64 / t.elapsed().as_secs_f64() / 1e6;
     println!("\nrays: Embree's 8-wide coherent packets alone {limit:.1} Mrays/s on a {w}x{h} equirect's primary rays; whole preview frames (primary + sun shadow + cache) {whole:.1} M pixels/s, {:.1} Mrays/s", whole * 2.0);
 
-    cycles(&scene, &shared, &rays, &viewpoints, name);
 
     if std::env::var("BENCH_BUNDLE").is_ok_and(|v| v == "1") {
         let dir = tempfile::tempdir().unwrap();
@@ -128,79 +126,3 @@ fn main() {
     }
 }
 
-/// 2×2 box downsampling of an 8-bit image.
-fn half(img: &image::RgbImage) -> image::RgbImage {
-    image::RgbImage::from_fn(img.width() / 2, img.height() / 2, |x, y| {
-        let p = |dx, dy| img.get_pixel(2 * x + dx, 2 * y + dy).0;
-        let (a, b, c, d) = (p(0, 0), p(1, 0), p(0, 1), p(1, 1));
-        image::Rgb(std::array::from_fn(|i| ((a[i] as u32 + b[i] as u32 + c[i] as u32 + d[i] as u32 + 2) / 4) as u8))
-    })
-}
-
-/// Runs the Cycles script; returns the image and Cycles' own render seconds.
-fn blender(obj: &Path, out: &Path, eye: Vec3, renderer: &Renderer, spp: u32, width: u32, mpu: f32) -> Option<(image::RgbImage, f64)> {
-    let (sun, e) = renderer.tracer.lighting.suns[0];
-    let sky = renderer.tracer.lighting.sky.radiance(Vec3::new(0.0, 0.5, 0.87));
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/cycles.py");
-    let v = |x: f32| x.to_string();
-    let args: Vec<String> = [obj.display().to_string(), out.display().to_string()]
-        .into_iter()
-        .chain([eye.x, eye.y, eye.z, sun.x, sun.y, sun.z, e.x, sky.x, sky.y, sky.z].map(v))
-        .chain([spp.to_string(), width.to_string(), v(renderer.exposure), v(mpu)])
-        .collect();
-    let run = std::process::Command::new("blender").args(["-b", "--factory-startup", "--python"]).arg(&script).arg("--").args(&args).output().ok()?;
-    let log = String::from_utf8_lossy(&run.stdout);
-    let Some(line) = log.lines().find(|l| l.starts_with("CYCLES")) else {
-        println!("Cycles failed: {}", String::from_utf8_lossy(&run.stderr).lines().rev().take(5).collect::<Vec<_>>().join(" | "));
-        return None;
-    };
-    let seconds = line.split("render_s=").nth(1)?.split_whitespace().next()?.parse().ok()?;
-    Some((image::open(out).ok()?.to_rgb8(), seconds))
-}
-
-/// (a) One 2048x1024 panorama against Cycles at equal quality: each renderer
-/// is measured against its own converged image (PSNR at 1024x512).
-fn cycles(scene: &Scene, obj: &Path, rays: &RayScene, viewpoints: &[Vec3], name: &str) {
-    use exploremaps_builder::render::{equirect_from_cube, psnr, TraceParams, Tracer};
-    if name != "sponza_crytek" || std::process::Command::new("blender").arg("--version").output().is_err() {
-        println!("
-(a) SKIPPED the Cycles comparison: needs the Crytek Sponza and `blender` (apt-get install blender)");
-        return;
-    }
-    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/bench-render");
-    std::fs::create_dir_all(&out).unwrap();
-    let eye = viewpoints[0];
-    let settings = Settings::new(Quality::Final, 1);
-    let t = Instant::now();
-    let renderer = Renderer::new(scene, rays, viewpoints, settings.clone());
-    let cache_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, 2048, 0).into_iter().map(|f| f.color).collect();
-    let ours = renderer.to_image(2048, 1024, &equirect_from_cube(&faces, 2048, 2048));
-    let ours_s = t.elapsed().as_secs_f64();
-    let ref_spp = 256;
-    let t = Instant::now();
-    let pure = Tracer::path_traced(scene, rays, renderer.tracer.lighting.clone(), &[eye]);
-    let reference = pure.render(&TraceParams { samples: ref_spp, bounces: 0, baked_points: false, gather: None, seed: 9 }, eye, 1024, 512, 1, equirect_direction);
-    let ours_ref = renderer.to_image(1024, 512, &reference.color);
-    let ours_ref_s = t.elapsed().as_secs_f64();
-    ours.save(out.join("ours.png")).unwrap();
-    ours_ref.save(out.join("ours_reference.png")).unwrap();
-    let ours_db = psnr(&half(&ours), &ours_ref);
-    // Quality against time for other sample counts (antialiasing and sun-disk noise; the cache's bias stays).
-    for spp in [1, 4, 8] {
-        let t = Instant::now();
-        let params = exploremaps_builder::render::TraceParams { samples: spp, ..settings.panorama };
-        let faces: Vec<Vec<Vec3>> = renderer.cube(&params, eye, 2048, 0).into_iter().map(|f| f.color).collect();
-        let img = renderer.to_image(2048, 1024, &equirect_from_cube(&faces, 2048, 2048));
-        println!("    ExploreMaps at {spp} spp: {:.1} s, {:.1} dB", t.elapsed().as_secs_f64(), psnr(&half(&img), &ours_ref));
-    }
-    let mpu = scene.metres_per_unit;
-    let Some((cy, cy_s)) = blender(obj, &out.join("cycles.png"), eye, &renderer, 16, 2048, mpu) else { return };
-    let Some((cy_ref, cy_ref_s)) = blender(obj, &out.join("cycles_reference.png"), eye, &renderer, ref_spp, 1024, mpu) else { return };
-    let cy_db = psnr(&half(&cy), &cy_ref);
-    println!("\n(a) one 2048x1024 panorama of {name}, PSNR at 1024x512 against each renderer's own {ref_spp}-sample path-traced image:");
-    println!("    ExploreMaps final (cube 2048 at {} spp, cache):  {:>6.1} s + {:.1} s cache bake  {:>5.1} dB   (reference took {:.0} s)", settings.panorama.samples, ours_s, cache_s, ours_db, ours_ref_s);
-    println!("    Cycles 16 spp, 4 bounces, no denoiser:          {:>6.1} s                    {:>5.1} dB   (reference took {:.0} s)", cy_s, cy_db, cy_ref_s);
-    println!("    speed-up {:.1}x (with the bake {:.1}x; goal 5x at equal or better PSNR); images in {}", cy_s / ours_s, cy_s / (ours_s + cache_s), out.display());
-}
