@@ -1,13 +1,14 @@
 """Renders a scene exported by the quality bench with Blender's Cycles (the
 `bpy` wheel in target/bench-py), as six 90° cube faces from one eye, at
-each requested sample count, with or without Open Image Denoise.
+each requested sample count and size, with or without Open Image Denoise.
 
 Usage: python blender_cycles.py DIR (not cycles.py: that name would shadow the add-on)
 DIR holds scene.json and mesh.bin written by builder/benches/quality.rs
 (coordinates already Blender's: Z up). Writes DIR/cycles-{tag}-{face}.bin
 (float32 linear RGB, rows top to bottom) and prints one JSON line a setting:
-{"tag", "samples", "denoise", "seconds"} (the six render calls, scene set-up
-excluded), then {"overhead": seconds of a 1-sample render of one face}.
+{"tag", "samples", "size", "denoise", "seconds"} (the six render calls, scene set-up
+excluded), then {"overhead": seconds of a 1-sample 64² render of one face:
+scene sync and BVH build, which every render call pays}.
 
 Light units differ between the two renderers, so the script first measures
 Cycles' own answer for a point light, a sun, an emissive surface and the
@@ -229,13 +230,27 @@ mesh.polygons.foreach_set("material_index", tri_material.astype(np.int32))
 mesh.update(calc_edges=True)
 mesh.validate()
 
+textures = {}
+
+
+def texture(t):
+    """A texture given as linear float RGBA rows, bottom to top (filtered as linear values)."""
+    if t["path"] not in textures:
+        img = bpy.data.images.new(f"t{len(textures)}", t["width"], t["height"], alpha=True, float_buffer=True)
+        img.colorspace_settings.name = "Linear Rec.709"
+        img.alpha_mode = "STRAIGHT"
+        img.pixels.foreach_set(np.fromfile(t["path"], dtype="<f4"))
+        textures[t["path"]] = img
+    return textures[t["path"]]
+
+
 for i, mat in enumerate(spec["materials"]):
     albedo = [min(c, 0.98) for c in mat["albedo"]]
     emission = [c * scale["emission"] for c in mat["emission"]] if any(mat["emission"]) else None
     m, nodes, links, bsdf, output = diffuse_material(f"m{i}", albedo, emission)
     if mat["texture"] is not None:
         tex = nodes.new("ShaderNodeTexImage")
-        tex.image = bpy.data.images.load(mat["texture"])
+        tex.image = texture(mat["texture"])
         tex.interpolation = "Linear"
         tex.extension = "REPEAT"
         mul = nodes.new("ShaderNodeVectorMath")
@@ -293,16 +308,17 @@ world([[c * scale["world"] for c in row] for row in spec["sky_rows"]] if spec["s
 
 cams = [camera(spec["eye"], f["right"], f["up"], f["forward"], math.pi / 2) for f in spec["faces"]]
 
-settings(spec["size"], 1, False)
+settings(64, 1, False)
 bpy.context.scene.camera = cams[0]
 _, overhead = render(f"{out}/cycles-overhead.exr")
 for run in spec["runs"]:
-    settings(spec["size"], run["samples"], run["denoise"])
+    size = run["size"]
+    settings(size, run["samples"], run["denoise"])
     total = 0.0
     for f, cam in enumerate(cams):
         bpy.context.scene.camera = cam
         px, seconds = render(f"{out}/cycles-{run['tag']}-{f}.exr")
         total += seconds
         px.astype("<f4").tofile(f"{out}/cycles-{run['tag']}-{f}.bin")
-    print(json.dumps({"tag": run["tag"], "samples": run["samples"], "denoise": run["denoise"], "seconds": total}), flush=True)
+    print(json.dumps({"tag": run["tag"], "samples": run["samples"], "size": size, "denoise": run["denoise"], "seconds": total}), flush=True)
 print(json.dumps({"overhead": overhead}), flush=True)

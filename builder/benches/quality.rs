@@ -16,15 +16,25 @@
 //! - mean FLIP (NVIDIA's flip-evaluator, LDR, 67 pixels a degree) over the six
 //!   faces, PSNR beside it, and seconds. Goals: panoramas ≤ 0.05, video ≤ 0.08.
 //!
-//! Needs `scripts/bench-env.sh` once (the FLIP package); without it the table
+//! - Blender's Cycles (the `bpy` wheel, `blender_cycles.py`) on the same views
+//!   and lights: its own reference (no denoiser, CYCLES_REF_SPP, default 1024,
+//!   at FACE) against ours, and a sweep of its samples with OIDN (CYCLES_SPP,
+//!   default 1,4,16,64, at CYCLES_FACE, default 2048, the bundle's faces; 0
+//!   turns Cycles off) beside our panorama at the same size; it prints how long
+//!   Cycles needs to reach our panorama's FLIP (goal: ≥ 5× ours, our share of
+//!   the bake counted).
+//!
+//! Needs `scripts/bench-env.sh` once (FLIP and bpy); without it the table
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
-//! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size.
+//! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
+//! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
+//! those lights (to check each kind against Cycles).
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
 use exploremaps_builder::render::{
-    downsample, psnr, to_image, Quality, Renderer, Settings, TraceParams, Tracer,
+    downsample, psnr, srgb_to_linear, to_image, Quality, Renderer, Settings, TraceParams, Tracer,
 };
 use exploremaps_format::cube_direction;
 use exploremaps_scenes::{BuiltIn, Scene};
@@ -82,6 +92,20 @@ fn main() {
     let has_bpy = std::process::Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
     let cycles_face: u32 = std::env::var("CYCLES_FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(if has_bpy { 2048 } else { 0 });
     let cycles_ref: u32 = std::env::var("CYCLES_REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
+    let cycles_spp: Vec<u32> = std::env::var("CYCLES_SPP").unwrap_or("1,4,16,64".into()).split(',').filter_map(|n| n.trim().parse().ok()).collect();
+    // LIGHTS=sun,sky,points,emitters keeps only those lights (to check each kind against Cycles).
+    let lights = std::env::var("LIGHTS").ok();
+    let keep = |kind: &str| lights.as_ref().is_none_or(|l| l.split(',').any(|k| k == kind));
+    for (_, scene) in &mut scenes {
+        scene.lights.retain(|l| match l {
+            exploremaps_scenes::Light::Sun { .. } => keep("sun"),
+            exploremaps_scenes::Light::Point { .. } => keep("points"),
+        });
+        if !keep("emitters") {
+            scene.materials.iter_mut().for_each(|m| m.emissive = Vec3::ZERO);
+        }
+    }
+    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+")));
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
@@ -100,7 +124,10 @@ fn main() {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let settings = Settings::new(Quality::Final, 1);
         let t = Instant::now();
-        let renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
+        let mut renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
+        if !keep("sky") {
+            renderer.tracer.lighting.sky = exploremaps_builder::render::Sky::NONE;
+        }
         let bake = t.elapsed().as_secs_f64();
         let exposure = renderer.exposure;
         let save = |tag: &str, size: u32, faces: &[Vec<Vec3>]| -> Vec<PathBuf> {
@@ -117,13 +144,15 @@ fn main() {
 
         // The reference, at half and at all of its samples.
         let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-        let (half_ref, full_ref, ref_s) = reference(&pure, &out, name, eye, face, ref_spp);
+        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}"), eye, face, ref_spp);
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
-        let small_ref: Vec<Vec<Vec3>> = full_ref.iter().map(|f| shrink(f, face, 256)).collect();
-        let small_ref_paths = save("reference-256", 256, &small_ref);
-        let small_half: Vec<Vec<Vec3>> = half_ref.iter().map(|f| shrink(f, face, 256)).collect();
-        let small_half_paths = save("reference-256-half", 256, &small_half);
+        // Video frames are compared at about their own resolution (or FACE, when smaller).
+        let small = face.min(256);
+        let small_ref: Vec<Vec<Vec3>> = full_ref.iter().map(|f| shrink(f, face, small)).collect();
+        let small_ref_paths = save("reference-small", small, &small_ref);
+        let small_half: Vec<Vec<Vec3>> = half_ref.iter().map(|f| shrink(f, face, small)).collect();
+        let small_half_paths = save("reference-small-half", small, &small_half);
 
         // (method, seconds, its images, the reference's, the reference's at half its samples).
         type Row = (String, f64, Vec<PathBuf>, Vec<PathBuf>, Option<Vec<PathBuf>>);
@@ -173,12 +202,12 @@ fn main() {
             let frame = renderer.equirect(&params, eye, settings.video_width, 0);
             let seconds = t.elapsed().as_secs_f64();
             let faces: Vec<Vec<Vec3>> = (0..6)
-                .map(|f| cube_from_equirect(&frame.color, settings.video_width, f, 256))
+                .map(|f| cube_from_equirect(&frame.color, settings.video_width, f, small))
                 .collect();
             rows.push((
                 tag.to_string(),
                 seconds,
-                save(&tag.replace([' ', ','], "_"), 256, &faces),
+                save(&tag.replace([' ', ','], "_"), small, &faces),
                 small_ref_paths.clone(),
                 Some(small_half_paths.clone()),
             ));
@@ -202,20 +231,21 @@ fn main() {
             // Frames 2.. are handed over as each is rendered (frame 1 waits for the second key).
             let between = (done[done.len() - 2] - done[1]) / (done.len() - 3) as f64;
             let frame = middle.expect("the middle frame");
-            let faces: Vec<Vec<Vec3>> = (0..6).map(|f| cube_from_equirect(&frame.color, settings.video_width, f, 256)).collect();
+            let faces: Vec<Vec<Vec3>> = (0..6).map(|f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
             let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
-            rows.push((tag, seconds, save("final_video_between_keys", 256, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
+            rows.push((tag, seconds, save("final_video_between_keys", small, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
         }
         // Cycles: its converged reference against ours, then its samples with OIDN.
         let mut cycles_rows = Vec::new();
         if cycles_face > 0 {
-            let dir = out.join(format!("cycles-{name}"));
-            let runs: Vec<(String, u32, bool)> = [1u32, 4, 16, 64]
+            let dir = out.join(format!("cycles-{name}{tag}"));
+            // The sweep at the compared renders' size; Cycles' own reference at the scored size.
+            let runs: Vec<(String, u32, bool, u32)> = cycles_spp
                 .iter()
-                .map(|&n| (format!("{n}-oidn"), n, true))
-                .chain([(format!("{cycles_ref}-reference"), cycles_ref, false)])
+                .map(|&n| (format!("{n}-oidn-{cycles_face}"), n, true, cycles_face))
+                .chain([(format!("{cycles_ref}-reference-{face}"), cycles_ref, false, face)])
                 .collect();
-            match cycles(&python, scene, &renderer, eye, cycles_face, &runs, &dir) {
+            match cycles(&python, scene, &renderer, eye, &runs, &dir) {
                 Err(e) => println!("Cycles comparison failed: {e}"),
                 Ok(done) => {
                     // Ours at the same face size, when that is not the bundle's 2048.
@@ -228,10 +258,16 @@ fn main() {
                     } else {
                         cycles_rows.push((2, 0, rows[2].1));
                     }
-                    for (tag, samples, faces, seconds) in done {
-                        let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, cycles_face, face)).collect();
+                    for (tag, samples, size, faces, seconds) in done {
+                        if tag.contains("reference") {
+                            // Noise aside, do the two renderers compute the same light? Mean radiance per face.
+                            let mean = |f: &[Vec3]| f.iter().map(|c| c.dot(Vec3::ONE)).sum::<f32>() / f.len() as f32;
+                            let ratios: Vec<String> = faces.iter().zip(&full_ref).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
+                            println!("{name}: Cycles' {samples}-sample mean radiance over the reference's, per face: {}", ratios.join(" "));
+                        }
+                        let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, size, face)).collect();
                         cycles_rows.push((rows.len(), samples, seconds));
-                        let tag = if tag.ends_with("reference") { format!("Cycles {samples} spp, no denoiser") } else { format!("Cycles {samples} spp + OIDN, {cycles_face}² faces") };
+                        let tag = if tag.contains("reference") { format!("Cycles {samples} spp, no denoiser, {size}²") } else { format!("Cycles {samples} spp + OIDN, {size}² faces") };
                         rows.push((tag.clone(), seconds, save(&tag.replace([' ', ',', '²', '+'], "_"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
                     }
                 }
@@ -307,8 +343,9 @@ fn main() {
                     let ((t0, f0), (t1, f1)) = (w[0], w[1]);
                     (f1 <= target && f0 > target).then(|| (t0.ln() + (t1.ln() - t0.ln()) * (f0 - target) / (f0 - f1)).exp())
                 });
-                let reach = reach.or_else(|| denoised.first().filter(|d| d.1 <= target).map(|d| d.0));
+                let first = denoised.first().filter(|d| d.1 <= target);
                 let line = match reach {
+                    None if first.is_some() => format!("{name}: Cycles + OIDN's fewest samples already reach our panorama's FLIP {target:.4} ({:.4}) in {:.1} s: at most {:.1}x against our {ours:.1} s", first.unwrap().1, first.unwrap().0, first.unwrap().0 / ours),
                     Some(t) => format!("{name}: Cycles + OIDN reaches our panorama's FLIP {target:.4} in {t:.1} s; ours {ours:.1} s ({ours_s:.1} s + the bake's {:.1} s shared by {probes} probes): {:.1}x (goal ≥ 5x)", bake / probes as f64, t / ours),
                     None => format!("{name}: Cycles + OIDN did not reach our panorama's FLIP {target:.4} within its sweep: more than {:.1}x", denoised.last().map_or(0.0, |d| d.0) / ours),
                 };
@@ -415,7 +452,7 @@ fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Ve
 /// `dir` in Blender's axes with the renderer's lights. Returns (tag, samples,
 /// linear faces, seconds of the six renders).
 #[allow(clippy::type_complexity)]
-fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u32, runs: &[(String, u32, bool)], dir: &Path) -> Result<Vec<(String, u32, Vec<Vec<Vec3>>, f64)>, String> {
+fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[(String, u32, bool, u32)], dir: &Path) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
     use serde_json::json;
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     // ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
@@ -427,11 +464,24 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u3
     // Blender's texture rows run bottom to top.
     mesh.extend(scene.uvs.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).flat_map(f32::to_le_bytes));
     std::fs::write(dir.join("mesh.bin"), mesh).map_err(|e| e.to_string())?;
+    // Textures as linear floats (rows bottom to top), so Cycles filters linear values as this
+    // renderer does; given the sRGB bytes, it interpolates before decoding (measured 8-15 %
+    // darker on the gallery's textured walls).
     let mut textures = Vec::new();
     for (i, t) in scene.textures.iter().enumerate() {
-        let path = dir.join(format!("texture-{i}.png"));
-        t.image.save(&path).map_err(|e| e.to_string())?;
-        textures.push(path);
+        let path = dir.join(format!("texture-{i}.bin"));
+        let (w, h) = t.image.dimensions();
+        let texels: Vec<u8> = (0..h)
+            .rev()
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .flat_map(|(x, y)| {
+                let p = t.image.get_pixel(x, y).0;
+                [srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2]), p[3] as f32 / 255.0]
+            })
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        std::fs::write(&path, texels).map_err(|e| e.to_string())?;
+        textures.push(json!({"path": path, "width": w, "height": h}));
     }
     let mut materials: Vec<serde_json::Value> = scene
         .materials
@@ -449,7 +499,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u3
     materials.push(json!({"albedo": [0.7, 0.7, 0.7], "alpha": 1.0, "texture": null, "cutoff": null, "emission": [0.0, 0.0, 0.0]}));
     let lighting = &renderer.tracer.lighting;
     let sky = lighting.sky;
-    let sky_rows: Vec<[f32; 3]> = (0..512).map(|j| sky.radiance(Vec3::new(0.0, (((j as f32 + 0.5) / 512.0 - 0.5) * std::f32::consts::PI).sin(), 1.0)).to_array()).collect();
+    let sky_rows: Vec<[f32; 3]> = (0..512).map(|j| { let e = ((j as f32 + 0.5) / 512.0 - 0.5) * std::f32::consts::PI; sky.radiance(Vec3::new(0.0, e.sin(), e.cos())) }.to_array()).collect();
     let faces: Vec<serde_json::Value> = (0..6)
         .map(|f| {
             let at = |a: f32, b: f32| Vec3::from(cube_direction(f, a, b));
@@ -470,13 +520,12 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u3
         "sky_rows": if sky.zenith == Vec3::ZERO && sky.horizon == Vec3::ZERO && sky.ground == Vec3::ZERO { serde_json::Value::Null } else { json!(sky_rows) },
         "eye": z_up(eye),
         "faces": faces,
-        "size": size,
         "threads": rayon::current_num_threads(),
-        "runs": runs.iter().map(|(tag, samples, denoise)| json!({"tag": tag, "samples": samples, "denoise": denoise})).collect::<Vec<_>>(),
+        "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
     });
     std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/blender_cycles.py");
-    eprintln!("Cycles: {} runs of six {size}² faces...", runs.len());
+    eprintln!("Cycles: {} runs of six faces...", runs.len());
     let run = std::process::Command::new(python).arg(&script).arg(dir).output().map_err(|e| e.to_string())?;
     let log = String::from_utf8_lossy(&run.stdout);
     if !run.status.success() {
@@ -489,7 +538,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u3
             println!("Cycles light units against ours (multipliers): {c}");
         }
         if let Some(o) = v.get("overhead") {
-            println!("Cycles: a 1-sample render of one face takes {o} s (scene sync and BVH, paid by each of the six renders)");
+            println!("Cycles: a 1-sample 64² render of one face takes {o} s (scene sync and BVH build, paid by each of the six renders)");
         }
         let Some(tag) = v.get("tag").and_then(|t| t.as_str()) else { continue };
         let faces = (0..6)
@@ -498,7 +547,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, size: u3
                 Ok(bytes.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect())
             })
             .collect::<Result<Vec<Vec<Vec3>>, String>>()?;
-        done.push((tag.to_string(), v["samples"].as_u64().unwrap_or(0) as u32, faces, v["seconds"].as_f64().unwrap_or(0.0)));
+        done.push((tag.to_string(), v["samples"].as_u64().unwrap_or(0) as u32, v["size"].as_u64().unwrap_or(0) as u32, faces, v["seconds"].as_f64().unwrap_or(0.0)));
     }
     Ok(done)
 }
