@@ -284,26 +284,25 @@ for i, mat in enumerate(spec["materials"]):
 scene_obj = bpy.data.objects.new(spec["name"], mesh)
 bpy.context.scene.collection.objects.link(scene_obj)
 
+def add_light(kind, rgb):
+    """A light of this project's `rgb` (irradiance or intensity) in Cycles' units."""
+    light = bpy.data.lights.new(kind, kind)
+    peak = max(max(rgb), 1e-12)
+    light.color = [c / peak for c in rgb]
+    light.energy = peak * scale[kind.lower()]
+    obj = bpy.data.objects.new(kind, light)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
 for sun in spec["suns"]:
-    light = bpy.data.lights.new("sun", "SUN")
-    irr = sun["irradiance"]
-    peak = max(irr)
-    light.color = [c / peak for c in irr]
-    light.energy = peak * scale["sun"]
-    light.angle = sun["angle"]
-    obj = bpy.data.objects.new("sun", light)
+    obj = add_light("SUN", sun["irradiance"])
+    obj.data.angle = sun["angle"]
     obj.rotation_euler = Vector(sun["direction"]).to_track_quat("Z", "Y").to_euler()
-    bpy.context.scene.collection.objects.link(obj)
 for point in spec["points"]:
-    light = bpy.data.lights.new("point", "POINT")
-    inten = point["intensity"]
-    peak = max(inten)
-    light.color = [c / peak for c in inten]
-    light.energy = peak * scale["point"]
-    light.shadow_soft_size = 0.0
-    obj = bpy.data.objects.new("point", light)
+    obj = add_light("POINT", point["intensity"])
+    obj.data.shadow_soft_size = 0.0
     obj.location = point["position"]
-    bpy.context.scene.collection.objects.link(obj)
 world([[c * scale["world"] for c in row] for row in spec["sky_rows"]] if spec["sky_rows"] else None)
 
 cams = [camera(spec["eye"], f["right"], f["up"], f["forward"], math.pi / 2) for f in spec["faces"]]

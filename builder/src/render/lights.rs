@@ -172,8 +172,11 @@ impl LightSampler {
             })
             .collect();
 
-        let suns = lighting_suns(&tracer.lighting)
-            .map(|dir| {
+        let suns = tracer
+            .lighting
+            .suns
+            .iter()
+            .map(|&(dir, _)| {
                 let axes = dir.any_orthonormal_pair();
                 let half = radius * 1.01;
                 let centre = centre + dir * half;
@@ -380,10 +383,6 @@ impl LightSampler {
         }
         sum
     }
-}
-
-fn lighting_suns(lighting: &Lighting) -> impl Iterator<Item = Vec3> + '_ {
-    lighting.suns.iter().map(|&(dir, _)| dir)
 }
 
 /// A point of cell `c` of the sun's square, in [-1, 1]² coordinates.
