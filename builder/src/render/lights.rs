@@ -24,6 +24,7 @@
 
 use super::surface::{cosine_direction, fibonacci_sphere, Lighting, Surface};
 use super::trace::{sampler, Tracer};
+use super::luminance;
 use crate::raycast::Ray;
 use exploremaps_scenes::Scene;
 use glam::{Vec2, Vec3};
@@ -102,10 +103,6 @@ impl Table {
         }
         (self.cdf[i] - if i == 0 { 0.0 } else { self.cdf[i - 1] }) / total
     }
-}
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 /// Density per unit solid angle of a cosine bounce from `x` along unit `w`.
