@@ -209,16 +209,32 @@ const PROXY_LIST: &str = "proxy/proxy.json";
 fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
     let text = std::fs::read_to_string(dir.join(PROXY_LIST)).ok()?;
     let proxy: exploremaps_format::Proxy = serde_json::from_str(&text).ok()?;
-    proxy.levels.iter().map(|l| &l.file).chain(&proxy.glb).all(|f| dir.join(f).exists()).then_some(proxy)
+    let complete = proxy_files(&proxy).all(|f| dir.join(f).exists());
+    complete.then_some(proxy)
+}
+
+fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
+    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb)
+}
+
+/// Storey floor heights the free-space stage found (its `walk.levels`), for
+/// the dollhouse's floor cut; none when probes fly.
+fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
+    let levels = graph.stats.get("free_space").and_then(|f| f.get("walk")).and_then(|w| w.get("levels")).and_then(|l| l.as_array());
+    let mut floors: Vec<f32> = levels.into_iter().flatten().filter_map(|l| l.get(0)?.as_f64()).map(|h| h as f32).filter(|h| h.is_finite()).collect();
+    floors.sort_by(f32::total_cmp);
+    floors
 }
 
 /// The proxy's levels simplified from the scene, coloured by the renderer's
-/// lighting, coded into `proxy/<level>.emmc`, the finest also as a GLB, then
-/// listed in `proxy/proxy.json`.
-fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
-    use exploremaps_format::{meshcode, Proxy, ProxyLevel};
+/// lighting, coded into `proxy/<level>.emmc` with its point-to-go table in
+/// `proxy/<level>.seen`, the finest also as a GLB, then listed in
+/// `proxy/proxy.json`.
+fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
+    use exploremaps_format::{meshcode, seen, Proxy, ProxyLevel};
     let started = std::time::Instant::now();
-    let mut proxy = Proxy { levels: Vec::new(), glb: None };
+    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph) };
+    let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
     for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
         let colours = crate::proxy::bake::bake(renderer, &level.mesh, level.error, params.bake_samples, i as u64);
         let file = format!("proxy/{i}.emmc");
@@ -226,12 +242,15 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, renderer: &crate:
         data.colours = colours.clone();
         let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), message: e.to_string() })?;
         write(dir, &file, &coded.bytes)?;
+        let best = crate::proxy::seen::best_probes(renderer.tracer.rays, &level.mesh, &probes, level.error);
+        let seen_file = format!("proxy/{i}.seen");
+        write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>()))?;
         if i == 0 {
             write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
             proxy.glb = Some(PROXY_GLB.to_string());
         }
         let (triangles, vertices) = (level.mesh.triangles.len() as u64, level.mesh.positions.len() as u64);
-        proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes: coded.bytes.len() as u64 });
+        proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes: coded.bytes.len() as u64, seen: Some(seen_file) });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
     tracing::info!("proxy: {} ({:.2} s)", sizes.join(", "), started.elapsed().as_secs_f64());
@@ -303,7 +322,7 @@ pub fn render_missing(
             job_starts.push(std::time::Instant::now());
             progress(done, todo.len());
             if k == proxy_job {
-                render_proxy(dir, scene, &renderer, &settings.proxy)?;
+                render_proxy(dir, scene, graph, &renderer, &settings.proxy)?;
                 report.proxy_rendered = true;
             } else if k < probes {
                 let probe = &graph.probes[k];
@@ -443,7 +462,7 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     }
     let proxy_job = probes + graph.paths.len();
     match proxy_listed(dir) {
-        Some(proxy) => expected.extend(proxy.levels.iter().map(|l| l.file.clone()).chain(proxy.glb.clone()).map(|f| (f, proxy_job))),
+        Some(proxy) => expected.extend(proxy_files(&proxy).map(|f| (f.clone(), proxy_job))),
         None => expected.push((PROXY_LIST.to_string(), proxy_job)),
     }
     // A file that exists but does not decode goes, so its shard redoes it.
@@ -488,6 +507,7 @@ fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
             Err(e) => Err(bad(&e)),
         },
         "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
+        "seen" => exploremaps_format::seen::decode_runs(&bytes, None).map(drop).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
             Ok(parsed) => parsed.map(drop).map_err(|e| bad(&e)),
             Err(_) => Err(bad(&"a panic in gltf")),

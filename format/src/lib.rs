@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 pub mod edgebreaker;
 pub mod meshcode;
+pub mod seen;
 #[cfg(feature = "video")]
 pub mod video;
 
@@ -78,6 +79,10 @@ pub struct Proxy {
     /// The finest level as a standard glTF binary (vertex colours, unlit).
     #[serde(default)]
     pub glb: Option<String>,
+    /// Heights of the storeys' floors (scene units, lowest first) where
+    /// probes stand on floors, for the dollhouse's floor cut; empty otherwise.
+    #[serde(default)]
+    pub floors: Vec<f32>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -89,6 +94,10 @@ pub struct ProxyLevel {
     /// scene units (an estimate from its quadrics, summed over levels).
     pub error: f32,
     pub bytes: u64,
+    /// The level's point-to-go table ([`seen`]): per decoded triangle, the
+    /// probe that sees it best.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seen: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -341,8 +350,11 @@ impl Graph {
                     return bad(format!("proxy level {} has a negative or non-finite error", level.file));
                 }
             }
-            if let Some(name) = &proxy.glb {
+            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)) {
                 check_asset_name(name).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
+            }
+            if proxy.floors.iter().any(|f| !f.is_finite()) || !proxy.floors.is_sorted() {
+                return bad("proxy floors must be finite heights, lowest first".to_string());
             }
         }
         if let Some(c) = &self.coverage {

@@ -372,12 +372,12 @@ fn bit_length(x: u32) -> u32 {
 }
 
 #[derive(Default)]
-struct Writer {
-    bytes: Vec<u8>,
+pub(crate) struct Writer {
+    pub(crate) bytes: Vec<u8>,
 }
 
 impl Writer {
-    fn varint(&mut self, mut x: u64) {
+    pub(crate) fn varint(&mut self, mut x: u64) {
         while x >= 0x80 {
             self.bytes.push(x as u8 | 0x80);
             x >>= 7;
@@ -471,19 +471,19 @@ impl Sink {
     }
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
+pub(crate) struct Reader<'a> {
+    pub(crate) bytes: &'a [u8],
+    pub(crate) at: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], CodingError> {
+    pub(crate) fn take(&mut self, n: usize) -> Result<&'a [u8], CodingError> {
         let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or(CodingError::Corrupt("truncated".into()))?;
         let out = &self.bytes[self.at..end];
         self.at = end;
         Ok(out)
     }
-    fn varint(&mut self) -> Result<u64, CodingError> {
+    pub(crate) fn varint(&mut self) -> Result<u64, CodingError> {
         let mut x = 0u64;
         for shift in (0..64).step_by(7) {
             let b = self.take(1)?[0];

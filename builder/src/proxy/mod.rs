@@ -10,6 +10,7 @@
 //!   mesh and an ordered stream of splits rebuild every level exactly.
 //! - `bake`: colour per vertex from the render's lighting, so the proxy looks
 //!   like the panoramas.
+//! - `seen`: per triangle, the probe that sees it best (point-to-go).
 //! - Coding (Edgebreaker connectivity, predicted positions) lives in the format
 //!   crate (`exploremaps_format::meshcode`), so the viewer decodes it in wasm.
 //!
@@ -20,6 +21,7 @@
 
 pub mod bake;
 pub mod progressive;
+pub mod seen;
 pub mod simplify;
 pub mod weld;
 
