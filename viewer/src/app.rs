@@ -4,10 +4,13 @@
 //! memory budget for textures) and draws a frame. Platforms (`native`,
 //! `web`) own the window, files and decoding.
 
-use crate::navigation::{Navigator, State};
+use crate::dollhouse::{camera_at, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
+use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
-use crate::ui::{self, Action, Link, Screen};
+use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
+use exploremaps_format::meshcode::MeshData;
+use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 
 /// The device, its queue and the colour format frames are drawn in.
@@ -54,6 +57,8 @@ pub enum Loaded {
     Pano { probe: u32, pano: Pano },
     /// The thumbnail is in the overlay's layer `probe`.
     Thumbnail { probe: u32 },
+    /// A proxy level decoded, with its point-to-go table (empty without one).
+    Proxy { level: usize, mesh: MeshData, seen: Vec<u32> },
     /// `what` names the asset (its file), `error` what went wrong.
     Failed { what: String, error: String, probe: Option<u32> },
 }
@@ -65,6 +70,9 @@ pub trait Platform {
     fn load_cube(&mut self, probe: u32, size: u32, faces: &[String; 6]);
     fn load_equirect(&mut self, probe: u32, file: &str);
     fn load_thumbnail(&mut self, probe: u32, file: &str);
+    /// Loads and decodes a proxy level (off the main thread where the
+    /// platform can) and its point-to-go table, checked against `probes`.
+    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
     /// Starts a path's video; `reversed` plays it end to start.
     fn play_video(&mut self, file: &str, reversed: bool);
@@ -103,6 +111,9 @@ pub enum Key {
     PreviousProbe,
     Map,
     Tour,
+    Dollhouse,
+    /// The next storey in the dollhouse (then the whole scene).
+    Floor,
 }
 
 /// Seconds the tour stays at a probe before moving on.
@@ -111,6 +122,36 @@ const TOUR_DWELL_S: f32 = 2.0;
 const TAP_SLOP: f32 = 8.0;
 const MESSAGE_S: f32 = 6.0;
 const KEY_TURN: f32 = 0.08;
+/// Seconds of a flight between the dollhouse and a probe, and of the
+/// panorama's fade over the proxy at either end of it.
+const FLIGHT_S: f32 = 1.0;
+const FADE_S: f32 = 0.35;
+
+/// What fills the screen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Panorama,
+    Dollhouse,
+}
+
+/// A camera move over the proxy: up out of a probe into the dollhouse, or
+/// down into a probe (`arrive`: the probe and the direction to face).
+#[derive(Clone, Copy, Debug)]
+struct Flight {
+    from: Camera,
+    to: Camera,
+    elapsed_s: f32,
+    arrive: Option<(u32, f32, f32)>,
+}
+
+impl Flight {
+    fn t(&self) -> f32 {
+        (self.elapsed_s / FLIGHT_S).min(1.0)
+    }
+    fn camera(&self) -> Camera {
+        self.from.lerp(&self.to, smoothstep(self.t()))
+    }
+}
 
 struct Resident {
     pano: Pano,
@@ -149,6 +190,19 @@ pub struct App {
     /// Set once a sharp-enough or low-resolution panorama has been drawn.
     pub shown_panorama: bool,
     layout: ui::Layout,
+    pub mode: Mode,
+    dollhouse: DollhousePass,
+    /// The finest proxy level decoded so far.
+    pub proxy: Option<ProxyMesh>,
+    /// Levels asked for (coarsest first), and whether one failed.
+    proxy_requested: usize,
+    proxy_failed: bool,
+    orbit: Option<Orbit>,
+    flight: Option<Flight>,
+    /// Seconds left of the panorama fading in over the proxy after a flight.
+    fade_in_s: f32,
+    floors: Floors,
+    floor: Option<usize>,
 }
 
 /// Options a platform chooses.
@@ -169,6 +223,8 @@ impl App {
         let overlay = OverlayPass::new(&gpu.device, gpu.format, probes);
         let device_face = gpu.device.limits().max_texture_dimension_2d;
         let last_state = nav.state;
+        let dollhouse = DollhousePass::new(&gpu.device, gpu.format);
+        let floors = Floors::of(nav.graph());
         let mut app = App {
             nav,
             gpu,
@@ -197,6 +253,16 @@ impl App {
             video_failed: false,
             shown_panorama: false,
             layout: ui::Layout::default(),
+            mode: Mode::Panorama,
+            dollhouse,
+            proxy: None,
+            proxy_requested: 0,
+            proxy_failed: false,
+            orbit: None,
+            flight: None,
+            fade_in_s: 0.0,
+            floors,
+            floor: None,
         };
         app.request_assets(platform);
         app
@@ -288,12 +354,31 @@ impl App {
                 }
             }
         }
+        self.request_proxy(platform);
         if matches!(self.nav.state, State::AtProbe { .. }) && self.panos.contains_key(&self.nav.probe()) {
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);
                 self.request(c.to, low, platform);
             }
         }
+    }
+
+    /// The proxy, coarsest level first, each once the one before it is in:
+    /// after the first panorama, or at once when the dollhouse is asked for.
+    fn request_proxy(&mut self, platform: &mut dyn Platform) {
+        let Some(proxy) = &self.nav.graph().proxy else { return };
+        let levels = proxy.levels.len();
+        let wanted = self.mode == Mode::Dollhouse || !self.waiting_for_first_panorama();
+        let ready = self.proxy.as_ref().map_or(levels, |m| m.level);
+        // Level i is asked for once every coarser one has arrived (or failed).
+        let next = levels - self.proxy_requested;
+        if !wanted || self.proxy_requested == levels || (self.proxy_requested > 0 && ready > next && !self.proxy_failed) {
+            return;
+        }
+        let level = &proxy.levels[next - 1];
+        let (file, seen) = (level.file.clone(), level.seen.clone());
+        self.proxy_requested += 1;
+        platform.load_proxy(next - 1, &file, seen.as_deref(), self.nav.graph().probes.len() as u32);
     }
 
     fn evict(&mut self, keep: &[u32]) {
@@ -325,13 +410,32 @@ impl App {
                     }
                 }
                 Loaded::Thumbnail { .. } => self.thumbs += 1,
+                Loaded::Proxy { level, mesh, seen } => {
+                    if self.proxy.as_ref().is_none_or(|m| m.level > level) {
+                        let mesh = ProxyMesh::new(level, mesh, seen);
+                        self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
+                        if self.orbit.is_none() {
+                            self.orbit = Some(Orbit::framing(mesh.lo, mesh.hi, self.nav.view.yaw));
+                        }
+                        self.proxy = Some(mesh);
+                    }
+                }
                 Loaded::Failed { what, error, probe } => {
                     self.failed.extend(probe);
-                    self.message(&format!("{what}: {error}"), platform);
+                    if what.starts_with("proxy/") {
+                        self.proxy_failed = true;
+                        if self.proxy.is_none() && self.mode == Mode::Dollhouse {
+                            self.leave_dollhouse_at_once();
+                        }
+                        self.message(&format!("the 3D overview cannot be shown: {what}: {error}"), platform);
+                    } else {
+                        self.message(&format!("{what}: {error}"), platform);
+                    }
                 }
             }
         }
         self.message_s = (self.message_s - dt_s).max(0.0);
+        self.fly(dt_s);
 
         // A cross-fade waits for its target; a travel plays on regardless.
         let waiting = matches!(self.nav.state, State::CrossFading { to, .. } if !self.panos.contains_key(&to) && !self.failed.contains(&to));
@@ -374,7 +478,183 @@ impl App {
         self.evict(&keep);
     }
 
+    /// Advances a flight; at its end arrives at the probe (the panorama then
+    /// fades in over the proxy) or settles in the dollhouse.
+    fn fly(&mut self, dt_s: f32) {
+        self.fade_in_s = (self.fade_in_s - dt_s).max(0.0);
+        let Some(flight) = &mut self.flight else { return };
+        flight.elapsed_s += dt_s.max(0.0);
+        if flight.t() < 1.0 {
+            return;
+        }
+        if let Some((probe, yaw, pitch)) = flight.arrive {
+            let _ = self.nav.arrive(probe, yaw, pitch);
+            self.mode = Mode::Panorama;
+            self.fade_in_s = FADE_S;
+        }
+        self.flight = None;
+    }
+
+    /// The camera the panorama view is seen from.
+    fn panorama_camera(&self) -> Camera {
+        Camera { eye: Vec3::from(self.nav.camera_position()), forward: Vec3::from(direction(self.nav.view.yaw, self.nav.view.pitch)), fov_y: self.nav.view.fov_y }
+    }
+
+    /// Into the dollhouse, rising out of the probe; or, from it, down into
+    /// the current probe.
+    fn toggle_dollhouse(&mut self, platform: &mut dyn Platform) {
+        if self.mode == Mode::Dollhouse {
+            let p = self.nav.probe();
+            return self.fly_to(p, None);
+        }
+        if self.nav.graph().proxy.is_none() {
+            return self.message("this bundle has no 3D overview; run exploremaps render on it to make one", platform);
+        }
+        if self.proxy_failed && self.proxy.is_none() {
+            return self.message("the 3D overview of this bundle cannot be read (see the message before)", platform);
+        }
+        self.mode = Mode::Dollhouse;
+        self.touring = false;
+        self.floor = self.floors.of_point(self.nav.camera_position()[1]);
+        self.request_proxy(platform);
+        if let Some(mesh) = &self.proxy {
+            let orbit = Orbit::framing(mesh.lo, mesh.hi, self.nav.view.yaw);
+            self.flight = Some(Flight { from: self.panorama_camera(), to: orbit.camera(), elapsed_s: 0.0, arrive: None });
+            self.orbit = Some(orbit);
+        }
+    }
+
+    fn leave_dollhouse_at_once(&mut self) {
+        self.mode = Mode::Panorama;
+        self.flight = None;
+    }
+
+    /// Flies from the dollhouse down into `probe`, facing `toward` (a point),
+    /// else the probe's preferred direction, else the current yaw.
+    fn fly_to(&mut self, probe: u32, toward: Option<Vec3>) {
+        let Some(p) = self.nav.graph().probes.get(probe as usize) else { return };
+        let eye = Vec3::from(p.position);
+        let (yaw, pitch) = match (toward, p.preferred_directions.first()) {
+            (Some(t), _) => camera_at(eye, t, self.nav.view.fov_y).1,
+            (None, Some(d)) if probe != self.nav.probe() => (d.yaw, d.pitch),
+            _ => (self.nav.view.yaw, self.nav.view.pitch),
+        };
+        let to = Camera { eye, forward: Vec3::from(direction(yaw, pitch)), fov_y: self.nav.view.fov_y };
+        let from = match (&self.flight, &self.orbit) {
+            (Some(f), _) => f.camera(),
+            (None, Some(o)) => o.camera(),
+            (None, None) => to,
+        };
+        self.flight = Some(Flight { from, to, elapsed_s: if self.proxy.is_some() { 0.0 } else { FLIGHT_S }, arrive: Some((probe, yaw, pitch)) });
+    }
+
+    /// The height above which the dollhouse hides the scene.
+    fn cut(&self) -> f32 {
+        self.floors.cut(self.floor)
+    }
+
+    /// Input while the dollhouse is shown: drags orbit, two fingers pinch
+    /// and pan, taps on a probe or on the proxy fly there.
+    fn dollhouse_input(&mut self, input: Input, platform: &mut dyn Platform) {
+        let k = self.scale;
+        let height = self.height;
+        let Some(orbit) = &mut self.orbit else {
+            if let Input::Key(Key::Dollhouse) = input {
+                self.leave_dollhouse_at_once();
+            }
+            return;
+        };
+        match input {
+            Input::PointerDown { id, x, y } => {
+                self.pointers.retain(|p| p.0 != id);
+                self.pointers.push((id, x, y));
+                self.press = (self.pointers.len() == 1).then_some((x, y, false));
+            }
+            Input::PointerMove { id, x, y } => {
+                let Some(i) = self.pointers.iter().position(|p| p.0 == id) else { return };
+                let (_, ox, oy) = self.pointers[i];
+                if self.pointers.len() >= 2 {
+                    let other = self.pointers[1 - i.min(1)];
+                    let before = ((ox - other.1).powi(2) + (oy - other.2).powi(2)).sqrt();
+                    let after = ((x - other.1).powi(2) + (y - other.2).powi(2)).sqrt();
+                    if before > 1.0 && after > 1.0 {
+                        orbit.zoom(before / after);
+                    }
+                    // The midpoint moves half as far as this finger.
+                    orbit.pan((x - ox) / 2.0, (y - oy) / 2.0, height);
+                    self.press = None;
+                } else {
+                    orbit.turn(-(x - ox) * 4.0 / height, (y - oy) * 2.0 / height);
+                    if let Some((px, py, moved)) = &mut self.press {
+                        *moved |= (x - *px).abs() + (y - *py).abs() > TAP_SLOP * k;
+                    }
+                }
+                self.pointers[i] = (id, x, y);
+            }
+            Input::PointerUp { id, x, y } => {
+                self.pointers.retain(|p| p.0 != id);
+                if let Some((_, _, false)) = self.press.take() {
+                    self.dollhouse_tap(x, y, platform);
+                }
+            }
+            Input::Wheel(steps) => orbit.zoom(0.9f32.powf(steps)),
+            Input::Key(key) => match key {
+                Key::Left => orbit.turn(-KEY_TURN, 0.0),
+                Key::Right => orbit.turn(KEY_TURN, 0.0),
+                Key::Up => orbit.turn(0.0, KEY_TURN),
+                Key::Down => orbit.turn(0.0, -KEY_TURN),
+                Key::ZoomIn => orbit.zoom(0.9),
+                Key::ZoomOut => orbit.zoom(1.0 / 0.9),
+                Key::Dollhouse | Key::Go => self.toggle_dollhouse(platform),
+                Key::Floor => self.next_floor(),
+                Key::Map => self.show_map = !self.show_map,
+                Key::NextProbe | Key::PreviousProbe | Key::Tour => {}
+            },
+        }
+    }
+
+    fn next_floor(&mut self) {
+        let n = self.floors.heights.len();
+        self.floor = match self.floor {
+            _ if n == 0 => None,
+            None => Some(0),
+            Some(f) if f + 1 < n => Some(f + 1),
+            Some(_) => None,
+        };
+    }
+
+    /// A tap over the dollhouse: the interface, else the proxy point under
+    /// the finger, whose best probe the camera flies down to, facing it.
+    fn dollhouse_tap(&mut self, x: f32, y: f32, platform: &mut dyn Platform) {
+        match self.layout.hit(x, y) {
+            Some(Action::GoTo(p)) => return self.fly_to(p, None),
+            Some(Action::ToggleDollhouse) => return self.toggle_dollhouse(platform),
+            Some(Action::NextFloor) => return self.next_floor(),
+            Some(Action::ToggleMap) => {
+                self.show_map = !self.show_map;
+                return;
+            }
+            Some(Action::ToggleTour | Action::TakePath(_)) => return,
+            None => {}
+        }
+        let (Some(mesh), Some(orbit)) = (&self.proxy, &self.orbit) else { return };
+        let camera = orbit.camera();
+        let dir = camera.ray(x, y, self.width, self.height);
+        let Some((triangle, t)) = mesh.pick(camera.eye, dir, self.cut()) else { return };
+        let point = camera.eye + dir * t;
+        if let Some(probe) = mesh.destination(self.nav.graph(), triangle, point) {
+            self.fly_to(probe, Some(point));
+        }
+    }
+
     pub fn input(&mut self, input: Input, platform: &mut dyn Platform) {
+        if self.flight.is_some() {
+            // A flight ends as it started; input waits for it.
+            return;
+        }
+        if self.mode == Mode::Dollhouse {
+            return self.dollhouse_input(input, platform);
+        }
         let k = self.scale;
         match input {
             Input::PointerDown { id, x, y } => {
@@ -435,6 +715,8 @@ impl App {
                     }
                     Key::Map => self.show_map = !self.show_map,
                     Key::Tour => self.touring = !self.touring,
+                    Key::Dollhouse => self.toggle_dollhouse(platform),
+                    Key::Floor => {}
                 }
                 platform.link_changed(&Link::of(&self.nav));
             }
@@ -443,7 +725,7 @@ impl App {
 
     /// A tap: on the interface it acts; on the view it takes the path whose
     /// marker is nearest, or the best-aligned one if it is within 45°.
-    fn tap(&mut self, x: f32, y: f32, _platform: &mut dyn Platform) {
+    fn tap(&mut self, x: f32, y: f32, platform: &mut dyn Platform) {
         let _ = match self.layout.hit(x, y) {
             Some(Action::GoTo(p)) => self.nav.go_to(p),
             Some(Action::TakePath(p)) => self.nav.take_path(p),
@@ -455,6 +737,11 @@ impl App {
                 self.touring = !self.touring;
                 Ok(())
             }
+            Some(Action::ToggleDollhouse) => {
+                self.toggle_dollhouse(platform);
+                Ok(())
+            }
+            Some(Action::NextFloor) => Ok(()),
             None => match self.nav.path_bar().first() {
                 Some(best) if best.angle < std::f32::consts::FRAC_PI_4 => self.nav.take_path(best.path),
                 _ => Ok(()),
@@ -463,7 +750,24 @@ impl App {
     }
 
     /// The interface shapes for the current frame (also kept for taps).
-    fn shapes(&mut self) -> Vec<Shape> {
+    fn shapes(&mut self, camera: Option<&Camera>) -> Vec<Shape> {
+        let cut = self.cut();
+        // Over the dollhouse and during flights (markers only when still).
+        let dollhouse = camera.filter(|_| self.mode == Mode::Dollhouse || self.flight.is_some()).map(|c| DollhouseScreen {
+            markers: match self.flight {
+                Some(_) => Vec::new(),
+                None => self
+                    .nav
+                    .graph()
+                    .probes
+                    .iter()
+                    .filter(|p| p.position[1] - 0.5 * self.floors.eye <= cut)
+                    .filter_map(|p| Some((p.id, c.project(Vec3::from(p.position), self.width, self.height)?)))
+                    .collect(),
+            },
+            floors: self.floors.heights.len(),
+            floor: self.floor,
+        });
         let screen = Screen {
             width: self.width,
             height: self.height,
@@ -472,14 +776,41 @@ impl App {
             touring: self.touring,
             thumbs_ready: self.thumbs > 0,
             message: self.message_s > 0.0,
+            proxy: self.nav.graph().proxy.is_some(),
+            dollhouse,
         };
         self.layout = ui::layout(&self.nav, &screen);
         self.layout.shapes.clone()
     }
 
+    /// The camera over the proxy when it is drawn: in the dollhouse, during
+    /// a flight, and while a panorama fades in over it.
+    fn dollhouse_camera(&self) -> Option<Camera> {
+        if let Some(f) = &self.flight {
+            return Some(f.camera());
+        }
+        match self.mode {
+            Mode::Dollhouse => Some(self.orbit.map_or_else(|| self.panorama_camera(), |o| o.camera())),
+            Mode::Panorama if self.fade_in_s > 0.0 => Some(self.panorama_camera()),
+            Mode::Panorama => None,
+        }
+    }
+
+    /// How much of the panorama shows over the proxy: fading out as a flight
+    /// rises, in after one lands.
+    fn panorama_opacity(&self) -> f32 {
+        match (&self.flight, self.mode) {
+            (Some(f), _) if f.arrive.is_none() => 1.0 - f.elapsed_s / FADE_S,
+            (Some(_), _) | (None, Mode::Dollhouse) => 0.0,
+            (None, Mode::Panorama) => 1.0 - self.fade_in_s / FADE_S,
+        }
+    }
+
     /// Draws a frame into `target` (the size given to `resize`).
     pub fn render(&mut self, target: &wgpu::TextureView, platform: &mut dyn Platform) -> wgpu::CommandBuffer {
-        let shapes = self.shapes();
+        let camera = self.dollhouse_camera();
+        let opacity = self.panorama_opacity();
+        let shapes = self.shapes(camera.as_ref());
         let gpu = self.gpu.clone();
         let progress = self.nav.progress().unwrap_or(0.0);
         let travelling = matches!(self.nav.state, State::Travelling { .. }) && !self.video_failed;
@@ -504,22 +835,22 @@ impl App {
         };
         self.shown_panorama |= source.is_some();
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        if let Some(c) = &camera {
+            let (centre, extent) = self.proxy.as_ref().map_or((c.eye, 1.0), |m| ((m.lo + m.hi) / 2.0, m.diagonal().max(1e-3)));
+            self.dollhouse.draw(&gpu.device, &gpu.queue, &mut encoder, target, self.width as u32, self.height as u32, c, self.cut(), centre, extent);
+        }
         {
+            let load = if camera.is_some() { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }) };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }), store: wgpu::StoreOp::Store },
-                })],
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load, store: wgpu::StoreOp::Store } })],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            if let Some(source) = source {
-                self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, source);
+            if let Some(source) = source.filter(|_| opacity > 0.0) {
+                self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, source, opacity);
             }
             self.overlay.draw(&gpu.device, &gpu.queue, &mut pass, &shapes, self.width, self.height);
         }
@@ -532,7 +863,8 @@ impl App {
 
     /// Whether anything moves or loads, so the platform keeps drawing frames.
     pub fn animating(&self) -> bool {
-        !matches!(self.nav.state, State::AtProbe { .. }) || self.touring || self.message_s > 0.0 || !self.panos.contains_key(&self.nav.probe())
+        let loading_proxy = self.mode == Mode::Dollhouse && self.proxy.is_none() && !self.proxy_failed;
+        !matches!(self.nav.state, State::AtProbe { .. }) || self.touring || self.message_s > 0.0 || !self.panos.contains_key(&self.nav.probe()) || self.flight.is_some() || self.fade_in_s > 0.0 || loading_proxy
     }
 }
 

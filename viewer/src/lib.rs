@@ -3,6 +3,7 @@
 //! panoramas, videos and the interface with wgpu.
 
 pub mod app;
+pub mod dollhouse;
 pub mod navigation;
 pub mod overlay;
 pub mod panorama;

@@ -59,12 +59,14 @@ enum Job {
     Cube { probe: u32, size: u32, files: [String; 6] },
     Equirect { probe: u32, file: String },
     Thumbnail { probe: u32, file: String },
+    Proxy { level: usize, mesh: String, seen: Option<String>, probes: u32 },
 }
 
 enum Decoded {
     Cube { probe: u32, size: u32, faces: Vec<Vec<u8>> },
     Equirect { probe: u32, width: u32, height: u32, rgba: Vec<u8> },
     Thumbnail { probe: u32, rgba: Vec<u8> },
+    Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     Failed { what: String, error: String, probe: Option<u32> },
 }
 
@@ -95,6 +97,17 @@ fn work(root: &Path, job: Job) -> Decoded {
             }
             Err(e) => failed(&file, e, Some(probe)),
         },
+        Job::Proxy { level, mesh, seen, probes } => {
+            let read = |f: &str| std::fs::read(root.join(f)).map_err(|e| (f.to_string(), format!("cannot be read ({e})")));
+            let decoded = read(&mesh).and_then(|m| {
+                let s = seen.as_deref().map(|f| read(f).map(|b| (f, b))).transpose()?;
+                crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes)
+            });
+            match decoded {
+                Ok((mesh, seen)) => Decoded::Proxy { level, mesh, seen },
+                Err((what, error)) => failed(&what, error, None),
+            }
+        }
         Job::Thumbnail { probe, file } => match decode(root, &file) {
             Ok(img) => Decoded::Thumbnail { probe, rgba: image::imageops::resize(&img, THUMB_W, THUMB_H, image::imageops::FilterType::Triangle).into_raw() },
             Err(e) => failed(&file, e, None),
@@ -214,6 +227,10 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::Thumbnail { probe, file: file.to_string() });
     }
 
+    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32) {
+        let _ = self.jobs.send(Job::Proxy { level, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
+    }
+
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let mut out = Vec::new();
         while let Ok(d) = self.done.try_recv() {
@@ -234,6 +251,7 @@ impl Platform for NativePlatform {
                     overlay.write_thumbnail(&gpu.queue, probe, &rgba);
                     Loaded::Thumbnail { probe }
                 }
+                Decoded::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });
         }
@@ -336,6 +354,8 @@ fn key(code: KeyCode) -> Option<Key> {
         KeyCode::KeyP => Key::PreviousProbe,
         KeyCode::KeyM => Key::Map,
         KeyCode::KeyT => Key::Tour,
+        KeyCode::KeyO => Key::Dollhouse,
+        KeyCode::KeyF => Key::Floor,
         _ => return None,
     })
 }

@@ -197,6 +197,18 @@ impl Navigator {
         }
     }
 
+    /// Arrives at a probe at once, facing (yaw, pitch): the end of a flight
+    /// over the dollhouse. Cancels any move.
+    pub fn arrive(&mut self, probe: u32, yaw: f32, pitch: f32) -> Result<(), NavError> {
+        if probe as usize >= self.graph.probes.len() {
+            return Err(NavError::NoSuchProbe(probe));
+        }
+        self.state = State::AtProbe { probe };
+        (self.view.yaw, self.view.pitch) = (0.0, 0.0);
+        self.look(yaw, pitch);
+        Ok(())
+    }
+
     /// Fraction of the current travel or cross-fade done, if moving.
     pub fn progress(&self) -> Option<f32> {
         match self.state {

@@ -196,7 +196,15 @@ impl PanoramaPass {
                 module: &shader,
                 entry_point: Some("fs"),
                 compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                // Blended by a constant: the opacity of a fade over the dollhouse.
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(wgpu::BlendState {
+                        color: wgpu::BlendComponent { src_factor: wgpu::BlendFactor::Constant, dst_factor: wgpu::BlendFactor::OneMinusConstant, operation: wgpu::BlendOperation::Add },
+                        alpha: wgpu::BlendComponent::REPLACE,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
             }),
             multiview_mask: None,
             cache: None,
@@ -213,8 +221,9 @@ impl PanoramaPass {
     }
 
     /// Draws `source` as seen in `view` into a pass over a target of aspect
-    /// ratio `aspect`.
-    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, source: Source<'_>) {
+    /// ratio `aspect`, over what is there with `opacity` (1: replaces it).
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, source: Source<'_>, opacity: f32) {
         let (a, b, video, fade) = match source {
             Source::Cube(c) => (c, &self.blank_cube, &self.blank_video, 0.0),
             Source::Fade(a, b, t) => (a, b, &self.blank_video, t.clamp(0.0, 1.0)),
@@ -236,6 +245,8 @@ impl PanoramaPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind, &[]);
+        let o = f64::from(opacity.clamp(0.0, 1.0));
+        pass.set_blend_constant(wgpu::Color { r: o, g: o, b: o, a: 1.0 });
         pass.draw(0..3, 0..1);
     }
 }

@@ -5,7 +5,9 @@
 //! framed, scrolled to keep it in view). Above it: the path bar (the probes
 //! the current one leads to, left to right by the direction the path leaves
 //! in, the best aligned in the middle, framed). In the view: a marker where
-//! each path leaves. Top right: the overhead map. Top left: the tour button.
+//! each path leaves. Top right: the overhead map. Top left: the tour, map
+//! and dollhouse buttons. Over the dollhouse: a marker per probe, the floor
+//! button, no path bar or map.
 
 use crate::navigation::{direction, Navigator, PathChoice, State, View};
 use crate::overlay::{Shape, MAX_THUMBS};
@@ -20,6 +22,8 @@ pub enum Action {
     TakePath(u32),
     ToggleMap,
     ToggleTour,
+    ToggleDollhouse,
+    NextFloor,
 }
 
 /// A tappable region: a rectangle, or a disc when `round`.
@@ -87,6 +91,20 @@ pub struct Screen {
     /// Whether thumbnails have arrived (else plain tiles).
     pub thumbs_ready: bool,
     pub message: bool,
+    /// The bundle has a proxy (the dollhouse button shows).
+    pub proxy: bool,
+    /// Set while the dollhouse is shown.
+    pub dollhouse: Option<DollhouseScreen>,
+}
+
+/// What the interface shows over the dollhouse.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DollhouseScreen {
+    /// Probes in view: id and pixel.
+    pub markers: Vec<(u32, [f32; 2])>,
+    /// Storeys, and the one shown (None: the whole scene, uncut).
+    pub floors: usize,
+    pub floor: Option<usize>,
 }
 
 /// Signed yaw of the path's departure relative to the view, (−π, π].
@@ -102,8 +120,8 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     let at_probe = matches!(nav.state, State::AtProbe { .. });
     let current = nav.probe();
 
-    // Markers where paths leave, in the view.
-    let choices = if at_probe { nav.path_bar() } else { Vec::new() };
+    // Markers where paths leave, in the view (not over the dollhouse).
+    let choices = if at_probe && s.dollhouse.is_none() { nav.path_bar() } else { Vec::new() };
     for (i, c) in choices.iter().enumerate() {
         let (yaw, pitch) = nav.departure(c.path, c.reversed);
         // Markers sit a little below the horizon of the departure, like a floor arrow.
@@ -114,6 +132,15 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
             out.shapes.push(Shape::disc(x, y, r, colour));
             out.hits.push(Hit { x: x - r, y: y - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::TakePath(c.path) });
         }
+    }
+
+    // Probes over the dollhouse.
+    for &(p, [x, y]) in s.dollhouse.iter().flat_map(|d| &d.markers) {
+        let r = 9.0 * k;
+        out.shapes.push(Shape::disc(x, y, r + 2.0 * k, [0.0, 0.0, 0.0, 0.6]));
+        out.shapes.push(Shape::disc(x, y, r, if p == current { HIGHLIGHT } else { WHITE }));
+        let hr = 16.0 * k;
+        out.hits.push(Hit { x: x - hr, y: y - hr, w: 2.0 * hr, h: 2.0 * hr, round: true, action: Action::GoTo(p) });
     }
 
     // Probe bar.
@@ -154,7 +181,7 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     }
 
     // Overhead map.
-    if s.show_map {
+    if s.show_map && s.dollhouse.is_none() {
         map(&mut out, nav, graph, s);
     }
     // Buttons: tour (a disc, green while touring) and map.
@@ -168,8 +195,33 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     out.shapes.push(Shape::disc(mx, by, r, if s.show_map { [0.2, 0.5, 0.9, 0.95] } else { [0.1, 0.1, 0.1, 0.7] }));
     out.shapes.push(Shape::rect(mx - 0.45 * r, by - 0.45 * r, 0.9 * r, 0.9 * r, WHITE));
     out.hits.push(Hit { x: mx - r, y: by - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::ToggleMap });
+    let mut last = mx;
+    if s.proxy {
+        // The dollhouse: a house, a roof over a wall.
+        let hx = last + 2.0 * r + gap;
+        last = hx;
+        out.shapes.push(Shape::disc(hx, by, r, if s.dollhouse.is_some() { [0.2, 0.5, 0.9, 0.95] } else { [0.1, 0.1, 0.1, 0.7] }));
+        out.shapes.push(Shape::line([hx - 0.6 * r, by], [hx, by - 0.55 * r], 3.0 * k, WHITE));
+        out.shapes.push(Shape::line([hx, by - 0.55 * r], [hx + 0.6 * r, by], 3.0 * k, WHITE));
+        out.shapes.push(Shape::rect(hx - 0.4 * r, by, 0.8 * r, 0.5 * r, WHITE));
+        out.hits.push(Hit { x: hx - r, y: by - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::ToggleDollhouse });
+    }
+    if let Some(d) = s.dollhouse.as_ref().filter(|d| d.floors > 0) {
+        // Floors: a bar per storey, lowest at the bottom; the shown one lit, all lit when uncut.
+        let fx = last + 2.0 * r + gap;
+        last = fx;
+        out.shapes.push(Shape::disc(fx, by, r, [0.1, 0.1, 0.1, 0.7]));
+        let n = d.floors.min(6);
+        let step = 1.2 * r / n as f32;
+        for i in 0..n {
+            let lit = d.floor.is_none_or(|f| f.min(n - 1) == i);
+            let y = by + 0.6 * r - step * (i as f32 + 0.5);
+            out.shapes.push(Shape::rect(fx - 0.5 * r, y - 0.3 * step, r, 0.6 * step, if lit { HIGHLIGHT } else { [0.6, 0.6, 0.6, 0.9] }));
+        }
+        out.hits.push(Hit { x: fx - r, y: by - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::NextFloor });
+    }
     if s.message {
-        out.shapes.push(Shape::rect(mx + r + gap, by - 3.0 * k, (w - mx - r - 2.0 * gap).max(0.0), 6.0 * k, [0.9, 0.15, 0.1, 0.95]));
+        out.shapes.push(Shape::rect(last + r + gap, by - 3.0 * k, (w - last - r - 2.0 * gap).max(0.0), 6.0 * k, [0.9, 0.15, 0.1, 0.95]));
     }
     out
 }

@@ -60,7 +60,14 @@ async fn bitmap(url: String, resize: Option<(u32, u32)>) -> Result<web_sys::Imag
     Ok(JsFuture::from(promise).await.map_err(|e| format!("is not a readable image ({})", js_error(e)))?.unchecked_into())
 }
 
+/// Fetches a file's bytes.
+async fn bytes(url: &str) -> Result<Vec<u8>, String> {
+    let buffer = JsFuture::from(fetch(url).await?.array_buffer().map_err(js_error)?).await.map_err(js_error)?;
+    Ok(js_sys::Uint8Array::new(&buffer).to_vec())
+}
+
 enum Fetched {
+    Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
     Equirect { probe: u32, image: web_sys::ImageBitmap },
     Thumbnail { probe: u32, image: web_sys::ImageBitmap },
@@ -164,6 +171,27 @@ impl Platform for WebPlatform {
         });
     }
 
+    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32) {
+        // Decoded on the main thread between frames (a 25,000-triangle level
+        // takes a few milliseconds in wasm).
+        let (mesh, seen) = (mesh.to_string(), seen.map(str::to_string));
+        let (mesh_url, seen_url) = (self.url(&mesh), seen.as_deref().map(|f| self.url(f)));
+        self.spawn(async move {
+            let decoded = async {
+                let m = bytes(&mesh_url).await.map_err(|e| (mesh.clone(), e))?;
+                let s = match (&seen, &seen_url) {
+                    (Some(f), Some(u)) => Some((f.as_str(), bytes(u).await.map_err(|e| (f.clone(), e))?)),
+                    _ => None,
+                };
+                crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes)
+            };
+            match decoded.await {
+                Ok((mesh, seen)) => Fetched::Proxy { level, mesh, seen },
+                Err((what, error)) => Fetched::Failed { what, error, probe: None },
+            }
+        });
+    }
+
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
         fetched
@@ -193,6 +221,10 @@ impl Platform for WebPlatform {
                         copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &overlay.thumbs, probe, THUMB_W, THUMB_H);
                     }
                     Loaded::Thumbnail { probe }
+                }
+                Fetched::Proxy { level, mesh, seen } => {
+                    mark(if level == 0 { "proxy_full" } else { "proxy_coarse" });
+                    Loaded::Proxy { level, mesh, seen }
                 }
                 Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             })
@@ -347,6 +379,8 @@ fn key(code: &str) -> Option<Key> {
         "KeyP" => Key::PreviousProbe,
         "KeyM" => Key::Map,
         "KeyT" => Key::Tour,
+        "KeyO" => Key::Dollhouse,
+        "KeyF" => Key::Floor,
         _ => return None,
     })
 }

@@ -14,6 +14,10 @@ struct Script {
     messages: Vec<String>,
     videos: Vec<(String, bool)>,
     thumbnails: Vec<u32>,
+    /// Proxy levels asked for, those to answer, and whether they fail.
+    proxy_requests: Vec<usize>,
+    proxy_pending: Vec<usize>,
+    broken_proxy: bool,
 }
 
 impl Platform for Script {
@@ -25,8 +29,22 @@ impl Platform for Script {
     fn load_thumbnail(&mut self, probe: u32, _file: &str) {
         self.thumbnails.push(probe);
     }
+    fn load_proxy(&mut self, level: usize, _mesh: &str, _seen: Option<&str>, _probes: u32) {
+        self.proxy_requests.push(level);
+        self.proxy_pending.push(level);
+    }
     fn poll(&mut self, gpu: &Gpu, _overlay: &OverlayPass) -> Vec<Loaded> {
-        self.pending
+        // Proxy levels: the two-storey mesh, its lower floor seen best from probe 3, its upper from 1.
+        let broken = self.broken_proxy;
+        let proxies: Vec<Loaded> = self
+            .proxy_pending
+            .drain(..)
+            .map(|level| match broken {
+                true => Loaded::Failed { what: format!("proxy/{level}.emmc"), error: "coded mesh is corrupt: checksum mismatch".into(), probe: None },
+                false => Loaded::Proxy { level, mesh: crate::dollhouse::tests::two_storeys_data(), seen: vec![3, 3, 1, 1] },
+            })
+            .collect();
+        proxies.into_iter().chain(self.pending
             .drain(..)
             .map(|(probe, size)| {
                 if self.broken.contains(&probe) {
@@ -38,7 +56,7 @@ impl Platform for Script {
                     cube.write_face(&gpu.queue, f, &grey);
                 }
                 Loaded::Pano { probe, pano: Pano::Cube(cube) }
-            })
+            }))
             .collect()
     }
     fn play_video(&mut self, file: &str, reversed: bool) {
@@ -67,9 +85,13 @@ fn bundle_graph() -> Graph {
 }
 
 fn app(script: &mut Script, budget: u64, height: u32) -> Option<App> {
+    app_of(bundle_graph(), script, budget, height)
+}
+
+fn app_of(graph: Graph, script: &mut Script, budget: u64, height: u32) -> Option<App> {
     let (device, queue) = crate::panorama::tests::gpu()?;
     let gpu = Gpu { device, queue, format: wgpu::TextureFormat::Rgba8UnormSrgb };
-    let nav = Navigator::new(bundle_graph(), Some(0), 1).unwrap();
+    let nav = Navigator::new(graph, Some(0), 1).unwrap();
     let mut app = App::new(gpu, nav, None, Options { budget_bytes: budget, max_face: 2048, show_map: true, tour: false }, script);
     app.resize(height * 16 / 9, height, 1.0);
     Some(app)
@@ -166,4 +188,129 @@ fn a_probe_with_only_large_levels_still_shows_and_one_with_none_gives_a_message(
     }
     assert!(script.messages.iter().any(|m| m.contains("probe 1 cannot be shown") && m.contains("exploremaps render")), "{:?}", script.messages);
     assert_eq!(app.nav.state, State::AtProbe { probe: 1 }, "arrived all the same");
+}
+
+/// The bundle graph with a two-level proxy over two storeys (floors at 0
+/// and 3, eye height 1.6).
+fn graph_with_proxy() -> Graph {
+    let mut g = bundle_graph();
+    g.scene.eye_height_m = Some(1.6);
+    let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")) };
+    g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0] });
+    g
+}
+
+/// Presses and releases at a pixel.
+fn tap(app: &mut App, script: &mut Script, [x, y]: [f32; 2]) {
+    app.input(Input::PointerDown { id: 1, x, y }, script);
+    app.input(Input::PointerUp { id: 1, x, y }, script);
+}
+
+fn settle(app: &mut App, script: &mut Script) {
+    for _ in 0..80 {
+        app.update(0.02, script);
+    }
+}
+
+#[test]
+fn the_dollhouse_streams_coarse_then_fine_and_a_tap_flies_to_the_probe_that_sees_the_point_best() {
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 360) else { return };
+    app.resize(640, 360, 1.0);
+    assert!(script.proxy_requests.is_empty(), "nothing before the first panorama");
+    app.update(0.016, &mut script);
+    app.update(0.016, &mut script);
+    app.update(0.016, &mut script);
+    assert_eq!(script.proxy_requests, vec![1, 0], "the coarse level first, then the fine one");
+    assert_eq!(app.proxy.as_ref().map(|m| m.level), Some(0));
+    // Into the dollhouse: a flight up from the probe, then the orbit, cut at the
+    // current storey (the upper floor at y = 3 hidden).
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    assert_eq!(app.mode, Mode::Dollhouse);
+    assert!(app.flight.is_some() && app.animating());
+    settle(&mut app, &mut script);
+    assert!(app.flight.is_none());
+    assert_eq!(app.floor, Some(0));
+    assert!((app.cut() - 2.08).abs() < 1e-4);
+    // A frame draws, with probe markers (probe 4 at (9, 0, 9) too).
+    render_frame(&mut app, &mut script);
+    let markers = app.layout.hits.iter().filter(|h| h.round && matches!(h.action, Action::GoTo(_))).count();
+    assert_eq!(markers, 5);
+    // A tap on the lower floor at (1, 0, −2): the table says probe 3; the camera flies
+    // there and the panorama faces the point.
+    let point = Vec3::new(1.0, 0.0, -2.0);
+    let pixel = app.orbit.unwrap().camera().project(point, 640.0, 360.0).unwrap();
+    tap(&mut app, &mut script, pixel);
+    assert!(app.flight.is_some_and(|f| f.arrive.map(|a| a.0) == Some(3)));
+    settle(&mut app, &mut script);
+    assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 3 }));
+    let facing = Vec3::from(direction(app.nav.view.yaw, app.nav.view.pitch));
+    let wanted = (point - Vec3::new(2.0, 0.0, 4.0)).normalize();
+    assert!(facing.dot(wanted) > 0.9999, "facing {facing}, the point is toward {wanted}");
+    // Back up, show the upper storey, tap the same place: the upper floor, probe 1.
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    settle(&mut app, &mut script);
+    app.input(Input::Key(Key::Floor), &mut script);
+    assert_eq!(app.floor, Some(1));
+    let pixel = app.orbit.unwrap().camera().project(Vec3::new(1.0, 3.0, -2.0), 640.0, 360.0).unwrap();
+    tap(&mut app, &mut script, pixel);
+    settle(&mut app, &mut script);
+    assert_eq!(app.nav.state, State::AtProbe { probe: 1 });
+    // The dollhouse button and the markers: a tap on probe 2's marker flies there.
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    settle(&mut app, &mut script);
+    render_frame(&mut app, &mut script);
+    let marker = app.layout.hits.iter().find(|h| h.action == Action::GoTo(2) && h.round).map(|h| [h.x + h.w / 2.0, h.y + h.h / 2.0]).unwrap();
+    tap(&mut app, &mut script, marker);
+    settle(&mut app, &mut script);
+    assert_eq!(app.nav.state, State::AtProbe { probe: 2 });
+    let (yaw, _) = (app.nav.view.yaw, app.nav.view.pitch);
+    assert!((yaw - std::f32::consts::FRAC_PI_2).abs() < 1e-4, "probe 2's preferred direction: {yaw}");
+}
+
+/// Renders one frame into a throwaway target the app's size.
+fn render_frame(app: &mut App, script: &mut Script) {
+    let gpu = app.gpu().clone();
+    let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d { width: app.width as u32, height: app.height as u32, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: gpu.format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let commands = app.render(&texture.create_view(&Default::default()), script);
+    gpu.queue.submit([commands]);
+}
+
+#[test]
+fn a_corrupt_proxy_gives_a_message_and_the_panoramas_keep_working() {
+    let mut script = Script { broken_proxy: true, ..Default::default() };
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 90) else { return };
+    app.update(0.016, &mut script);
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    app.update(0.016, &mut script);
+    assert_eq!(app.mode, Mode::Panorama, "back to the panorama");
+    assert!(script.messages.iter().any(|m| m.contains("3D overview") && m.contains("proxy/1.emmc")), "{:?}", script.messages);
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    assert_eq!(app.mode, Mode::Panorama, "asking again does not enter an empty dollhouse");
+    render_frame(&mut app, &mut script);
+    app.input(Input::Key(Key::Go), &mut script);
+    for _ in 0..200 {
+        app.update(0.02, &mut script);
+    }
+    assert_ne!(app.nav.probe(), 0, "the panorama viewer goes on");
+}
+
+#[test]
+fn a_bundle_without_a_proxy_says_so_when_the_dollhouse_is_asked_for() {
+    let mut script = Script::default();
+    let Some(mut app) = app(&mut script, 1 << 30, 90) else { return };
+    app.update(0.016, &mut script);
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    assert_eq!(app.mode, Mode::Panorama);
+    assert!(script.proxy_requests.is_empty());
+    assert!(script.messages.iter().any(|m| m.contains("no 3D overview") && m.contains("exploremaps render")), "{:?}", script.messages);
 }

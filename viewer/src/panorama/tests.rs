@@ -71,7 +71,7 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.draw(device, queue, &mut rp, &view, 1.0, source);
+        pass.draw(device, queue, &mut rp, &view, 1.0, source, 1.0);
     }
     encoder.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },

@@ -2,7 +2,7 @@ use super::*;
 use crate::navigation::tests::graph;
 
 fn screen(width: f32, height: f32, scale: f32) -> Screen {
-    Screen { width, height, scale, show_map: true, touring: false, thumbs_ready: true, message: false }
+    Screen { width, height, scale, show_map: true, touring: false, thumbs_ready: true, message: false, proxy: false, dollhouse: None }
 }
 
 fn centre_of(l: &Layout, action: Action) -> Option<[f32; 2]> {

@@ -1,0 +1,169 @@
+use super::*;
+use crate::navigation::tests::graph;
+
+/// Two storeys: a red floor quad at y = 0 and a blue one at y = 3, both
+/// spanning x, z in [−5, 5]; triangles 0-1 red, 2-3 blue.
+pub(crate) fn two_storeys(seen: Vec<u32>) -> ProxyMesh {
+    ProxyMesh::new(0, two_storeys_data(), seen)
+}
+
+pub(crate) fn two_storeys_data() -> MeshData {
+    let mut data = MeshData::default();
+    for (y, colour) in [(0.0f32, [200u8, 30, 30]), (3.0, [30, 30, 200])] {
+        let base = data.positions.len() as u32;
+        data.positions.extend([[-5.0, y, -5.0], [5.0, y, -5.0], [5.0, y, 5.0], [-5.0, y, 5.0]]);
+        data.colours.extend([colour; 4]);
+        data.triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+    }
+    data
+}
+
+#[test]
+fn a_ray_through_a_projected_point_passes_through_it() {
+    let orbit = Orbit::framing(Vec3::splat(-5.0), Vec3::splat(5.0), 0.7);
+    let camera = orbit.camera();
+    for p in [Vec3::ZERO, Vec3::new(3.0, -2.0, 1.0), Vec3::new(-4.0, 4.0, -4.0)] {
+        let [x, y] = camera.project(p, 640.0, 360.0).expect("in front");
+        assert!((0.0..640.0).contains(&x) && (0.0..360.0).contains(&y), "framed: {x} {y}");
+        let d = camera.ray(x, y, 640.0, 360.0);
+        let to = (p - camera.eye).normalize();
+        assert!(d.dot(to) > 0.99999, "{d} vs {to}");
+    }
+    // The box's corners are all in view.
+    for i in 0..8 {
+        let c = Vec3::new(if i & 1 == 0 { -5.0 } else { 5.0 }, if i & 2 == 0 { -5.0 } else { 5.0 }, if i & 4 == 0 { -5.0 } else { 5.0 });
+        let [x, y] = camera.project(c, 640.0, 360.0).unwrap();
+        assert!((0.0..640.0).contains(&x) && (0.0..360.0).contains(&y), "corner {c}: {x} {y}");
+    }
+}
+
+#[test]
+fn orbit_turns_zooms_and_pans_within_bounds() {
+    let mut orbit = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0);
+    orbit.turn(0.0, -10.0);
+    assert_eq!(orbit.pitch, MIN_PITCH, "never upside down");
+    orbit.turn(0.0, 10.0);
+    assert_eq!(orbit.pitch, MAX_PITCH, "always from above");
+    orbit.zoom(1e-9);
+    assert!((orbit.distance - 0.05 * orbit.radius).abs() < 1e-6);
+    let before = orbit.target;
+    orbit.pan(1e9, 0.0, 100.0);
+    assert!(orbit.target.distance(before) <= 2.0 * orbit.radius * 3f32.sqrt() + 1e-4);
+    // A small drag right moves the scene right: the target moves left on screen's right axis.
+    let mut o = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0);
+    let seen_before = o.camera().project(Vec3::ZERO, 100.0, 100.0).unwrap();
+    o.pan(10.0, 0.0, 100.0);
+    let seen_after = o.camera().project(Vec3::ZERO, 100.0, 100.0).unwrap();
+    assert!((seen_after[0] - seen_before[0] - 10.0).abs() < 0.5, "{seen_before:?} → {seen_after:?}");
+}
+
+#[test]
+fn a_tap_picks_the_nearest_triangle_below_the_cut() {
+    let mesh = two_storeys(vec![]);
+    let down = Vec3::NEG_Y;
+    let (t, d) = mesh.pick(Vec3::new(1.0, 10.0, 2.0), down, f32::INFINITY).unwrap();
+    assert!(t >= 2 && (d - 7.0).abs() < 1e-4, "the upper floor first: {t} at {d}");
+    let (t, d) = mesh.pick(Vec3::new(1.0, 10.0, 2.0), down, 2.0).unwrap();
+    assert!(t < 2 && (d - 10.0).abs() < 1e-4, "cut at 2: the lower floor: {t} at {d}");
+    assert_eq!(mesh.pick(Vec3::new(6.0, 10.0, 0.0), down, f32::INFINITY), None, "beside the house");
+    assert_eq!(mesh.pick(Vec3::new(1.0, 10.0, 2.0), Vec3::Y, f32::INFINITY), None, "behind the ray");
+}
+
+#[test]
+fn a_tap_goes_to_the_tables_probe_else_to_the_probe_that_sees_the_point_best() {
+    // Test graph probes at y = 0: 0 at the origin, 1 at +4 x, 2 at −4 z, 3, 4 farther.
+    let g = graph();
+    let table = two_storeys(vec![3, 3, NONE, 1]);
+    assert_eq!(table.destination(&g, 0, Vec3::new(1.0, 0.0, 1.0)), Some(3), "the builder's choice");
+    assert_eq!(table.destination(&g, 3, Vec3::new(1.0, 3.0, 1.0)), Some(1));
+    // No table: probes stand on the lower floor (y = 0, in its plane) and all see the upper one;
+    // the nearest facing one wins: probe 1 at (4, 0, 0) for a point above (4, 3, 0).
+    let plain = two_storeys(vec![]);
+    assert_eq!(plain.destination(&g, 2, Vec3::new(4.0, 3.0, 0.2)), Some(1));
+    assert_eq!(table.destination(&g, 2, Vec3::new(-0.2, 3.0, -4.0)), Some(2), "a triangle no probe sees by the table falls back too");
+    // A table naming a probe the graph lacks is ignored.
+    let wrong = two_storeys(vec![99; 4]);
+    assert_eq!(wrong.destination(&g, 2, Vec3::new(4.0, 3.0, 0.2)), Some(1));
+}
+
+#[test]
+fn a_probe_the_proxy_hides_the_point_from_is_not_chosen() {
+    // Point on the upper floor. Probe 1 below the lower floor is nearer and faces it squarely,
+    // but the lower floor stands between them; probe 0 on the lower storey sees it obliquely.
+    let mut g = graph();
+    g.probes[0].position = [4.5, 1.5, 0.0];
+    g.probes[1].position = [0.5, -0.5, 0.0];
+    for p in &mut g.probes[2..] {
+        p.position = [20.0, 1.5, 0.0];
+    }
+    let point = Vec3::new(0.5, 3.0, 0.0);
+    let plain = two_storeys(vec![]);
+    assert_eq!(plain.destination(&g, 2, point), Some(0));
+    // Without the lower floor, probe 1 would win.
+    let mut upper_only = two_storeys(vec![]);
+    upper_only.triangles.drain(..2);
+    assert_eq!(upper_only.destination(&g, 0, point), Some(1));
+}
+
+#[test]
+fn floors_cut_above_head_height_and_below_the_next_storey() {
+    let floors = Floors { heights: vec![0.0, 3.0, 10.0], eye: 1.6 };
+    assert_eq!(floors.cut(None), f32::INFINITY);
+    assert!((floors.cut(Some(0)) - 2.08).abs() < 1e-5, "head height on a tall storey");
+    assert!((floors.cut(Some(2)) - 12.08).abs() < 1e-4, "the top storey");
+    let low = Floors { heights: vec![0.0, 2.0], eye: 1.6 };
+    assert!((low.cut(Some(0)) - 1.6).abs() < 1e-5, "below the next floor when it comes first");
+    assert_eq!(floors.of_point(1.6), Some(0));
+    assert_eq!(floors.of_point(4.6), Some(1));
+    assert_eq!(floors.of_point(-3.0), Some(0), "below every floor: the lowest");
+    assert_eq!(Floors { heights: vec![], eye: 1.6 }.of_point(1.6), None);
+}
+
+/// Draws `mesh` seen by `camera` into a `size`² target and reads it back.
+pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Option<Vec<u8>> {
+    let (device, queue) = crate::panorama::tests::gpu()?;
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut pass = DollhousePass::new(&device, format);
+    pass.upload(&device, &queue, mesh);
+    let target = device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor { label: None, size: (size * size * 4) as u64, usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    pass.draw(&device, &queue, &mut encoder, &target.create_view(&Default::default()), size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal());
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+        wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) } },
+        wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+    );
+    queue.submit([encoder.finish()]);
+    readback.slice(..).map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+    device.poll(wgpu::PollType::wait_indefinitely()).expect("poll");
+    let pixels = readback.slice(..).get_mapped_range().expect("mapped").to_vec();
+    Some(pixels)
+}
+
+#[test]
+fn the_dollhouse_draws_the_proxy_in_its_colours_and_the_cut_hides_the_upper_storey() {
+    let mesh = two_storeys(vec![]);
+    let orbit = Orbit { pitch: -1.5, ..Orbit::framing(mesh.lo, mesh.hi, 0.0) };
+    let camera = orbit.camera();
+    let at = |px: &[u8], x: u32, y: u32| {
+        let i = 4 * (y * 64 + x) as usize;
+        [px[i], px[i + 1], px[i + 2]]
+    };
+    let Some(whole) = draw(&mesh, &camera, f32::INFINITY, 64) else { return };
+    assert_eq!(at(&whole, 32, 32), [30, 30, 200], "from above, the upper storey");
+    let background = [0.06f32, 0.065, 0.075].map(|c| (255.0 * c.powf(1.0 / 2.2)).round() as i32);
+    let corner = at(&whole, 0, 0).map(i32::from);
+    assert!(corner.iter().zip(background).all(|(a, b)| (a - b).abs() <= 4), "the background around it: {corner:?}");
+    let cut = draw(&mesh, &camera, 2.0, 64).unwrap();
+    assert_eq!(at(&cut, 32, 32), [200, 30, 30], "cut at 2: the lower storey");
+}
