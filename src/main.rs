@@ -109,7 +109,7 @@ fn run(cli: &Cli) -> Result<()> {
             use exploremaps_viewer::{native, ui::Link};
             let link = match link {
                 Some(text) => Link::parse(text).map_err(|e| BadInput(format!("--link: {e}")))?,
-                None => Link { probe: *probe, yaw_deg: *yaw, pitch_deg: *pitch, fov_deg: *fov },
+                None => Link { probe: *probe, yaw_deg: *yaw, pitch_deg: *pitch, fov_deg: *fov, dollhouse: false },
             };
             let options = native::ViewOptions { link, tour: *tour, benchmark: *benchmark, started: *STARTED.get_or_init(Instant::now) };
             native::run(bundle, options).map_err(|e| match e {

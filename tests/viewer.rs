@@ -21,6 +21,11 @@ const FACES: [[[u8; 3]; 6]; 3] = [
     [[90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90]],
 ];
 const VIDEO: [u8; 3] = [230, 40, 230];
+/// The proxy: a ground quad at y = 0 over x in [−5, 9], z in [−5, 9], its
+/// west half (x < 2) green and seen best from probe 0, its east half orange
+/// and seen best from probe 1.
+const WEST: [u8; 3] = [40, 180, 60];
+const EAST: [u8; 3] = [230, 140, 20];
 
 fn jpeg(img: &image::RgbImage) -> Vec<u8> {
     let mut bytes = Vec::new();
@@ -90,6 +95,24 @@ pub fn synthetic_bundle(dir: &Path) {
         assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
     });
     graph.bar_order = vec![0, 1, 2];
+    let mut ground = exploremaps_format::meshcode::MeshData::default();
+    for (x0, x1, colour) in [(-5.0, 2.0, WEST), (2.0, 9.0, EAST)] {
+        let base = ground.positions.len() as u32;
+        ground.positions.extend([[x0, 0.0, -5.0], [x1, 0.0, -5.0], [x1, 0.0, 9.0], [x0, 0.0, 9.0]]);
+        ground.colours.extend([colour; 4]);
+        ground.triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+    }
+    let coded = exploremaps_format::meshcode::encode(&ground, 14).unwrap();
+    let best = [0, 0, 1, 1];
+    let seen = exploremaps_format::seen::encode(&coded.order.triangles.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>());
+    let mut levels = Vec::new();
+    for level in 0..2 {
+        let (file, table) = (format!("proxy/{level}.emmc"), format!("proxy/{level}.seen"));
+        write(&file, &coded.bytes);
+        write(&table, &seen);
+        levels.push(exploremaps_format::ProxyLevel { file, triangles: 4, vertices: 8, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table) });
+    }
+    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![] });
     graph.validate().unwrap();
     write("graph.json", graph.to_json().as_bytes());
 }
@@ -152,6 +175,11 @@ fn browser(mode: &str, url: &str, out: &Path) -> Vec<serde_json::Value> {
 
 /// As [`browser`], on WebGPU when `webgpu`, else WebGL2.
 fn browser_on(mode: &str, url: &str, out: &Path, webgpu: bool) -> Vec<serde_json::Value> {
+    browser_with(mode, url, out, webgpu, &[])
+}
+
+/// As [`browser_on`], with more environment for the script.
+fn browser_with(mode: &str, url: &str, out: &Path, webgpu: bool, env: &[(&str, String)]) -> Vec<serde_json::Value> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let playwright = root.join("target/node/node_modules/playwright-core/index.mjs");
     assert!(playwright.exists(), "{} is missing: run scripts/setup.sh (or set EXPLOREMAPS_SKIP_BROWSER=1)", playwright.display());
@@ -160,6 +188,7 @@ fn browser_on(mode: &str, url: &str, out: &Path, webgpu: bool) -> Vec<serde_json
         .args([mode, url, out.to_str().unwrap()])
         .env("PLAYWRIGHT_CORE", &playwright)
         .env("WEBGPU", if webgpu { "1" } else { "0" })
+        .envs(env.iter().map(|(k, v)| (*k, v.as_str())))
         .output()
         .expect("node (scripts/setup.sh installs it)");
     let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
@@ -261,6 +290,62 @@ fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
     assert!(fov < 60.0, "spreading two fingers zooms in: {fov}");
     let tapped = step(&lines, "tapped");
     assert_eq!(tapped["probe"], 1, "a tap on the path bar goes along the path");
+}
+
+#[test]
+fn the_web_viewer_shows_the_dollhouse_and_a_click_on_it_flies_to_the_probe_that_sees_that_point_best() {
+    use exploremaps_viewer::dollhouse::Orbit;
+    use glam::Vec3;
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let server = serve(&bundle);
+    // Where the viewer frames the ground: probe 0 faces yaw 0 on a 1280 × 720 page.
+    let camera = Orbit::framing(Vec3::new(-5.0, 0.0, -5.0), Vec3::new(9.0, 0.0, 9.0), 0.0, 1280.0 / 720.0).camera();
+    let pixel = |p: Vec3| camera.project(p, 1280.0, 720.0).unwrap().map(|c| c.round() as u32);
+    let east_point = Vec3::new(7.0, 0.0, 2.0);
+    let [tx, ty] = pixel(east_point);
+    let lines = browser_with("dollhouse", &server.url, dir.path(), false, &[("TAP_X", tx.to_string()), ("TAP_Y", ty.to_string())]);
+    let opened = step(&lines, "dollhouse");
+    assert_eq!(opened["dollhouse"], true);
+    assert!(opened["t_dollhouse_full"].as_f64().is_some(), "{opened}");
+    let shot = dir.path().join("dollhouse.png");
+    let [wx, wy] = pixel(Vec3::new(-3.0, 0.0, 3.0));
+    assert!(near(colour_at(&shot, wx, wy), WEST, 6), "the west half in its colour: {:?}", colour_at(&shot, wx, wy));
+    assert!(near(colour_at(&shot, tx, ty), EAST, 6), "the east half: {:?}", colour_at(&shot, tx, ty));
+    // The click on the east half lands at probe 1, facing the clicked point.
+    let landed = step(&lines, "landed");
+    assert_eq!(landed["probe"], 1, "{landed}");
+    let hash = landed["hash"].as_str().unwrap();
+    let d = east_point - Vec3::new(4.0, 1.5, 0.0);
+    let (yaw, pitch) = (d.x.atan2(-d.z).to_degrees(), (d.y / d.length()).asin().to_degrees());
+    assert!((link_value(hash, "yaw") - yaw).abs() < 1.5 && (link_value(hash, "pitch") - pitch).abs() < 1.5, "{hash}: wanted yaw {yaw}, pitch {pitch}");
+    assert_eq!(step(&lines, "floor")["dollhouse"], true, "back in the dollhouse");
+}
+
+#[test]
+fn the_web_viewer_says_when_the_proxy_is_corrupt_and_the_panoramas_go_on() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let coarse = bundle.join("proxy/1.emmc");
+    let mut bytes = std::fs::read(&coarse).unwrap();
+    bytes[12] ^= 0x55;
+    std::fs::write(&coarse, bytes).unwrap();
+    let server = serve(&bundle);
+    let lines = browser("dollhouse_broken", &server.url, dir.path());
+    let broken = step(&lines, "broken");
+    let message = broken["message"].as_str().unwrap_or_default();
+    assert!(message.contains("3D overview") && message.contains("proxy/1.emmc"), "{message}");
+    assert_eq!(broken["dollhouse"], false, "back to the panorama");
+    let centre = colour_at(&dir.path().join("broken.png"), 640, 300);
+    assert!(near(centre, FACES[0][5], 24), "probe 0's −Z face: {centre:?}");
 }
 
 fn other_version(dir: &Path) -> PathBuf {

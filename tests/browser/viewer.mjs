@@ -4,6 +4,9 @@
 // to a probe with a corrupt face, and on to the next probe.
 // MODE message: load and report the message the page shows.
 // MODE bench: time to first panorama and frame times in a probe and along a path.
+// MODE dollhouse: open in the dollhouse (#dollhouse=1), screenshot it; then click at
+// (TAP_X, TAP_Y) and report where the flight lands; then the floor cut (KeyF).
+// MODE dollhouse_bench: times to the first and the full dollhouse frames, frame times.
 // Prints one JSON object per line: {"step": ..., ...}.
 const { chromium } = await import(process.env.PLAYWRIGHT_CORE);
 const [mode, url, out] = process.argv.slice(2);
@@ -96,6 +99,49 @@ try {
     await page.touchscreen.tap(180, 660);
     await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
     report('tapped', await status(page));
+  } else if (mode === 'dollhouse' || mode === 'dollhouse_bench') {
+    const t0 = Date.now();
+    const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });
+    page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    await page.goto(`${url}#dollhouse=1`);
+    await page.waitForFunction(() => window.exploremaps && (window.exploremaps.t_dollhouse_full || window.exploremaps.error), null, { timeout: 60000 });
+    const loaded_ms = Date.now() - t0;
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/dollhouse.png` });
+    const s = await status(page);
+    report('dollhouse', { ...s, loaded_ms });
+    if (mode === 'dollhouse_bench') {
+      const frames = (n) => page.evaluate((n) => new Promise((done) => {
+        const times = []; let last = performance.now();
+        const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
+        requestAnimationFrame(step);
+      }), n);
+      await page.keyboard.down('ArrowRight');
+      report('orbit', { frames_ms: await frames(60) });
+      await page.keyboard.up('ArrowRight');
+    } else {
+      await page.mouse.click(Number(process.env.TAP_X || 640), Number(process.env.TAP_Y || 360));
+      await page.waitForFunction(() => window.exploremaps.dollhouse === false && window.exploremaps.flying === false, null, { timeout: 15000 });
+      await page.waitForTimeout(600);
+      await page.screenshot({ path: `${out}/landed.png` });
+      report('landed', await status(page));
+      await page.keyboard.press('KeyO');
+      await page.waitForFunction(() => window.exploremaps.dollhouse === true && window.exploremaps.flying === false, null, { timeout: 15000 });
+      await page.keyboard.press('KeyF');
+      await page.waitForTimeout(300);
+      await page.screenshot({ path: `${out}/floor.png` });
+      report('floor', await status(page));
+    }
+  } else if (mode === 'dollhouse_broken') {
+    // Opens in the dollhouse with a corrupt proxy: a message, and the panorama shows.
+    const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });
+    page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    await page.goto(`${url}#dollhouse=1`);
+    await page.waitForFunction(() => document.getElementById('message')?.className === 'shown'
+      && window.exploremaps.first_panorama_ms, null, { timeout: 30000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/broken.png` });
+    report('broken', await status(page));
   } else if (mode === 'message') {
     const { page } = await open(url);
     report('message', await status(page));

@@ -201,6 +201,8 @@ pub struct App {
     flight: Option<Flight>,
     /// Seconds left of the panorama fading in over the proxy after a flight.
     fade_in_s: f32,
+    /// The deep link changed outside input handling (a flight ended).
+    link_dirty: bool,
     floors: Floors,
     floor: Option<usize>,
 }
@@ -261,18 +263,32 @@ impl App {
             orbit: None,
             flight: None,
             fade_in_s: 0.0,
+            link_dirty: false,
             floors,
             floor: None,
         };
+        if link.is_some_and(|l| l.dollhouse) {
+            app.toggle_dollhouse(platform);
+        }
         app.request_assets(platform);
         app
+    }
+
+    /// The deep link to where the viewer is.
+    fn link(&self) -> Link {
+        Link { dollhouse: self.mode == Mode::Dollhouse, ..Link::of(&self.nav) }
+    }
+
+    /// Whether a flight over the dollhouse is under way.
+    pub fn flying(&self) -> bool {
+        self.flight.is_some()
     }
 
     /// True until the first panorama can be drawn: platforms skip drawing
     /// frames until then, leaving the CPU or GPU to the loading.
     pub fn waiting_for_first_panorama(&self) -> bool {
         let p = self.nav.probe();
-        !self.shown_panorama && !self.panos.contains_key(&p) && !self.failed.contains(&p)
+        self.mode == Mode::Panorama && !self.shown_panorama && !self.panos.contains_key(&p) && !self.failed.contains(&p)
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -415,7 +431,7 @@ impl App {
                         let mesh = ProxyMesh::new(level, mesh, seen);
                         self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
                         if self.orbit.is_none() {
-                            self.orbit = Some(Orbit::framing(mesh.lo, mesh.hi, self.nav.view.yaw));
+                            self.orbit = Some(self.framing(&mesh));
                         }
                         self.proxy = Some(mesh);
                     }
@@ -436,6 +452,9 @@ impl App {
         }
         self.message_s = (self.message_s - dt_s).max(0.0);
         self.fly(dt_s);
+        if std::mem::take(&mut self.link_dirty) {
+            platform.link_changed(&self.link());
+        }
 
         // A cross-fade waits for its target; a travel plays on regardless.
         let waiting = matches!(self.nav.state, State::CrossFading { to, .. } if !self.panos.contains_key(&to) && !self.failed.contains(&to));
@@ -455,7 +474,7 @@ impl App {
                 State::AtProbe { .. } => {
                     platform.stop_video();
                     self.dwell_s = 0.0;
-                    platform.link_changed(&Link::of(&self.nav));
+                    platform.link_changed(&self.link());
                 }
                 State::CrossFading { .. } => self.came_by = None,
             }
@@ -493,6 +512,7 @@ impl App {
             self.fade_in_s = FADE_S;
         }
         self.flight = None;
+        self.link_dirty = true;
     }
 
     /// The camera the panorama view is seen from.
@@ -515,13 +535,21 @@ impl App {
         }
         self.mode = Mode::Dollhouse;
         self.touring = false;
+        self.link_dirty = true;
         self.floor = self.floors.of_point(self.nav.camera_position()[1]);
         self.request_proxy(platform);
         if let Some(mesh) = &self.proxy {
-            let orbit = Orbit::framing(mesh.lo, mesh.hi, self.nav.view.yaw);
+            let orbit = self.framing(mesh);
             self.flight = Some(Flight { from: self.panorama_camera(), to: orbit.camera(), elapsed_s: 0.0, arrive: None });
             self.orbit = Some(orbit);
         }
+    }
+
+    /// The orbit showing the whole proxy below the cut, facing the way the
+    /// visitor looks.
+    fn framing(&self, mesh: &ProxyMesh) -> Orbit {
+        let hi = Vec3::new(mesh.hi.x, mesh.hi.y.min(self.cut()).max(mesh.lo.y), mesh.hi.z);
+        Orbit { radius: 0.5 * mesh.diagonal().max(1e-3), ..Orbit::framing(mesh.lo, hi, self.nav.view.yaw, self.width / self.height) }
     }
 
     fn leave_dollhouse_at_once(&mut self) {
@@ -689,7 +717,7 @@ impl App {
                 if let Some((_, _, false)) = self.press.take() {
                     self.tap(x, y, platform);
                 } else {
-                    platform.link_changed(&Link::of(&self.nav));
+                    platform.link_changed(&self.link());
                 }
             }
             Input::Wheel(steps) => self.nav.zoom(0.9f32.powf(steps)),
@@ -718,7 +746,7 @@ impl App {
                     Key::Dollhouse => self.toggle_dollhouse(platform),
                     Key::Floor => {}
                 }
-                platform.link_changed(&Link::of(&self.nav));
+                platform.link_changed(&self.link());
             }
         }
     }

@@ -160,10 +160,26 @@ const MIN_PITCH: f32 = -1.55;
 const MAX_PITCH: f32 = -0.1;
 
 impl Orbit {
-    /// The whole box `lo..hi` in view, looking down 40° toward `yaw`.
-    pub fn framing(lo: Vec3, hi: Vec3, yaw: f32) -> Orbit {
+    /// The whole box `lo..hi` in view on a target of aspect ratio `aspect`,
+    /// looking down 40° toward `yaw`, as close as that allows.
+    pub fn framing(lo: Vec3, hi: Vec3, yaw: f32, aspect: f32) -> Orbit {
         let radius = (0.5 * (hi - lo).length()).max(1e-3);
-        Orbit { target: (lo + hi) / 2.0, yaw, pitch: -0.7, distance: radius / (0.5 * ORBIT_FOV).sin() * 1.05, fov_y: ORBIT_FOV, radius }
+        let target = (lo + hi) / 2.0;
+        let mut orbit = Orbit { target, yaw, pitch: -0.7, distance: 0.0, fov_y: ORBIT_FOV, radius };
+        let (right, up) = orbit.camera().basis();
+        let forward = Vec3::from(exploremaps_format::direction(yaw, orbit.pitch));
+        // A corner at (x, y, z) in the camera's frame around the target is in
+        // view when |x| ≤ (d + z) tan(h/2) and |y| ≤ (d + z) tan(v/2); a tenth spare.
+        let tan_v = 0.9 * (0.5 * ORBIT_FOV).tan();
+        let tan_h = tan_v * aspect.max(0.1);
+        orbit.distance = (0..8)
+            .map(|i| {
+                let corner = Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }) - target;
+                let (x, y, z) = (corner.dot(right), corner.dot(up), corner.dot(forward));
+                (x.abs() / tan_h).max(y.abs() / tan_v) - z
+            })
+            .fold(0.1 * radius, f32::max);
+        orbit
     }
 
     pub fn camera(&self) -> Camera {

@@ -275,10 +275,12 @@ pub struct Link {
     pub yaw_deg: Option<f32>,
     pub pitch_deg: Option<f32>,
     pub fov_deg: Option<f32>,
+    /// Open in the dollhouse.
+    pub dollhouse: bool,
 }
 
 impl Link {
-    /// Parses `probe=3&yaw=90&pitch=-10&fov=70` (a leading `#` is allowed);
+    /// Parses `probe=3&yaw=90&pitch=-10&fov=70&dollhouse=1` (a leading `#` is allowed);
     /// unknown keys are ignored, bad values are an error naming them.
     pub fn parse(text: &str) -> Result<Link, String> {
         let mut link = Link::default();
@@ -290,6 +292,7 @@ impl Link {
                 "yaw" => link.yaw_deg = Some(number()?),
                 "pitch" => link.pitch_deg = Some(number()?),
                 "fov" => link.fov_deg = Some(number()?),
+                "dollhouse" => link.dollhouse = value != "0",
                 _ => {}
             }
         }
@@ -298,7 +301,7 @@ impl Link {
 
     /// The link to where the navigator is now.
     pub fn of(nav: &Navigator) -> Link {
-        Link { probe: Some(nav.probe()), yaw_deg: Some(nav.view.yaw.to_degrees()), pitch_deg: Some(nav.view.pitch.to_degrees()), fov_deg: Some(nav.view.fov_y.to_degrees()) }
+        Link { probe: Some(nav.probe()), yaw_deg: Some(nav.view.yaw.to_degrees()), pitch_deg: Some(nav.view.pitch.to_degrees()), fov_deg: Some(nav.view.fov_y.to_degrees()), dollhouse: false }
     }
 
     pub fn to_fragment(&self) -> String {
@@ -310,6 +313,9 @@ impl Link {
             if let Some(v) = v {
                 parts.push(format!("{key}={v:.1}"));
             }
+        }
+        if self.dollhouse {
+            parts.push("dollhouse=1".into());
         }
         parts.join("&")
     }

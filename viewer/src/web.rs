@@ -3,7 +3,7 @@
 //! videos played by a `<video>` element, both copied into textures. The page
 //! (web/index.html, written into every bundle) calls `start`.
 
-use crate::app::{App, Gpu, Input, Key, Loaded, Options, Pano, Platform};
+use crate::app::{App, Gpu, Input, Key, Loaded, Mode, Options, Pano, Platform};
 use crate::navigation::Navigator;
 use crate::overlay::{OverlayPass, THUMB_H, THUMB_W};
 use crate::panorama::{Cube, VideoTexture};
@@ -222,10 +222,7 @@ impl Platform for WebPlatform {
                     }
                     Loaded::Thumbnail { probe }
                 }
-                Fetched::Proxy { level, mesh, seen } => {
-                    mark(if level == 0 { "proxy_full" } else { "proxy_coarse" });
-                    Loaded::Proxy { level, mesh, seen }
-                }
+                Fetched::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
                 Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             })
             .collect()
@@ -298,6 +295,8 @@ struct State {
     canvas: web_sys::HtmlCanvasElement,
     last_ms: f64,
     first_frame_logged: bool,
+    /// The proxy level the dollhouse last showed.
+    dollhouse_level: Option<usize>,
 }
 
 impl State {
@@ -345,6 +344,20 @@ impl State {
         }
         set_status("probe", &self.app.nav.probe().into());
         set_status("moving", &self.app.nav.progress().is_some().into());
+        let dollhouse = self.app.mode == Mode::Dollhouse;
+        set_status("dollhouse", &dollhouse.into());
+        set_status("flying", &self.app.flying().into());
+        // The first dollhouse frame with a proxy, and the first with its finest level.
+        let level = self.app.proxy.as_ref().map(|m| m.level);
+        if dollhouse && level.is_some() && level != self.dollhouse_level {
+            if self.dollhouse_level.is_none() {
+                mark("dollhouse_first");
+            }
+            if level == Some(0) {
+                mark("dollhouse_full");
+            }
+            self.dollhouse_level = level;
+        }
     }
 }
 
@@ -467,7 +480,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     let options = Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
     let app = App::new(Gpu { device, queue, format: view_format }, nav, Some(&link), options, &mut platform);
     mark("app");
-    let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false }));
+    let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false, dollhouse_level: None }));
 
     let target: &web_sys::EventTarget = canvas.as_ref();
     listen(target, "pointerdown", &state, |s, e: web_sys::PointerEvent| {

@@ -20,7 +20,7 @@ pub(crate) fn two_storeys_data() -> MeshData {
 
 #[test]
 fn a_ray_through_a_projected_point_passes_through_it() {
-    let orbit = Orbit::framing(Vec3::splat(-5.0), Vec3::splat(5.0), 0.7);
+    let orbit = Orbit::framing(Vec3::splat(-5.0), Vec3::splat(5.0), 0.7, 16.0 / 9.0);
     let camera = orbit.camera();
     for p in [Vec3::ZERO, Vec3::new(3.0, -2.0, 1.0), Vec3::new(-4.0, 4.0, -4.0)] {
         let [x, y] = camera.project(p, 640.0, 360.0).expect("in front");
@@ -29,17 +29,21 @@ fn a_ray_through_a_projected_point_passes_through_it() {
         let to = (p - camera.eye).normalize();
         assert!(d.dot(to) > 0.99999, "{d} vs {to}");
     }
-    // The box's corners are all in view.
+    // The box's corners are all in view, and it fills the view: some corner
+    // reaches the margin of a tenth left spare.
+    let mut fill = 0.0f32;
     for i in 0..8 {
         let c = Vec3::new(if i & 1 == 0 { -5.0 } else { 5.0 }, if i & 2 == 0 { -5.0 } else { 5.0 }, if i & 4 == 0 { -5.0 } else { 5.0 });
         let [x, y] = camera.project(c, 640.0, 360.0).unwrap();
         assert!((0.0..640.0).contains(&x) && (0.0..360.0).contains(&y), "corner {c}: {x} {y}");
+        fill = fill.max((x / 320.0 - 1.0).abs()).max((y / 180.0 - 1.0).abs());
     }
+    assert!((fill - 0.9).abs() < 0.01, "{fill}");
 }
 
 #[test]
 fn orbit_turns_zooms_and_pans_within_bounds() {
-    let mut orbit = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0);
+    let mut orbit = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0, 1.0);
     orbit.turn(0.0, -10.0);
     assert_eq!(orbit.pitch, MIN_PITCH, "never upside down");
     orbit.turn(0.0, 10.0);
@@ -50,7 +54,7 @@ fn orbit_turns_zooms_and_pans_within_bounds() {
     orbit.pan(1e9, 0.0, 100.0);
     assert!(orbit.target.distance(before) <= 2.0 * orbit.radius * 3f32.sqrt() + 1e-4);
     // A small drag right moves the scene right: the target moves left on screen's right axis.
-    let mut o = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0);
+    let mut o = Orbit::framing(Vec3::splat(-1.0), Vec3::splat(1.0), 0.0, 1.0);
     let seen_before = o.camera().project(Vec3::ZERO, 100.0, 100.0).unwrap();
     o.pan(10.0, 0.0, 100.0);
     let seen_after = o.camera().project(Vec3::ZERO, 100.0, 100.0).unwrap();
@@ -153,7 +157,7 @@ pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Op
 #[test]
 fn the_dollhouse_draws_the_proxy_in_its_colours_and_the_cut_hides_the_upper_storey() {
     let mesh = two_storeys(vec![]);
-    let orbit = Orbit { pitch: -1.5, ..Orbit::framing(mesh.lo, mesh.hi, 0.0) };
+    let orbit = Orbit { pitch: -1.5, ..Orbit::framing(mesh.lo, mesh.hi, 0.0, 1.0) };
     let camera = orbit.camera();
     let at = |px: &[u8], x: u32, y: u32| {
         let i = 4 * (y * 64 + x) as usize;

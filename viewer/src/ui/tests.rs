@@ -99,7 +99,7 @@ fn a_phone_portrait_viewport_keeps_the_interface_on_screen() {
 #[test]
 fn links_round_trip_and_name_bad_values() {
     let link = Link::parse("#probe=3&yaw=90&pitch=-10.5&fov=70&other=x").unwrap();
-    assert_eq!(link, Link { probe: Some(3), yaw_deg: Some(90.0), pitch_deg: Some(-10.5), fov_deg: Some(70.0) });
+    assert_eq!(link, Link { probe: Some(3), yaw_deg: Some(90.0), pitch_deg: Some(-10.5), fov_deg: Some(70.0), dollhouse: false });
     assert_eq!(Link::parse(&link.to_fragment()).unwrap(), link);
     assert_eq!(Link::parse("").unwrap(), Link::default());
     assert!(Link::parse("yaw=abc").unwrap_err().contains("yaw=abc"));
