@@ -2,7 +2,9 @@
 # The viewer's benchmark (issue 7): wasm size, time to first panorama, frame
 # times in a probe and along a path, natively (lavapipe under Xvfb, 1280x720)
 # and in headless Chromium (SwiftShader WebGL2, 1280x720, served on localhost),
-# and peak memory. Usage: scripts/bench-viewer.sh [BUNDLE]
+# and peak memory; the dollhouse (issue 16): times from the page's start to
+# its first and its full-resolution frame, on localhost and at 10 Mbit/s with
+# 60 ms latency, frame times orbiting it. Usage: scripts/bench-viewer.sh [BUNDLE]
 # (default: the gallery, rendered at preview quality into target/bench-viewer).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,3 +45,18 @@ for webgpu in 0 1; do
   }'
 done
 
+
+echo "== dollhouse (headless Chromium, WebGL2 on SwiftShader, opened at #dollhouse=1)"
+for throttle in 0 1; do
+  THROTTLE=$throttle PLAYWRIGHT_CORE="$PWD/target/node/node_modules/playwright-core/index.mjs" node tests/browser/viewer.mjs dollhouse_bench "$url" target/bench-viewer | THROTTLE=$throttle node -e '
+  const lines = require("fs").readFileSync(0, "utf8").trim().split("\n").map(JSON.parse);
+  const net = process.env.THROTTLE === "1" ? "10 Mbit/s, 60 ms" : "localhost";
+  const stats = (a) => { const s = [...a].sort((x, y) => x - y); const mean = a.reduce((x, y) => x + y, 0) / a.length;
+    return `mean ${mean.toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
+  for (const l of lines) {
+    if (l.step === "dollhouse") console.log(`${net}: graph at ${Math.round(l.t_graph)} ms; first dollhouse frame at ${Math.round(l.t_dollhouse_first)} ms (${Math.round(l.t_dollhouse_first - l.t_graph)} ms after the graph; goal 300), full proxy at ${Math.round(l.t_dollhouse_full)} ms (goal 1000 at 10 Mbit/s)`);
+    else if (l.step === "orbit") console.log(`${net}: frame time orbiting the dollhouse at 1280x720: ${stats(l.frames_ms)}`);
+    else if (l.step === "memory") console.log(`${net}: JS heap in the dollhouse: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
+    else console.log(JSON.stringify(l));
+  }'
+done

@@ -103,6 +103,13 @@ try {
     const t0 = Date.now();
     const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });
     page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    if (process.env.THROTTLE === '1') {
+      // 10 Mbit/s down and up, 60 ms latency, cache off.
+      const cdp = await page.context().newCDPSession(page);
+      await cdp.send('Network.enable');
+      await cdp.send('Network.setCacheDisabled', { cacheDisabled: true });
+      await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 60, downloadThroughput: 10e6 / 8, uploadThroughput: 10e6 / 8 });
+    }
     await page.goto(`${url}#dollhouse=1`);
     await page.waitForFunction(() => window.exploremaps && (window.exploremaps.t_dollhouse_full || window.exploremaps.error), null, { timeout: 60000 });
     const loaded_ms = Date.now() - t0;
@@ -119,6 +126,7 @@ try {
       await page.keyboard.down('ArrowRight');
       report('orbit', { frames_ms: await frames(60) });
       await page.keyboard.up('ArrowRight');
+      report('memory', { js_heap_bytes: await page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null) });
     } else {
       await page.mouse.click(Number(process.env.TAP_X || 640), Number(process.env.TAP_Y || 360));
       await page.waitForFunction(() => window.exploremaps.dollhouse === false && window.exploremaps.flying === false, null, { timeout: 15000 });

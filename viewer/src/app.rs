@@ -284,11 +284,20 @@ impl App {
         self.flight.is_some()
     }
 
-    /// True until the first panorama can be drawn: platforms skip drawing
-    /// frames until then, leaving the CPU or GPU to the loading.
-    pub fn waiting_for_first_panorama(&self) -> bool {
+    /// True until there is something to draw (the first panorama, or in
+    /// the dollhouse the first proxy level): platforms skip drawing frames
+    /// until then, leaving the CPU or GPU to the loading.
+    pub fn waiting_for_first_frame(&self) -> bool {
+        match self.mode {
+            Mode::Dollhouse => self.proxy.is_none() && !self.proxy_failed,
+            Mode::Panorama => !self.panorama_ready(),
+        }
+    }
+
+    /// Whether the current probe's panorama has been shown, is here, or failed.
+    fn panorama_ready(&self) -> bool {
         let p = self.nav.probe();
-        self.mode == Mode::Panorama && !self.shown_panorama && !self.panos.contains_key(&p) && !self.failed.contains(&p)
+        self.shown_panorama || self.panos.contains_key(&p) || self.failed.contains(&p)
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -342,7 +351,13 @@ impl App {
     /// Current probe: the smallest level first, then the sharpest needed; the
     /// target of a move; the neighbours' smallest levels (prefetch).
     fn request_assets(&mut self, platform: &mut dyn Platform) {
+        // In the dollhouse, its proxy comes first: panoramas wait until its finest level is in.
+        self.request_proxy(platform);
+        if self.mode == Mode::Dollhouse && self.flight.is_none() && !self.proxy_failed && self.proxy.as_ref().is_none_or(|m| m.level > 0) {
+            return;
+        }
         let mut sharp = vec![self.nav.probe()];
+        sharp.extend(self.flight.and_then(|f| f.arrive).map(|a| a.0));
         match self.nav.state {
             State::CrossFading { to, .. } => sharp.push(to),
             State::Travelling { .. } => sharp.extend(self.nav.destination()),
@@ -362,7 +377,7 @@ impl App {
             }
         }
         // Thumbnails and neighbours once the first panorama is in, so they do not delay it.
-        if !self.thumbs_requested && !self.waiting_for_first_panorama() {
+        if !self.thumbs_requested && self.panorama_ready() {
             self.thumbs_requested = true;
             for p in &self.nav.graph().probes {
                 if let Some(t) = &p.assets.thumbnail {
@@ -370,7 +385,6 @@ impl App {
                 }
             }
         }
-        self.request_proxy(platform);
         if matches!(self.nav.state, State::AtProbe { .. }) && self.panos.contains_key(&self.nav.probe()) {
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);
@@ -384,7 +398,7 @@ impl App {
     fn request_proxy(&mut self, platform: &mut dyn Platform) {
         let Some(proxy) = &self.nav.graph().proxy else { return };
         let levels = proxy.levels.len();
-        let wanted = self.mode == Mode::Dollhouse || !self.waiting_for_first_panorama();
+        let wanted = self.mode == Mode::Dollhouse || self.panorama_ready();
         let ready = self.proxy.as_ref().map_or(levels, |m| m.level);
         // Level i is asked for once every coarser one has arrived (or failed).
         let next = levels - self.proxy_requested;
@@ -507,6 +521,10 @@ impl App {
             return;
         }
         if let Some((probe, yaw, pitch)) = flight.arrive {
+            // Landing waits for the probe's panorama (or its failure), as a cross-fade does.
+            if !self.panos.contains_key(&probe) && !self.failed.contains(&probe) {
+                return;
+            }
             let _ = self.nav.arrive(probe, yaw, pitch);
             self.mode = Mode::Panorama;
             self.fade_in_s = FADE_S;
@@ -861,7 +879,7 @@ impl App {
             }
             (State::AtProbe { .. }, _) => here.map(Pano::source),
         };
-        self.shown_panorama |= source.is_some();
+        self.shown_panorama |= source.is_some() && opacity > 0.0;
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         if let Some(c) = &camera {
             let (centre, extent) = self.proxy.as_ref().map_or((c.eye, 1.0), |m| ((m.lo + m.hi) / 2.0, m.diagonal().max(1e-3)));

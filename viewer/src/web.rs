@@ -321,7 +321,7 @@ impl State {
         let dt = ((now_ms - self.last_ms) / 1000.0).clamp(0.0, 0.1) as f32;
         self.last_ms = now_ms;
         self.app.update(dt, &mut self.platform);
-        if self.app.waiting_for_first_panorama() {
+        if self.app.waiting_for_first_frame() {
             return;
         }
         let frame = match self.surface.get_current_texture() {

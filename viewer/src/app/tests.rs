@@ -104,9 +104,9 @@ fn the_low_resolution_level_comes_first_then_the_sharp_one_and_neighbours_are_pr
     // At first only the smallest level of the current probe is asked for, and
     // nothing is drawn; the thumbnails wait for it too.
     assert_eq!(script.requests, vec![(0, 8)]);
-    assert!(app.waiting_for_first_panorama() && script.thumbnails.is_empty());
+    assert!(app.waiting_for_first_frame() && script.thumbnails.is_empty());
     app.update(0.016, &mut script);
-    assert!(!app.waiting_for_first_panorama());
+    assert!(!app.waiting_for_first_frame());
     assert_eq!(script.thumbnails, vec![0, 1, 2, 3, 4]);
     // Once it is in: the level sharp enough for a 30-pixel-high view at fov 1.2
     // (30 / (2 tan 0.6) ≈ 22 → 32), and the neighbours' smallest levels.
@@ -313,4 +313,41 @@ fn a_bundle_without_a_proxy_says_so_when_the_dollhouse_is_asked_for() {
     assert_eq!(app.mode, Mode::Panorama);
     assert!(script.proxy_requests.is_empty());
     assert!(script.messages.iter().any(|m| m.contains("no 3D overview") && m.contains("exploremaps render")), "{:?}", script.messages);
+}
+
+#[test]
+fn opened_in_the_dollhouse_the_proxy_comes_before_any_panorama_and_a_landing_waits_for_its_panorama() {
+    let Some((device, queue)) = crate::panorama::tests::gpu() else { return };
+    let gpu = Gpu { device, queue, format: wgpu::TextureFormat::Rgba8UnormSrgb };
+    let mut script = Script::default();
+    let nav = Navigator::new(graph_with_proxy(), Some(0), 1).unwrap();
+    let link = Link { dollhouse: true, ..Link::default() };
+    let mut app = App::new(gpu, nav, Some(&link), Options { budget_bytes: 1 << 30, max_face: 2048, show_map: true, tour: false }, &mut script);
+    app.resize(640, 360, 1.0);
+    assert_eq!(app.mode, Mode::Dollhouse);
+    assert!(app.waiting_for_first_frame(), "nothing to draw before the proxy");
+    assert_eq!((script.proxy_requests.clone(), script.requests.clone()), (vec![1], vec![]), "the coarse proxy alone");
+    app.update(0.016, &mut script);
+    assert!(!app.waiting_for_first_frame());
+    assert_eq!((script.proxy_requests.clone(), script.requests.clone()), (vec![1, 0], vec![]), "then the fine one, still no panorama");
+    app.update(0.016, &mut script);
+    assert_eq!(script.requests.first(), Some(&(0, 8)), "panoramas once the proxy is whole");
+    // A flight to probe 3, whose panorama is not here (forgotten, as if evicted):
+    // it is asked for at once, and the landing waits for it.
+    let point = Vec3::new(1.0, 0.0, -2.0);
+    app.update(0.016, &mut script);
+    let pixel = app.orbit.unwrap().camera().project(point, 640.0, 360.0).unwrap();
+    tap(&mut app, &mut script, pixel);
+    app.panos.remove(&3);
+    app.requested.retain(|r| r.0 != 3);
+    script.pending.retain(|r| r.0 != 3);
+    let before = script.requests.len();
+    app.flight.as_mut().unwrap().elapsed_s = 10.0;
+    app.fly(0.0);
+    assert_eq!(app.mode, Mode::Dollhouse, "no panorama of probe 3 yet: still flying");
+    app.update(0.0, &mut script);
+    assert!(script.requests[before..].contains(&(3, 8)), "{:?}", &script.requests[before..]);
+    assert_eq!(app.mode, Mode::Dollhouse, "asked, not here yet");
+    app.update(0.0, &mut script);
+    assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 3 }));
 }
