@@ -112,7 +112,23 @@ pub fn synthetic_bundle(dir: &Path) {
         write(&table, &seen);
         levels.push(exploremaps_format::ProxyLevel { file, triangles: 4, vertices: 8, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table) });
     }
-    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![] });
+    // Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
+    let mut depth_maps = Vec::new();
+    for p in 0..positions.len() as u32 {
+        let size = 16;
+        let mut map = exploremaps_format::depthmap::DepthMap { size, near: 0.1, far: 40.0, depth: Vec::new(), best: Vec::new() };
+        for face in 0..6 {
+            for i in 0..size * size {
+                let d = exploremaps_format::cube_direction(face, ((i % size) as f32 + 0.5) / size as f32, ((i / size) as f32 + 0.5) / size as f32);
+                map.depth.push(map.code(Some(3.0)));
+                map.best.push(if p == 0 && d[2] < 0.0 { 1 } else { p });
+            }
+        }
+        let file = format!("proxy/depth/{p}.emdm");
+        write(&file, &map.encode());
+        depth_maps.push(file);
+    }
+    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps });
     graph.validate().unwrap();
     write("graph.json", graph.to_json().as_bytes());
 }
@@ -324,6 +340,24 @@ fn the_web_viewer_shows_the_dollhouse_and_a_click_on_it_flies_to_the_probe_that_
     let (yaw, pitch) = (d.x.atan2(-d.z).to_degrees(), (d.y / d.length()).asin().to_degrees());
     assert!((link_value(hash, "yaw") - yaw).abs() < 1.5 && (link_value(hash, "pitch") - pitch).abs() < 1.5, "{hash}: wanted yaw {yaw}, pitch {pitch}");
     assert_eq!(step(&lines, "floor")["dollhouse"], true, "back in the dollhouse");
+}
+
+#[test]
+fn a_click_on_a_panorama_goes_to_the_probe_that_sees_that_point_best_facing_it() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    let server = serve(&bundle);
+    let lines = browser("panorama_tap", &server.url, dir.path());
+    // At probe 0 facing −Z, the click at the centre hits (0, 1.5, −3), which probe 1 sees
+    // best: the viewer travels the path there and faces the point, not probe 1's +Z.
+    let arrived = step(&lines, "arrived");
+    assert_eq!(arrived["probe"], 1, "{arrived}");
+    let yaw = link_value(arrived["hash"].as_str().unwrap(), "yaw");
+    assert!((yaw - (-4f32).atan2(3.0).to_degrees()).abs() < 1.5, "{yaw}");
 }
 
 #[test]

@@ -201,6 +201,8 @@ fn path_files(id: usize) -> (String, String) {
 }
 
 const PROXY_GLB: &str = "proxy/proxy.glb";
+/// Texels a face of a probe's point-to-go depth cube.
+const DEPTH_MAP_SIZE: u32 = 32;
 /// The proxy's entry for graph.json, written after its files: shards and
 /// resumed runs find it there whoever made it.
 const PROXY_LIST: &str = "proxy/proxy.json";
@@ -214,7 +216,7 @@ fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
 }
 
 fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
-    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb)
+    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps)
 }
 
 /// Storey floor heights the free-space stage found (its `walk.levels`), for
@@ -233,8 +235,18 @@ fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
 fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
     use exploremaps_format::{meshcode, seen, Proxy, ProxyLevel};
     let started = std::time::Instant::now();
-    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph) };
+    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new() };
     let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
+    // Point-to-go from panoramas: a 32² depth cube a probe (a few KB), from
+    // the near distance to twice the scene's size.
+    let diagonal = scene.bounds().diagonal();
+    let near = graph.scene.near_distance.unwrap_or(1e-3 * diagonal).max(1e-4 * diagonal);
+    for (id, &eye) in probes.iter().enumerate() {
+        let map = crate::proxy::seen::depth_map(renderer.tracer.rays, eye, &probes, DEPTH_MAP_SIZE, near, 2.0 * diagonal, 1e-4 * diagonal);
+        let file = format!("proxy/depth/{id}.emdm");
+        write(dir, &file, &map.encode())?;
+        proxy.depth_maps.push(file);
+    }
     for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
         let colours = crate::proxy::bake::bake(renderer, &level.mesh, level.error, params.bake_samples, i as u64);
         let file = format!("proxy/{i}.emmc");
@@ -253,7 +265,8 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes: coded.bytes.len() as u64, seen: Some(seen_file) });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
-    tracing::info!("proxy: {} ({:.2} s)", sizes.join(", "), started.elapsed().as_secs_f64());
+    let depth_bytes: u64 = proxy.depth_maps.iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum();
+    tracing::info!("proxy: {}; depth maps {} bytes a probe ({:.2} s)", sizes.join(", "), depth_bytes / probes.len().max(1) as u64, started.elapsed().as_secs_f64());
     write(dir, PROXY_LIST, serde_json::to_string_pretty(&proxy).expect("JSON of plain values").as_bytes())
 }
 
@@ -508,6 +521,7 @@ fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
         },
         "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
         "seen" => exploremaps_format::seen::decode_runs(&bytes, None).map(drop).map_err(|e| bad(&e)),
+        "emdm" => exploremaps_format::depthmap::DepthMap::decode(&bytes, u32::MAX).map(drop).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
             Ok(parsed) => parsed.map(drop).map_err(|e| bad(&e)),
             Err(_) => Err(bad(&"a panic in gltf")),

@@ -9,6 +9,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+pub mod depthmap;
 pub mod edgebreaker;
 pub mod meshcode;
 pub mod seen;
@@ -83,6 +84,10 @@ pub struct Proxy {
     /// probes stand on floors, for the dollhouse's floor cut; empty otherwise.
     #[serde(default)]
     pub floors: Vec<f32>,
+    /// Per probe (by id), its point-to-go depth cube ([`depthmap`]); empty
+    /// in bundles written before they existed.
+    #[serde(default)]
+    pub depth_maps: Vec<String>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -350,7 +355,10 @@ impl Graph {
                     return bad(format!("proxy level {} has a negative or non-finite error", level.file));
                 }
             }
-            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)) {
+            if !proxy.depth_maps.is_empty() && proxy.depth_maps.len() != self.probes.len() {
+                return bad(format!("proxy has {} depth maps for {} probes", proxy.depth_maps.len(), self.probes.len()));
+            }
+            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)).chain(&proxy.depth_maps) {
                 check_asset_name(name).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
             }
             if proxy.floors.iter().any(|f| !f.is_finite()) || !proxy.floors.is_sorted() {

@@ -359,11 +359,11 @@ impl Grid {
     }
 }
 
-fn zigzag(x: i64) -> u32 {
+pub(crate) fn zigzag(x: i64) -> u32 {
     ((x << 1) ^ (x >> 63)) as u32
 }
 
-fn unzigzag(x: u32) -> i64 {
+pub(crate) fn unzigzag(x: u32) -> i64 {
     (x >> 1) as i64 ^ -((x & 1) as i64)
 }
 
@@ -387,7 +387,7 @@ impl Writer {
 
     /// Writes a section: its models, entropy-coded words and raw bits. Returns
     /// its size in bytes.
-    fn section(&mut self, sink: Sink) -> usize {
+    pub(crate) fn section(&mut self, sink: Sink) -> usize {
         let start = self.bytes.len();
         let mut tables = Vec::new();
         for counts in &sink.counts {
@@ -433,7 +433,7 @@ fn fixed_point(counts: &[u64]) -> Vec<u16> {
 
 /// Symbols and raw bits of a section, gathered before coding (models are
 /// built from their counts).
-struct Sink {
+pub(crate) struct Sink {
     counts: Vec<Vec<u64>>,
     symbols: Vec<(u8, u8)>,
     raw: Vec<u8>,
@@ -441,7 +441,7 @@ struct Sink {
 }
 
 impl Sink {
-    fn new(models: usize) -> Sink {
+    pub(crate) fn new(models: usize) -> Sink {
         Sink { counts: vec![Vec::new(); models], symbols: Vec::new(), raw: Vec::new(), raw_bits: 0 }
     }
     fn symbol(&mut self, model: usize, symbol: usize) {
@@ -462,7 +462,7 @@ impl Sink {
         }
     }
     /// A number as its bit length (modelled) and the bits under the top one (raw).
-    fn value(&mut self, model: usize, x: u32) {
+    pub(crate) fn value(&mut self, model: usize, x: u32) {
         let n = bit_length(x);
         self.symbol(model, n as usize);
         if n > 1 {
@@ -497,7 +497,7 @@ impl<'a> Reader<'a> {
 }
 
 /// A section being decoded.
-struct Source<'a> {
+pub(crate) struct Source<'a> {
     models: Vec<SmallContiguousLookupDecoderModel>,
     decoder: DefaultAnsCoder,
     raw: &'a [u8],
@@ -505,7 +505,7 @@ struct Source<'a> {
 }
 
 impl<'a> Source<'a> {
-    fn new(input: &mut Reader<'a>, models: usize) -> Result<Source<'a>, CodingError> {
+    pub(crate) fn new(input: &mut Reader<'a>, models: usize) -> Result<Source<'a>, CodingError> {
         let corrupt = |m: &str| CodingError::Corrupt(format!("section models: {m}"));
         let mut tables = Vec::with_capacity(models);
         for _ in 0..models {
@@ -556,7 +556,7 @@ impl<'a> Source<'a> {
         self.raw_at += bits as usize;
         Ok(((window >> shift) & ((1u64 << bits) - 1)) as u32)
     }
-    fn value(&mut self, model: usize) -> Result<u32, CodingError> {
+    pub(crate) fn value(&mut self, model: usize) -> Result<u32, CodingError> {
         let n = self.symbol(model)? as u32;
         match n {
             0 => Ok(0),

@@ -140,6 +140,15 @@ try {
       await page.screenshot({ path: `${out}/floor.png` });
       report('floor', await status(page));
     }
+  } else if (mode === 'panorama_tap') {
+    // A click at the centre of the first panorama, once its depth map is in.
+    const { page } = await open(url);
+    await page.waitForTimeout(800);
+    await page.mouse.click(640, 360);
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+    await page.waitForFunction(() => window.exploremaps.moving === false, null, { timeout: 30000 });
+    await page.waitForTimeout(300);
+    report('arrived', await status(page));
   } else if (mode === 'dollhouse_broken') {
     // Opens in the dollhouse with a corrupt proxy: a message, and the panorama shows.
     const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });

@@ -9,7 +9,7 @@ use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
-use exploremaps_format::meshcode::MeshData;
+use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE};
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 
@@ -59,6 +59,8 @@ pub enum Loaded {
     Thumbnail { probe: u32 },
     /// A proxy level decoded, with its point-to-go table (empty without one).
     Proxy { level: usize, mesh: MeshData, seen: Vec<u32> },
+    /// A probe's point-to-go depth cube.
+    DepthMap { probe: u32, map: DepthMap },
     /// `what` names the asset (its file), `error` what went wrong.
     Failed { what: String, error: String, probe: Option<u32> },
 }
@@ -73,6 +75,8 @@ pub trait Platform {
     /// Loads and decodes a proxy level (off the main thread where the
     /// platform can) and its point-to-go table, checked against `probes`.
     fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32);
+    /// Loads and decodes a probe's depth map, checked against `probes`.
+    fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
     /// Starts a path's video; `reversed` plays it end to start.
     fn play_video(&mut self, file: &str, reversed: bool);
@@ -125,6 +129,8 @@ const KEY_TURN: f32 = 0.08;
 /// Seconds of a flight between the dollhouse and a probe, and of the
 /// panorama's fade over the proxy at either end of it.
 const FLIGHT_S: f32 = 1.0;
+/// Seconds of a flight over the dollhouse between probes no path joins.
+const OVER_S: f32 = 1.8;
 const FADE_S: f32 = 0.35;
 
 /// What fills the screen.
@@ -134,22 +140,38 @@ pub enum Mode {
     Dollhouse,
 }
 
-/// A camera move over the proxy: up out of a probe into the dollhouse, or
-/// down into a probe (`arrive`: the probe and the direction to face).
+/// A camera move over the proxy: up out of a probe into the dollhouse, down
+/// into a probe (`arrive`: the probe and the direction to face), or from a
+/// probe over the dollhouse to another (through `via`, a Bézier arc).
 #[derive(Clone, Copy, Debug)]
 struct Flight {
     from: Camera,
+    via: Option<Camera>,
     to: Camera,
     elapsed_s: f32,
+    duration_s: f32,
     arrive: Option<(u32, f32, f32)>,
+    /// It leaves a panorama, which fades out as it starts.
+    fade_out: bool,
 }
 
 impl Flight {
+    fn new(from: Camera, to: Camera, arrive: Option<(u32, f32, f32)>, fade_out: bool) -> Flight {
+        Flight { from, via: None, to, elapsed_s: 0.0, duration_s: FLIGHT_S, arrive, fade_out }
+    }
     fn t(&self) -> f32 {
-        (self.elapsed_s / FLIGHT_S).min(1.0)
+        (self.elapsed_s / self.duration_s).min(1.0)
     }
     fn camera(&self) -> Camera {
-        self.from.lerp(&self.to, smoothstep(self.t()))
+        let s = smoothstep(self.t());
+        match &self.via {
+            None => self.from.lerp(&self.to, s),
+            Some(v) => {
+                let (a, b, c) = ((1.0 - s) * (1.0 - s), 2.0 * (1.0 - s) * s, s * s);
+                let forward = (self.from.forward * a + v.forward * b + self.to.forward * c).try_normalize().unwrap_or(self.to.forward);
+                Camera { eye: self.from.eye * a + v.eye * b + self.to.eye * c, forward, fov_y: self.from.fov_y * a + v.fov_y * b + self.to.fov_y * c }
+            }
+        }
     }
 }
 
@@ -205,6 +227,9 @@ pub struct App {
     link_dirty: bool,
     floors: Floors,
     floor: Option<usize>,
+    /// Point-to-go depth maps of probes, and those asked for.
+    depth_maps: HashMap<u32, DepthMap>,
+    depth_requested: HashSet<u32>,
 }
 
 /// Options a platform chooses.
@@ -266,6 +291,8 @@ impl App {
             link_dirty: false,
             floors,
             floor: None,
+            depth_maps: HashMap::new(),
+            depth_requested: HashSet::new(),
         };
         if link.is_some_and(|l| l.dollhouse) {
             app.toggle_dollhouse(platform);
@@ -386,6 +413,11 @@ impl App {
             }
         }
         if matches!(self.nav.state, State::AtProbe { .. }) && self.panos.contains_key(&self.nav.probe()) {
+            let p = self.nav.probe();
+            let file = self.nav.graph().proxy.as_ref().and_then(|x| x.depth_maps.get(p as usize)).cloned();
+            if let Some(file) = file.filter(|_| self.depth_requested.insert(p)) {
+                platform.load_depth_map(p, &file, self.nav.graph().probes.len() as u32);
+            }
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);
                 self.request(c.to, low, platform);
@@ -449,6 +481,9 @@ impl App {
                         }
                         self.proxy = Some(mesh);
                     }
+                }
+                Loaded::DepthMap { probe, map } => {
+                    self.depth_maps.insert(probe, map);
                 }
                 Loaded::Failed { what, error, probe } => {
                     self.failed.extend(probe);
@@ -533,6 +568,55 @@ impl App {
         self.link_dirty = true;
     }
 
+    /// Goes to a probe from the panorama, facing `point` on arrival if given
+    /// (else the probe's preferred direction): along a path when one joins
+    /// them, else flying over the dollhouse when the proxy is here, else by
+    /// a cross-fade.
+    fn go_to(&mut self, probe: u32, point: Option<Vec3>) {
+        let Some(p) = self.nav.graph().probes.get(probe as usize) else { return };
+        if !matches!(self.nav.state, State::AtProbe { .. }) || probe == self.nav.probe() {
+            return;
+        }
+        let target = Vec3::from(p.position);
+        let facing = point.map(|q| camera_at(target, q, self.nav.view.fov_y).1);
+        let joined = self.nav.path_bar().iter().any(|c| c.to == probe);
+        if joined || self.proxy.is_none() {
+            let _ = match facing {
+                Some(f) => self.nav.go_to_facing(probe, f),
+                None => self.nav.go_to(probe),
+            };
+            return;
+        }
+        let (yaw, pitch) = facing.or_else(|| p.preferred_directions.first().map(|d| (d.yaw, d.pitch))).unwrap_or((self.nav.view.yaw, 0.0));
+        let from = self.panorama_camera();
+        let to = Camera { eye: target, forward: Vec3::from(direction(yaw, pitch)), fov_y: self.nav.view.fov_y };
+        // Over the middle, high enough to see both ends, looking toward the destination.
+        let span = from.eye.distance(target);
+        let rise = (0.6 * span).max(3.0 * self.floors.eye).max(0.05 * self.proxy.as_ref().map_or(1.0, |m| m.diagonal()));
+        let ahead = Vec3::new(target.x - from.eye.x, 0.0, target.z - from.eye.z);
+        let forward = (ahead.normalize_or_zero() - Vec3::Y).try_normalize().unwrap_or(Vec3::NEG_Y);
+        // The arc's control point twice as high: the camera peaks at `rise`.
+        let via = Camera { eye: (from.eye + target) / 2.0 + Vec3::Y * (2.0 * rise), forward, fov_y: from.fov_y.max(1.0) };
+        self.floor = self.floors.of_point(from.eye.y);
+        self.flight = Some(Flight { via: Some(via), duration_s: OVER_S, ..Flight::new(from, to, Some((probe, yaw, pitch)), true) });
+    }
+
+    /// A tap on the panorama: the point it shows (the probe's depth map) and
+    /// the probe that sees that point best; goes there facing it. False when
+    /// there is no map, nothing there, or the best view is this probe's.
+    fn point_to_go(&mut self, x: f32, y: f32) -> bool {
+        let here = self.nav.probe();
+        let Some(map) = self.depth_maps.get(&here).filter(|_| matches!(self.nav.state, State::AtProbe { .. })) else { return false };
+        let d = crate::panorama::unproject(&self.nav.view, x, y, self.width, self.height);
+        let Some((distance, best)) = map.look(d) else { return false };
+        if best == NONE || best == here || best as usize >= self.nav.graph().probes.len() {
+            return false;
+        }
+        let point = Vec3::from(self.nav.graph().probes[here as usize].position) + Vec3::from(d) * distance;
+        self.go_to(best, Some(point));
+        true
+    }
+
     /// The camera the panorama view is seen from.
     fn panorama_camera(&self) -> Camera {
         Camera { eye: Vec3::from(self.nav.camera_position()), forward: Vec3::from(direction(self.nav.view.yaw, self.nav.view.pitch)), fov_y: self.nav.view.fov_y }
@@ -558,7 +642,7 @@ impl App {
         self.request_proxy(platform);
         if let Some(mesh) = &self.proxy {
             let orbit = self.framing(mesh);
-            self.flight = Some(Flight { from: self.panorama_camera(), to: orbit.camera(), elapsed_s: 0.0, arrive: None });
+            self.flight = Some(Flight::new(self.panorama_camera(), orbit.camera(), None, true));
             self.orbit = Some(orbit);
         }
     }
@@ -591,7 +675,11 @@ impl App {
             (None, Some(o)) => o.camera(),
             (None, None) => to,
         };
-        self.flight = Some(Flight { from, to, elapsed_s: if self.proxy.is_some() { 0.0 } else { FLIGHT_S }, arrive: Some((probe, yaw, pitch)) });
+        let mut flight = Flight::new(from, to, Some((probe, yaw, pitch)), false);
+        if self.proxy.is_none() {
+            flight.elapsed_s = flight.duration_s;
+        }
+        self.flight = Some(flight);
     }
 
     /// The height above which the dollhouse hides the scene.
@@ -757,7 +845,7 @@ impl App {
                         let order: Vec<u32> = if g.bar_order.is_empty() { (0..g.probes.len() as u32).collect() } else { g.bar_order.clone() };
                         let at = order.iter().position(|&p| p == self.nav.probe()).unwrap_or(0);
                         let step = if key == Key::NextProbe { 1 } else { order.len() - 1 };
-                        let _ = self.nav.go_to(order[(at + step) % order.len()]);
+                        self.go_to(order[(at + step) % order.len()], None);
                     }
                     Key::Map => self.show_map = !self.show_map,
                     Key::Tour => self.touring = !self.touring,
@@ -773,7 +861,10 @@ impl App {
     /// marker is nearest, or the best-aligned one if it is within 45°.
     fn tap(&mut self, x: f32, y: f32, platform: &mut dyn Platform) {
         let _ = match self.layout.hit(x, y) {
-            Some(Action::GoTo(p)) => self.nav.go_to(p),
+            Some(Action::GoTo(p)) => {
+                self.go_to(p, None);
+                Ok(())
+            }
             Some(Action::TakePath(p)) => self.nav.take_path(p),
             Some(Action::ToggleMap) => {
                 self.show_map = !self.show_map;
@@ -788,6 +879,7 @@ impl App {
                 Ok(())
             }
             Some(Action::NextFloor) => Ok(()),
+            None if self.point_to_go(x, y) => Ok(()),
             None => match self.nav.path_bar().first() {
                 Some(best) if best.angle < std::f32::consts::FRAC_PI_4 => self.nav.take_path(best.path),
                 _ => Ok(()),
@@ -846,7 +938,7 @@ impl App {
     /// rises, in after one lands.
     fn panorama_opacity(&self) -> f32 {
         match (&self.flight, self.mode) {
-            (Some(f), _) if f.arrive.is_none() => 1.0 - f.elapsed_s / FADE_S,
+            (Some(f), _) if f.fade_out => 1.0 - f.elapsed_s / FADE_S,
             (Some(_), _) | (None, Mode::Dollhouse) => 0.0,
             (None, Mode::Panorama) => 1.0 - self.fade_in_s / FADE_S,
         }

@@ -60,6 +60,7 @@ enum Job {
     Equirect { probe: u32, file: String },
     Thumbnail { probe: u32, file: String },
     Proxy { level: usize, mesh: String, seen: Option<String>, probes: u32 },
+    DepthMap { probe: u32, file: String, probes: u32 },
 }
 
 enum Decoded {
@@ -67,6 +68,7 @@ enum Decoded {
     Equirect { probe: u32, width: u32, height: u32, rgba: Vec<u8> },
     Thumbnail { probe: u32, rgba: Vec<u8> },
     Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
+    DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Failed { what: String, error: String, probe: Option<u32> },
 }
 
@@ -108,6 +110,13 @@ fn work(root: &Path, job: Job) -> Decoded {
                 Err((what, error)) => failed(&what, error, None),
             }
         }
+        Job::DepthMap { probe, file, probes } => match std::fs::read(root.join(&file)) {
+            Ok(bytes) => match exploremaps_format::depthmap::DepthMap::decode(&bytes, probes) {
+                Ok(map) => Decoded::DepthMap { probe, map },
+                Err(e) => failed(&file, e.to_string(), None),
+            },
+            Err(e) => failed(&file, format!("cannot be read ({e})"), None),
+        },
         Job::Thumbnail { probe, file } => match decode(root, &file) {
             Ok(img) => Decoded::Thumbnail { probe, rgba: image::imageops::resize(&img, THUMB_W, THUMB_H, image::imageops::FilterType::Triangle).into_raw() },
             Err(e) => failed(&file, e, None),
@@ -231,6 +240,10 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::Proxy { level, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
     }
 
+    fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
+        let _ = self.jobs.send(Job::DepthMap { probe, file: file.to_string(), probes });
+    }
+
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let mut out = Vec::new();
         while let Ok(d) = self.done.try_recv() {
@@ -252,6 +265,7 @@ impl Platform for NativePlatform {
                     Loaded::Thumbnail { probe }
                 }
                 Decoded::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
+                Decoded::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });
         }

@@ -79,6 +79,9 @@ pub struct Navigator {
     pub state: State,
     pub view: View,
     rng: u64,
+    /// The direction to face on arriving, when a move was asked to end
+    /// facing something (point-to-go); else the probe's preferred one.
+    facing: Option<(f32, f32)>,
 }
 
 impl Navigator {
@@ -88,7 +91,7 @@ impl Navigator {
         if probe as usize >= graph.probes.len() {
             return Err(NavError::NoSuchProbe(probe));
         }
-        let mut nav = Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1 };
+        let mut nav = Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1, facing: None };
         (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
         Ok(nav)
     }
@@ -128,6 +131,9 @@ impl Navigator {
     /// The direction to face on arriving at `probe`: its best preferred direction,
     /// else the direction of travel.
     fn arrival_direction(&self, probe: u32, via: Option<(u32, bool)>) -> (f32, f32) {
+        if let Some(f) = self.facing {
+            return f;
+        }
         if let Some(d) = self.graph.probes[probe as usize].preferred_directions.first() {
             return (d.yaw, d.pitch);
         }
@@ -176,6 +182,7 @@ impl Navigator {
             return Err(NavError::NotFromHere { path, probe });
         }
         self.state = State::Travelling { path, reversed: p.to == probe, elapsed_s: 0.0, start: self.view };
+        self.facing = None;
         Ok(())
     }
 
@@ -192,9 +199,19 @@ impl Navigator {
             Some(c) => self.take_path(c.path),
             None => {
                 self.state = State::CrossFading { from: probe, to: target, elapsed_s: 0.0 };
+                self.facing = None;
                 Ok(())
             }
         }
+    }
+
+    /// As [`Navigator::go_to`], arriving facing (yaw, pitch).
+    pub fn go_to_facing(&mut self, target: u32, facing: (f32, f32)) -> Result<(), NavError> {
+        self.go_to(target)?;
+        if self.state != (State::AtProbe { probe: target }) {
+            self.facing = Some(facing);
+        }
+        Ok(())
     }
 
     /// Arrives at a probe at once, facing (yaw, pitch): the end of a flight
@@ -204,6 +221,7 @@ impl Navigator {
             return Err(NavError::NoSuchProbe(probe));
         }
         self.state = State::AtProbe { probe };
+        self.facing = None;
         (self.view.yaw, self.view.pitch) = (0.0, 0.0);
         self.look(yaw, pitch);
         Ok(())
@@ -234,11 +252,13 @@ impl Navigator {
                 self.view.pitch = start.pitch + (pitch - start.pitch) * s;
                 if t >= 1.0 {
                     self.state = State::AtProbe { probe: to };
+                    self.facing = None;
                 }
             }
             State::CrossFading { to, .. } if t >= 1.0 => {
                 (self.view.yaw, self.view.pitch) = self.arrival_direction(to, None);
                 self.state = State::AtProbe { probe: to };
+                self.facing = None;
             }
             _ => {}
         }

@@ -69,6 +69,17 @@ pub fn project(view: &View, d: [f32; 3], width: f32, height: f32) -> Option<[f32
     Some([(x + 1.0) * 0.5 * width, (1.0 - y) * 0.5 * height])
 }
 
+/// The unit world direction through pixel (x, y) of a `width` × `height`
+/// target showing `view`: the inverse of [`project`].
+pub fn unproject(view: &View, x: f32, y: f32, width: f32, height: f32) -> [f32; 3] {
+    let [f, r, u] = basis(view);
+    let t = (0.5 * view.fov_y).tan();
+    let (nx, ny) = ((2.0 * x / width - 1.0) * t * width / height, (1.0 - 2.0 * y / height) * t);
+    let d = [f[0] + r[0] * nx + u[0] * ny, f[1] + r[1] * nx + u[1] * ny, f[2] + r[2] * nx + u[2] * ny];
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    d.map(|c| c / len)
+}
+
 /// The uniforms as the shader reads them.
 fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
     let [f, r, u] = basis(view);

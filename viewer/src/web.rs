@@ -68,6 +68,7 @@ async fn bytes(url: &str) -> Result<Vec<u8>, String> {
 
 enum Fetched {
     Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
+    DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
     Equirect { probe: u32, image: web_sys::ImageBitmap },
     Thumbnail { probe: u32, image: web_sys::ImageBitmap },
@@ -192,6 +193,16 @@ impl Platform for WebPlatform {
         });
     }
 
+    fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
+        let (file, url) = (file.to_string(), self.url(file));
+        self.spawn(async move {
+            match bytes(&url).await.and_then(|b| exploremaps_format::depthmap::DepthMap::decode(&b, probes).map_err(|e| e.to_string())) {
+                Ok(map) => Fetched::DepthMap { probe, map },
+                Err(error) => Fetched::Failed { what: file, error, probe: None },
+            }
+        });
+    }
+
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
         fetched
@@ -223,6 +234,7 @@ impl Platform for WebPlatform {
                     Loaded::Thumbnail { probe }
                 }
                 Fetched::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
+                Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             })
             .collect()

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::navigation::tests::graph;
-use exploremaps_format::{CubeLevel, Graph};
+use exploremaps_format::{depthmap::DepthMap, CubeLevel, Graph};
 
 /// Records requests; answers cube requests (solid grey) on the next poll,
 /// except for probes listed as broken, which fail.
@@ -18,6 +18,24 @@ struct Script {
     proxy_requests: Vec<usize>,
     proxy_pending: Vec<usize>,
     broken_proxy: bool,
+    depth_requests: Vec<u32>,
+    depth_pending: Vec<u32>,
+}
+
+/// Every probe's depth map: everything 2 units away; what lies toward −Z is
+/// seen best from probe 2, the rest from the probe itself.
+fn depth_map(probe: u32) -> DepthMap {
+    let size = 8;
+    let mut map = DepthMap { size, near: 0.1, far: 50.0, depth: Vec::new(), best: Vec::new() };
+    for face in 0..6 {
+        for i in 0..size * size {
+            let (s, t) = (((i % size) as f32 + 0.5) / size as f32, ((i / size) as f32 + 0.5) / size as f32);
+            let d = exploremaps_format::cube_direction(face, s, t);
+            map.depth.push(map.code(Some(2.0)));
+            map.best.push(if d[2] < -0.5 * (d[0].abs() + d[1].abs()).max(1e-3) { 2 } else { probe });
+        }
+    }
+    map
 }
 
 impl Platform for Script {
@@ -28,6 +46,10 @@ impl Platform for Script {
     fn load_equirect(&mut self, _probe: u32, _file: &str) {}
     fn load_thumbnail(&mut self, probe: u32, _file: &str) {
         self.thumbnails.push(probe);
+    }
+    fn load_depth_map(&mut self, probe: u32, _file: &str, _probes: u32) {
+        self.depth_requests.push(probe);
+        self.depth_pending.push(probe);
     }
     fn load_proxy(&mut self, level: usize, _mesh: &str, _seen: Option<&str>, _probes: u32) {
         self.proxy_requests.push(level);
@@ -44,7 +66,8 @@ impl Platform for Script {
                 false => Loaded::Proxy { level, mesh: crate::dollhouse::tests::two_storeys_data(), seen: vec![3, 3, 1, 1] },
             })
             .collect();
-        proxies.into_iter().chain(self.pending
+        let maps: Vec<Loaded> = self.depth_pending.drain(..).map(|probe| Loaded::DepthMap { probe, map: depth_map(probe) }).collect();
+        proxies.into_iter().chain(maps).chain(self.pending
             .drain(..)
             .map(|(probe, size)| {
                 if self.broken.contains(&probe) {
@@ -196,7 +219,8 @@ fn graph_with_proxy() -> Graph {
     let mut g = bundle_graph();
     g.scene.eye_height_m = Some(1.6);
     let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")) };
-    g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0] });
+    let depth_maps = (0..g.probes.len()).map(|p| format!("proxy/depth/{p}.emdm")).collect();
+    g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0], depth_maps });
     g
 }
 
@@ -350,4 +374,63 @@ fn opened_in_the_dollhouse_the_proxy_comes_before_any_panorama_and_a_landing_wai
     assert_eq!(app.mode, Mode::Dollhouse, "asked, not here yet");
     app.update(0.0, &mut script);
     assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 3 }));
+}
+
+#[test]
+fn a_tap_in_a_panorama_goes_to_the_probe_that_sees_that_point_best_facing_it() {
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 360) else { return };
+    app.resize(640, 360, 1.0);
+    app.nav.view.yaw = 0.0;
+    for _ in 0..3 {
+        app.update(0.016, &mut script);
+    }
+    assert_eq!(script.depth_requests, vec![0], "the current probe's map, once");
+    // Facing −Z at probe 0: the tapped point (0, 0, −2) is seen best from probe 2 at (0, 0, −4),
+    // joined by a path; on arrival it faces back toward +Z (not its preferred +X).
+    render_frame(&mut app, &mut script);
+    tap(&mut app, &mut script, [320.0, 180.0]);
+    assert!(matches!(app.nav.state, State::Travelling { .. }), "{:?}", app.nav.state);
+    for _ in 0..200 {
+        app.update(0.02, &mut script);
+    }
+    assert_eq!(app.nav.state, State::AtProbe { probe: 2 });
+    let yaw = app.nav.view.yaw;
+    assert!((yaw.abs() - std::f32::consts::PI).abs() < 1e-3, "facing the point: {yaw}");
+    // Where the map says this probe sees best itself, a tap does what it did before
+    // (takes the best-aligned path within 45°, here none): no move.
+    app.nav.view.yaw = std::f32::consts::FRAC_PI_2;
+    tap(&mut app, &mut script, [320.0, 180.0]);
+    assert_eq!(app.nav.state, State::AtProbe { probe: 2 });
+}
+
+#[test]
+fn going_to_a_probe_no_path_joins_flies_over_the_dollhouse() {
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 360) else { return };
+    app.resize(640, 360, 1.0);
+    for _ in 0..3 {
+        app.update(0.016, &mut script);
+    }
+    assert!(app.proxy.is_some());
+    // Probe 1 is joined by a path: travelled as before.
+    app.go_to(1, None);
+    assert!(matches!(app.nav.state, State::Travelling { .. }));
+    settle(&mut app, &mut script);
+    app.nav.state = State::AtProbe { probe: 0 };
+    // Probe 4 (9, 0, 9) is not: a flight that leaves the panorama fading, rises over the
+    // middle and lands facing probe 4's way, with no cross-fade.
+    app.go_to(4, None);
+    assert_eq!(app.nav.state, State::AtProbe { probe: 0 });
+    let flight = app.flight.expect("a flight");
+    assert!(flight.fade_out && flight.via.is_some());
+    let mut highest = f32::MIN;
+    for _ in 0..200 {
+        if let Some(f) = &app.flight {
+            highest = highest.max(f.camera().eye.y);
+        }
+        app.update(0.02, &mut script);
+    }
+    assert!(highest > 5.0, "it rose over the scene: {highest}");
+    assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 4 }));
 }
