@@ -133,6 +133,11 @@ const FLIGHT_S: f32 = 1.0;
 const OVER_S: f32 = 1.8;
 const FADE_S: f32 = 0.35;
 
+/// A proxy level and a height.
+type SectionKey = (usize, f32);
+/// Segments (x, z, x, z) of a section, shared with the interface.
+type Segments = std::rc::Rc<[[f32; 4]]>;
+
 /// What fills the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -227,6 +232,8 @@ pub struct App {
     link_dirty: bool,
     floors: Floors,
     floor: Option<usize>,
+    /// The floor plan's wall outlines, for (proxy level, section height).
+    sections: Option<(SectionKey, Segments)>,
     /// Point-to-go depth maps of probes, and those asked for.
     depth_maps: HashMap<u32, DepthMap>,
     depth_requested: HashSet<u32>,
@@ -291,6 +298,7 @@ impl App {
             link_dirty: false,
             floors,
             floor: None,
+            sections: None,
             depth_maps: HashMap::new(),
             depth_requested: HashSet::new(),
         };
@@ -687,6 +695,37 @@ impl App {
         self.floors.cut(self.floor)
     }
 
+    /// The floor plan's cut: the current storey's, or where no storeys are
+    /// known (probes that fly), the camera's height.
+    fn plan_cut(&self) -> f32 {
+        let y = self.nav.camera_position()[1];
+        match self.floors.of_point(y) {
+            Some(k) => self.floors.cut(Some(k)),
+            None => y,
+        }
+    }
+
+    /// The plan's wall outlines: the proxy's section at 0.75 eye heights
+    /// above the current storey's floor (1.2 m, under door heads), or at the
+    /// camera where no storeys are known. Kept until the level or height changes.
+    fn plan_sections(&mut self) -> Segments {
+        let Some(mesh) = &self.proxy else { return std::rc::Rc::new([]) };
+        let y = self.nav.camera_position()[1];
+        let height = match self.floors.of_point(y) {
+            Some(k) => self.floors.heights[k] + 0.75 * self.floors.eye,
+            None => y,
+        };
+        let key = (mesh.level, height);
+        match &self.sections {
+            Some((k, s)) if *k == key => s.clone(),
+            _ => {
+                let s: Segments = mesh.section(height).into();
+                self.sections = Some((key, s.clone()));
+                s
+            }
+        }
+    }
+
     /// Input while the dollhouse is shown: drags orbit, two fingers pinch
     /// and pan, taps on a probe or on the proxy fly there.
     fn dollhouse_input(&mut self, input: Input, platform: &mut dyn Platform) {
@@ -915,6 +954,8 @@ impl App {
             thumbs_ready: self.thumbs > 0,
             message: self.message_s > 0.0,
             proxy: self.nav.graph().proxy.is_some(),
+            plan: self.proxy.as_ref().filter(|_| camera.is_none()).map(|m| [m.lo.x, m.lo.z, m.hi.x, m.hi.z]),
+            sections: if camera.is_none() && self.show_map { self.plan_sections() } else { std::rc::Rc::new([]) },
             dollhouse,
         };
         self.layout = ui::layout(&self.nav, &screen);
@@ -990,6 +1031,20 @@ impl App {
             if let Some(source) = source.filter(|_| opacity > 0.0) {
                 self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, source, opacity);
             }
+        }
+        if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
+            let rect = [frame.x0, frame.y0, frame.size];
+            self.dollhouse.draw_plan(&gpu.device, &gpu.queue, &mut encoder, target, self.width as u32, self.height as u32, rect, frame.centre, frame.scale, self.plan_cut(), mesh.lo.y);
+        }
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("interface"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store } })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
             self.overlay.draw(&gpu.device, &gpu.queue, &mut pass, &shapes, self.width, self.height);
         }
         if let Some(e) = video_error {

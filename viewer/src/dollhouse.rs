@@ -60,6 +60,28 @@ impl ProxyMesh {
         best
     }
 
+    /// The proxy cut by the plane at height `y`: a segment per triangle that
+    /// crosses it (x and z of both ends), the walls' outlines on a floor plan.
+    pub fn section(&self, y: f32) -> Vec<[f32; 4]> {
+        let mut out = Vec::new();
+        for t in &self.triangles {
+            let p = t.map(|v| self.positions[v as usize]);
+            let above = p.map(|q| q.y >= y);
+            if above.iter().all(|&a| a) || above.iter().all(|&a| !a) {
+                continue;
+            }
+            // The two edges whose ends are on either side.
+            let mut ends = (0..3).filter(|&i| above[i] != above[(i + 1) % 3]).map(|i| {
+                let (a, b) = (p[i], p[(i + 1) % 3]);
+                a.lerp(b, (y - a.y) / (b.y - a.y))
+            });
+            if let (Some(a), Some(b)) = (ends.next(), ends.next()) {
+                out.push([a.x, a.z, b.x, b.z]);
+            }
+        }
+        out
+    }
+
     /// Where a tap on `triangle` at `point` leads: the probe that sees it
     /// best by the builder's table, else (no table, or a triangle no probe
     /// sees) the probe with the largest |cos θ| / d² among those the proxy
@@ -248,7 +270,7 @@ impl Floors {
 }
 
 const SHADER: &str = r#"
-struct U { view_proj: mat4x4f, cut: vec4f };
+struct U { view_proj: mat4x4f, cut: vec4f, fill: vec4f };
 @group(0) @binding(0) var<uniform> u: U;
 
 struct VOut { @builtin(position) pos: vec4f, @location(0) colour: vec3f, @location(1) y: f32 };
@@ -265,11 +287,25 @@ fn linear(c: vec3f) -> vec3f {
     return o;
 }
 
-@fragment fn fs(v: VOut) -> @location(0) vec4f {
+@fragment fn fs(v: VOut, @builtin(front_facing) front: bool) -> @location(0) vec4f {
     if (v.y > u.cut.x) {
         discard;
     }
-    return vec4f(v.colour, 1.0);
+    // cut.z: back faces dark, so solids cut open show their section (the
+    // floor plan's walls); it needs solids wound outward, as most are.
+    if (!front && u.cut.z > 0.5) {
+        return vec4f(0.02, 0.02, 0.025, 1.0);
+    }
+    return vec4f(v.colour * u.cut.y, 1.0);
+}
+
+// The floor plan's background: one triangle over the viewport.
+@vertex fn vs_fill(@builtin(vertex_index) i: u32) -> @builtin(position) vec4f {
+    return vec4f(vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0, 1.0, 1.0);
+}
+
+@fragment fn fs_fill() -> @location(0) vec4f {
+    return u.fill;
 }
 "#;
 
@@ -277,11 +313,19 @@ const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth24Plus;
 /// The dollhouse's background, also where no proxy is drawn yet.
 pub const BACKGROUND: wgpu::Color = wgpu::Color { r: 0.06, g: 0.065, b: 0.075, a: 1.0 };
 
+/// The floor plan's background (linear RGB).
+const PLAN_BACKGROUND: [f32; 4] = [0.012, 0.013, 0.018, 1.0];
+
 /// The GPU side: the proxy's buffers and a depth buffer sized to the target.
+/// The dollhouse and the floor plan each have their uniforms, so both may be
+/// drawn in one frame.
 pub struct DollhousePass {
     pipeline: wgpu::RenderPipeline,
+    fill: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     bind: wgpu::BindGroup,
+    plan_uniforms: wgpu::Buffer,
+    plan_bind: wgpu::BindGroup,
     mesh: Option<(wgpu::Buffer, wgpu::Buffer, u32)>,
     depth: Option<(wgpu::TextureView, u32, u32)>,
 }
@@ -328,9 +372,99 @@ impl DollhousePass {
             multiview_mask: None,
             cache: None,
         });
-        let uniforms = device.create_buffer(&wgpu::BufferDescriptor { label: Some("dollhouse view"), size: 80, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("dollhouse"), layout: &layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }] });
-        DollhousePass { pipeline, uniforms, bind, mesh: None, depth: None }
+        let fill = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("floor plan background"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fill"), compilation_options: Default::default(), buffers: &[] },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState { format: DEPTH, depth_write_enabled: Some(false), depth_compare: Some(wgpu::CompareFunction::Always), stencil: Default::default(), bias: Default::default() }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs_fill"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let buffer = |label| device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: 96, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+        let bind_group = |buffer: &wgpu::Buffer| device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("dollhouse"), layout: &layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }] });
+        let (uniforms, plan_uniforms) = (buffer("dollhouse view"), buffer("floor plan view"));
+        let (bind, plan_bind) = (bind_group(&uniforms), bind_group(&plan_uniforms));
+        DollhousePass { pipeline, fill, uniforms, bind, plan_uniforms, plan_bind, mesh: None, depth: None }
+    }
+
+    fn depth_view(&mut self, device: &wgpu::Device, width: u32, height: u32) -> wgpu::TextureView {
+        if self.depth.as_ref().is_none_or(|d| (d.1, d.2) != (width, height)) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("dollhouse depth"),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: DEPTH,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            });
+            self.depth = Some((texture.create_view(&Default::default()), width, height));
+        }
+        self.depth.as_ref().expect("made above").0.clone()
+    }
+
+    /// `brightness` scales the proxy's colours (the plan is dimmed so the
+    /// map's dots and lines stand out on it).
+    fn write_uniforms(queue: &wgpu::Queue, buffer: &wgpu::Buffer, view_proj: Mat4, cut: f32, brightness: f32, sections: bool, fill: [f32; 4]) {
+        let mut u: Vec<f32> = view_proj.to_cols_array().to_vec();
+        u.extend([cut.min(f32::MAX), brightness, if sections { 1.0 } else { 0.0 }, 0.0]);
+        u.extend(fill);
+        queue.write_buffer(buffer, 0, &u.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>());
+    }
+
+    fn draw_mesh(&self, pass: &mut wgpu::RenderPass<'_>, bind: &wgpu::BindGroup) {
+        if let Some((vertices, indices, count)) = &self.mesh {
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, bind, &[]);
+            pass.set_vertex_buffer(0, vertices.slice(..));
+            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..*count, 0, 0..1);
+        }
+    }
+
+    /// The floor plan: the proxy from straight above, cut at `cut`, into the
+    /// square `rect` (x, y, size in pixels) of `target`, over a dark
+    /// background: world (`centre`.x, `centre`.y as z) at the square's
+    /// centre, `scale` pixels a scene unit, +X right and −Z up.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_plan(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, width: u32, height: u32, rect: [f32; 3], centre: [f32; 2], scale: f32, cut: f32, lo_y: f32) {
+        let [x, y, size] = rect;
+        let (x0, y0) = (x.max(0.0).floor() as u32, y.max(0.0).floor() as u32);
+        let (x1, y1) = (((x + size).ceil() as u32).min(width), ((y + size).ceil() as u32).min(height));
+        if x1 <= x0 || y1 <= y0 || self.mesh.is_none() || scale.is_nan() || scale <= 0.0 {
+            return;
+        }
+        // Nearly orthographic: a narrow view from far above.
+        let half = 0.5 * size / scale;
+        let top = if cut.is_finite() { cut } else { lo_y + 100.0 * half };
+        let distance = 50.0 * half;
+        let camera = Camera { eye: Vec3::new(centre[0], top + distance, centre[1]), forward: Vec3::NEG_Y, fov_y: 2.0 * (half / distance).atan() };
+        let depth_range = distance + (top - lo_y).max(0.0) + half;
+        Self::write_uniforms(queue, &self.plan_uniforms, camera.view_proj(1.0, 0.5 * distance, depth_range * 1.01), cut, 0.45, true, PLAN_BACKGROUND);
+        let depth = self.depth_view(device, width, height);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("floor plan"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store } })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }), stencil_ops: None }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_viewport(x, y, size, size, 0.0, 1.0);
+        pass.set_scissor_rect(x0, y0, x1 - x0, y1 - y0);
+        pass.set_pipeline(&self.fill);
+        pass.set_bind_group(0, &self.plan_bind, &[]);
+        pass.draw(0..3, 0..1);
+        self.draw_mesh(&mut pass, &self.plan_bind);
     }
 
     /// Replaces the mesh drawn.
@@ -359,41 +493,19 @@ impl DollhousePass {
     /// above `cut`. `extent` bounds the depth range (the mesh's diagonal).
     #[allow(clippy::too_many_arguments)]
     pub fn draw(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, width: u32, height: u32, camera: &Camera, cut: f32, centre: Vec3, extent: f32) {
-        if self.depth.as_ref().is_none_or(|d| (d.1, d.2) != (width, height)) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("dollhouse depth"),
-                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: DEPTH,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            });
-            self.depth = Some((texture.create_view(&Default::default()), width, height));
-        }
+        let depth = self.depth_view(device, width, height);
         let far = camera.eye.distance(centre) + extent;
         let near = (1e-3 * extent).max(far * 1e-5);
-        let view_proj = camera.view_proj(width as f32 / height.max(1) as f32, near, far);
-        let mut u: Vec<f32> = view_proj.to_cols_array().to_vec();
-        u.extend(Vec4::new(cut.min(f32::MAX), 0.0, 0.0, 0.0).to_array());
-        queue.write_buffer(&self.uniforms, 0, &u.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>());
-        let depth = &self.depth.as_ref().expect("made above").0;
+        Self::write_uniforms(queue, &self.uniforms, camera.view_proj(width as f32 / height.max(1) as f32, near, far), cut, 1.0, false, PLAN_BACKGROUND);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("dollhouse"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(BACKGROUND), store: wgpu::StoreOp::Store } })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }), stencil_ops: None }),
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }), stencil_ops: None }),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        if let Some((vertices, indices, count)) = &self.mesh {
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind, &[]);
-            pass.set_vertex_buffer(0, vertices.slice(..));
-            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..*count, 0, 0..1);
-        }
+        self.draw_mesh(&mut pass, &self.bind);
     }
 }
 

@@ -53,6 +53,8 @@ impl Hit {
 pub struct Layout {
     pub shapes: Vec<Shape>,
     pub hits: Vec<Hit>,
+    /// The overhead map's frame, when it is shown.
+    pub map: Option<MapFrame>,
 }
 
 impl Layout {
@@ -95,6 +97,52 @@ pub struct Screen {
     pub proxy: bool,
     /// Set while the dollhouse is shown.
     pub dollhouse: Option<DollhouseScreen>,
+    /// The floor plan's extent (x and z, low then high), when the proxy is
+    /// here to be drawn under the map.
+    pub plan: Option<[f32; 4]>,
+    /// The plan's wall outlines: segments (x, z, x, z) where the proxy
+    /// crosses the section height.
+    pub sections: std::rc::Rc<[[f32; 4]]>,
+}
+
+/// Where the overhead map is and how it shows the world: a top view, +X to
+/// the right and −Z up (yaw 0 points up the map).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapFrame {
+    /// The map's square: left, top, side (pixels).
+    pub x0: f32,
+    pub y0: f32,
+    pub size: f32,
+    /// The world point (x, z) at its centre, and pixels a scene unit.
+    pub centre: [f32; 2],
+    pub scale: f32,
+}
+
+impl MapFrame {
+    pub fn to_map(&self, p: [f32; 3]) -> [f32; 2] {
+        [self.x0 + self.size / 2.0 + (p[0] - self.centre[0]) * self.scale, self.y0 + self.size / 2.0 + (p[2] - self.centre[1]) * self.scale]
+    }
+}
+
+/// The map's frame: the probes and paths (and the floor plan) fitted in the
+/// top-right square; None when there is nothing to show.
+pub fn map_frame(graph: &Graph, s: &Screen) -> Option<MapFrame> {
+    let k = s.scale;
+    let size = (s.width.min(s.height) * 0.32).clamp(110.0 * k, 280.0 * k);
+    let margin = 8.0 * k;
+    let points = graph.probes.iter().map(|p| p.position).chain(graph.paths.iter().flat_map(|p| p.polyline.iter().copied()));
+    let plan = s.plan.iter().flat_map(|b| [[b[0], 0.0, b[1]], [b[2], 0.0, b[3]]]);
+    let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
+    for p in points.chain(plan) {
+        lo = [lo[0].min(p[0]), lo[1].min(p[2])];
+        hi = [hi[0].max(p[0]), hi[1].max(p[2])];
+    }
+    if lo[0] > hi[0] {
+        return None;
+    }
+    let inner = size - if s.plan.is_some() { 2.0 } else { 4.0 } * margin;
+    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
+    Some(MapFrame { x0: s.width - size - margin, y0: margin, size, centre: [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0], scale: inner / span })
 }
 
 /// What the interface shows over the dollhouse.
@@ -226,28 +274,19 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     out
 }
 
-/// The overhead map: paths as lines, probes as dots, the camera and its view.
+/// The overhead map (over the floor plan when the proxy is here): paths as
+/// lines, probes as dots, the camera and its view.
 fn map(out: &mut Layout, nav: &Navigator, graph: &Graph, s: &Screen) {
     let k = s.scale;
-    let size = (s.width.min(s.height) * 0.32).clamp(110.0 * k, 280.0 * k);
-    let margin = 8.0 * k;
-    let (x0, y0) = (s.width - size - margin, margin);
-    out.shapes.push(Shape::rect(x0, y0, size, size, PANEL));
-    let points = graph.probes.iter().map(|p| p.position).chain(graph.paths.iter().flat_map(|p| p.polyline.iter().copied()));
-    let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
-    for p in points {
-        lo = [lo[0].min(p[0]), lo[1].min(p[2])];
-        hi = [hi[0].max(p[0]), hi[1].max(p[2])];
+    let Some(frame) = map_frame(graph, s) else { return };
+    if s.plan.is_none() {
+        out.shapes.push(Shape::rect(frame.x0, frame.y0, frame.size, frame.size, PANEL));
     }
-    if lo[0] > hi[0] {
-        return;
+    out.map = Some(frame);
+    let to_map = |p: [f32; 3]| frame.to_map(p);
+    for s in s.sections.iter() {
+        out.shapes.push(Shape::line(to_map([s[0], 0.0, s[1]]), to_map([s[2], 0.0, s[3]]), 1.5 * k, [0.02, 0.02, 0.03, 1.0]));
     }
-    let inner = size - 4.0 * margin;
-    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
-    let f = inner / span;
-    let (cx, cz) = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0);
-    // Top view: +X to the right, −Z up (yaw 0 points up the map).
-    let to_map = |p: [f32; 3]| [x0 + size / 2.0 + (p[0] - cx) * f, y0 + size / 2.0 + (p[2] - cz) * f];
     for path in &graph.paths {
         for seg in path.polyline.windows(2) {
             out.shapes.push(Shape::line(to_map(seg[0]), to_map(seg[1]), 2.0 * k, [0.8, 0.8, 0.85, 0.7]));

@@ -2,7 +2,7 @@ use super::*;
 use crate::navigation::tests::graph;
 
 /// Two storeys: a red floor quad at y = 0 and a blue one at y = 3, both
-/// spanning x, z in [−5, 5]; triangles 0-1 red, 2-3 blue.
+/// spanning x, z in [−5, 5], facing up; triangles 0-1 red, 2-3 blue.
 pub(crate) fn two_storeys(seen: Vec<u32>) -> ProxyMesh {
     ProxyMesh::new(0, two_storeys_data(), seen)
 }
@@ -13,7 +13,7 @@ pub(crate) fn two_storeys_data() -> MeshData {
         let base = data.positions.len() as u32;
         data.positions.extend([[-5.0, y, -5.0], [5.0, y, -5.0], [5.0, y, 5.0], [-5.0, y, 5.0]]);
         data.colours.extend([colour; 4]);
-        data.triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+        data.triangles.extend([[base, base + 2, base + 1], [base, base + 3, base + 2]]);
     }
     data
 }
@@ -125,6 +125,14 @@ fn floors_cut_above_head_height_and_below_the_next_storey() {
 
 /// Draws `mesh` seen by `camera` into a `size`² target and reads it back.
 pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Option<Vec<u8>> {
+    render_with(mesh, size, |pass, device, queue, encoder, target| pass.draw(device, queue, encoder, target, size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal()))
+}
+
+type DrawCall<'a> = dyn FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView) + 'a;
+
+/// Clears a `size`² target to black, runs `call` on it and reads it back.
+fn render_with(mesh: &ProxyMesh, size: u32, call: impl FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView)) -> Option<Vec<u8>> {
+    let call: Box<DrawCall<'_>> = Box::new(call);
     let (device, queue) = crate::panorama::tests::gpu()?;
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
     let mut pass = DollhousePass::new(&device, format);
@@ -141,7 +149,16 @@ pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Op
     });
     let readback = device.create_buffer(&wgpu::BufferDescriptor { label: None, size: (size * size * 4) as u64, usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
     let mut encoder = device.create_command_encoder(&Default::default());
-    pass.draw(&device, &queue, &mut encoder, &target.create_view(&Default::default()), size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal());
+    let view = target.create_view(&Default::default());
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: None,
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: &view, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store } })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    call(&mut pass, &device, &queue, &mut encoder, &view);
     encoder.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
         wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) } },
@@ -170,4 +187,50 @@ fn the_dollhouse_draws_the_proxy_in_its_colours_and_the_cut_hides_the_upper_stor
     assert!(corner.iter().zip(background).all(|(a, b)| (a - b).abs() <= 4), "the background around it: {corner:?}");
     let cut = draw(&mesh, &camera, 2.0, 64).unwrap();
     assert_eq!(at(&cut, 32, 32), [200, 30, 30], "cut at 2: the lower storey");
+}
+
+#[test]
+fn a_section_outlines_what_crosses_the_plane() {
+    // A unit box from y = 0 to 1 (12 triangles): cut at 0.5, its four sides
+    // give two segments each, all on the square's outline.
+    let mut data = MeshData::default();
+    for i in 0..8u32 {
+        data.positions.push([(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]);
+    }
+    for [a, b, c, d] in [[0u32, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]] {
+        data.triangles.extend([[a, b, c], [a, c, d]]);
+    }
+    let mesh = ProxyMesh::new(0, data, vec![]);
+    let section = mesh.section(0.5);
+    assert_eq!(section.len(), 8);
+    let on_outline = |x: f32, z: f32| (x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6 || z.abs() < 1e-6 || (z - 1.0).abs() < 1e-6) && (0.0..=1.0).contains(&x) && (0.0..=1.0).contains(&z);
+    assert!(section.iter().all(|s| on_outline(s[0], s[1]) && on_outline(s[2], s[3])), "{section:?}");
+    let length: f32 = section.iter().map(|s| ((s[2] - s[0]).powi(2) + (s[3] - s[1]).powi(2)).sqrt()).sum();
+    assert!((length - 4.0).abs() < 1e-4, "the perimeter: {length}");
+    assert!(mesh.section(2.0).is_empty() && mesh.section(-1.0).is_empty());
+}
+
+#[test]
+fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
+    let mesh = two_storeys(vec![]);
+    // A 32-pixel square at (0, 16) of a 64² target, 2 px a unit, centred on the origin.
+    let Some(px) = render_with(&mesh, 64, |pass, device, queue, encoder, target| pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else { return };
+    let at = |x: u32, y: u32| {
+        let i = 4 * (y * 64 + x) as usize;
+        [px[i], px[i + 1], px[i + 2]]
+    };
+    // The red lower storey (the blue one is cut), dimmed: red 200 × 0.45 in linear light.
+    let red = at(16, 32);
+    assert!(red[0] > 120 && red[0] < 160 && red[1] < 40 && red[2] < 40, "{red:?}");
+    // Beyond the house (±5 units = ±10 px) but inside the square: the dark background.
+    let edge = at(1, 17);
+    assert!(edge.iter().all(|&c| c < 60) && edge != [0, 0, 0], "{edge:?}");
+    // Outside the square, untouched.
+    assert_eq!(at(48, 32), [0, 0, 0]);
+    // Seen from below (wound the other way), a floor is a solid's inside: dark.
+    let mut flipped = two_storeys(vec![]);
+    flipped.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    let Some(px) = render_with(&flipped, 64, |pass, device, queue, encoder, target| pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else { return };
+    let i = 4 * (32 * 64 + 16);
+    assert!(px[i..i + 3].iter().all(|&c| c < 60), "{:?}", &px[i..i + 3]);
 }

@@ -2,7 +2,7 @@ use super::*;
 use crate::navigation::tests::graph;
 
 fn screen(width: f32, height: f32, scale: f32) -> Screen {
-    Screen { width, height, scale, show_map: true, touring: false, thumbs_ready: true, message: false, proxy: false, dollhouse: None }
+    Screen { width, height, scale, show_map: true, touring: false, thumbs_ready: true, message: false, proxy: false, dollhouse: None, plan: None, sections: std::rc::Rc::new([]) }
 }
 
 fn centre_of(l: &Layout, action: Action) -> Option<[f32; 2]> {
@@ -72,6 +72,25 @@ fn the_map_is_a_top_view_and_its_dots_are_tappable() {
     assert_eq!(l.hit(p1[0], p1[1]), Some(Action::GoTo(1)));
     let hidden = layout(&nav, &Screen { show_map: false, ..screen(1280.0, 720.0, 1.0) });
     assert!(!hidden.hits.iter().any(|h| h.round && h.action == Action::GoTo(1)));
+}
+
+#[test]
+fn over_the_floor_plan_the_map_draws_wall_outlines_in_its_frame_instead_of_a_panel() {
+    let nav = Navigator::new(graph(), Some(0), 1).unwrap();
+    let sections: std::rc::Rc<[[f32; 4]]> = vec![[-12.0, -12.0, 12.0, -12.0], [12.0, -12.0, 12.0, 12.0]].into();
+    let s = Screen { plan: Some([-12.0, -12.0, 12.0, 12.0]), sections, ..screen(1280.0, 720.0, 1.0) };
+    let l = layout(&nav, &s);
+    let frame = l.map.expect("a map");
+    // The plan's extent is framed: its corners fall inside the map square.
+    for corner in [[-12.0, 0.0, -12.0], [12.0, 0.0, 12.0]] {
+        let [x, y] = frame.to_map(corner);
+        assert!(x >= frame.x0 && x <= frame.x0 + frame.size && y >= frame.y0 && y <= frame.y0 + frame.size, "{corner:?} → {x} {y}");
+    }
+    let dark = |sh: &&Shape| sh.colour == [0.02, 0.02, 0.03, 1.0];
+    assert_eq!(l.shapes.iter().filter(dark).count(), 2, "one line a segment");
+    let panel = |l: &Layout| l.shapes.iter().any(|sh| sh.width == frame.size && sh.colour == PANEL);
+    assert!(!panel(&l), "the plan is the map's background");
+    assert!(panel(&layout(&nav, &screen(1280.0, 720.0, 1.0))), "without a plan, the panel");
 }
 
 #[test]
