@@ -54,7 +54,7 @@ for throttle in 0 1; do
   const stats = (a) => { const s = [...a].sort((x, y) => x - y); const mean = a.reduce((x, y) => x + y, 0) / a.length;
     return `mean ${mean.toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
   for (const l of lines) {
-    if (l.step === "dollhouse") console.log(`${net}: graph at ${Math.round(l.t_graph)} ms; first dollhouse frame at ${Math.round(l.t_dollhouse_first)} ms (${Math.round(l.t_dollhouse_first - l.t_graph)} ms after the graph; goal 300), full proxy at ${Math.round(l.t_dollhouse_full)} ms (goal 1000 at 10 Mbit/s)`);
+    if (l.step === "dollhouse") console.log(`${net}: graph at ${Math.round(l.t_graph)} ms; first dollhouse frame at ${Math.round(l.t_dollhouse_first)} ms (${Math.round(l.t_dollhouse_first - l.t_graph)} ms after the graph; goal 300), full proxy at ${Math.round(l.t_dollhouse_full)} ms (goal 1000 at 10 Mbit/s); decoding held the main thread ${l.proxy_decode_ms_1?.toFixed(1)} ms (coarse) and ${l.proxy_decode_ms_0?.toFixed(1)} ms (full)`);
     else if (l.step === "orbit") console.log(`${net}: frame time orbiting the dollhouse at 1280x720: ${stats(l.frames_ms)}`);
     else if (l.step === "memory") console.log(`${net}: JS heap in the dollhouse: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
     else console.log(JSON.stringify(l));

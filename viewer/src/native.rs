@@ -325,7 +325,7 @@ impl Platform for NativePlatform {
 }
 
 /// Benchmark phases: wait for the first panorama, time frames in a probe,
-/// then along the best path until arrival.
+/// along the best path until arrival and back, then orbiting the dollhouse.
 #[derive(Default)]
 struct Bench {
     phase: u8,
@@ -486,6 +486,20 @@ impl Runner {
                 b.frames.push(ms);
                 if r.app.nav.progress().is_none() {
                     print_frames("travelling the path backwards", &b.frames, r.config.width, r.config.height);
+                    b.frames.clear();
+                    if r.app.nav.graph().proxy.is_none() {
+                        return event_loop.exit();
+                    }
+                    r.app.input(Input::Key(Key::Dollhouse), &mut r.platform);
+                    b.phase = 4;
+                }
+            }
+            // Orbiting the dollhouse, once its finest level is in and the flight is over.
+            4 if !r.app.flying() && r.app.proxy.as_ref().is_some_and(|m| m.level == 0) => {
+                b.frames.push(ms);
+                r.app.input(Input::Key(Key::Right), &mut r.platform);
+                if b.frames.len() == 120 {
+                    print_frames("orbiting the dollhouse", &b.frames, r.config.width, r.config.height);
                     event_loop.exit();
                 }
             }

@@ -184,7 +184,11 @@ impl Platform for WebPlatform {
                     (Some(f), Some(u)) => Some((f.as_str(), bytes(u).await.map_err(|e| (f.clone(), e))?)),
                     _ => None,
                 };
-                crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes)
+                let started = window().performance().map_or(0.0, |p| p.now());
+                let decoded = crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes);
+                // How long the main thread was held, for the benchmark.
+                set_status(&format!("proxy_decode_ms_{level}"), &(window().performance().map_or(0.0, |p| p.now()) - started).into());
+                decoded
             };
             match decoded.await {
                 Ok((mesh, seen)) => Fetched::Proxy { level, mesh, seen },
