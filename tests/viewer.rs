@@ -296,7 +296,12 @@ fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
     let bundle = dir.path().join("b");
     synthetic_bundle(&bundle);
     let server = serve(&bundle);
-    let lines = browser("phone", &server.url, dir.path());
+    // The dollhouse on the phone frames the ground for a 720 × 1480 canvas facing yaw 0
+    // (probe 0's way; the tap on the path bar leaves the view turned toward +X on arrival,
+    // where probe 1 faces +Z: yaw π). A tap on the west half goes to probe 0.
+    let camera = exploremaps_viewer::dollhouse::Orbit::framing(glam::Vec3::new(-5.0, 0.0, -5.0), glam::Vec3::new(9.0, 0.0, 9.0), std::f32::consts::PI, 720.0 / 1480.0).camera();
+    let [x, y] = camera.project(glam::Vec3::new(-3.0, 0.0, 3.0), 720.0, 1480.0).unwrap().map(|c| c / 2.0);
+    let lines = browser_with("phone", &server.url, dir.path(), false, &[("DOLLHOUSE_TAP", format!("{x:.0},{y:.0}"))]);
     let centre = colour_at(&dir.path().join("phone.png"), 360, 600);
     assert!(near(centre, FACES[0][5], 24), "probe 0's −Z face on the phone: {centre:?}");
     // 240 CSS pixels = 480 device pixels of a 1480-pixel-high view at fov 68.8°: about 22°.
@@ -306,6 +311,11 @@ fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
     assert!(fov < 60.0, "spreading two fingers zooms in: {fov}");
     let tapped = step(&lines, "tapped");
     assert_eq!(tapped["probe"], 1, "a tap on the path bar goes along the path");
+    assert_eq!(step(&lines, "phone_dollhouse")["dollhouse"], true, "the dollhouse button");
+    let shot = dir.path().join("phone_dollhouse.png");
+    let ground = colour_at(&shot, (2.0 * x) as u32, (2.0 * y) as u32);
+    assert!(near(ground, WEST, 8), "the west half under the finger: {ground:?}");
+    assert_eq!(step(&lines, "phone_landed")["probe"], 0, "a tap on the west half lands at probe 0");
 }
 
 #[test]

@@ -99,6 +99,19 @@ try {
     await page.touchscreen.tap(180, 660);
     await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
     report('tapped', await status(page));
+    if (process.env.DOLLHOUSE_TAP) {
+      // The dollhouse button (the third, top left), then a tap on the proxy.
+      await page.touchscreen.tap(98, 22);
+      await page.waitForFunction(() => window.exploremaps.dollhouse === true && window.exploremaps.flying === false, null, { timeout: 15000 });
+      await page.waitForTimeout(300);
+      await page.screenshot({ path: `${out}/phone_dollhouse.png` });
+      report('phone_dollhouse', await status(page));
+      const [x, y] = process.env.DOLLHOUSE_TAP.split(',').map(Number);
+      await page.touchscreen.tap(x, y);
+      await page.waitForFunction(() => window.exploremaps.dollhouse === false && window.exploremaps.flying === false, null, { timeout: 15000 });
+      await page.waitForTimeout(300);
+      report('phone_landed', await status(page));
+    }
   } else if (mode === 'dollhouse' || mode === 'dollhouse_bench') {
     const t0 = Date.now();
     const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });

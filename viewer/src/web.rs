@@ -60,10 +60,18 @@ async fn bitmap(url: String, resize: Option<(u32, u32)>) -> Result<web_sys::Imag
     Ok(JsFuture::from(promise).await.map_err(|e| format!("is not a readable image ({})", js_error(e)))?.unchecked_into())
 }
 
-/// Fetches a file's bytes.
-async fn bytes(url: &str) -> Result<Vec<u8>, String> {
-    let buffer = JsFuture::from(fetch(url).await?.array_buffer().map_err(js_error)?).await.map_err(js_error)?;
-    Ok(js_sys::Uint8Array::new(&buffer).to_vec())
+/// Fetches a file's bytes: the request leaves at once (so several go out
+/// together), the future resolves them.
+fn fetch_bytes(url: &str) -> impl std::future::Future<Output = Result<Vec<u8>, String>> {
+    let request = window().fetch_with_str(url);
+    async move {
+        let response: web_sys::Response = JsFuture::from(request).await.map_err(|e| format!("cannot be fetched ({})", js_error(e)))?.unchecked_into();
+        if !response.ok() {
+            return Err(format!("HTTP {} {}", response.status(), response.status_text()));
+        }
+        let buffer = JsFuture::from(response.array_buffer().map_err(js_error)?).await.map_err(js_error)?;
+        Ok(js_sys::Uint8Array::new(&buffer).to_vec())
+    }
 }
 
 enum Fetched {
@@ -177,11 +185,13 @@ impl Platform for WebPlatform {
         // takes a few milliseconds in wasm).
         let (mesh, seen) = (mesh.to_string(), seen.map(str::to_string));
         let (mesh_url, seen_url) = (self.url(&mesh), seen.as_deref().map(|f| self.url(f)));
+        // Both requests go out together.
+        let (mesh_bytes, seen_bytes) = (fetch_bytes(&mesh_url), seen_url.as_deref().map(fetch_bytes));
         self.spawn(async move {
             let decoded = async {
-                let m = bytes(&mesh_url).await.map_err(|e| (mesh.clone(), e))?;
-                let s = match (&seen, &seen_url) {
-                    (Some(f), Some(u)) => Some((f.as_str(), bytes(u).await.map_err(|e| (f.clone(), e))?)),
+                let m = mesh_bytes.await.map_err(|e| (mesh.clone(), e))?;
+                let s = match (&seen, seen_bytes) {
+                    (Some(f), Some(bytes)) => Some((f.as_str(), bytes.await.map_err(|e| (f.clone(), e))?)),
                     _ => None,
                 };
                 let started = window().performance().map_or(0.0, |p| p.now());
@@ -200,7 +210,7 @@ impl Platform for WebPlatform {
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
         let (file, url) = (file.to_string(), self.url(file));
         self.spawn(async move {
-            match bytes(&url).await.and_then(|b| exploremaps_format::depthmap::DepthMap::decode(&b, probes).map_err(|e| e.to_string())) {
+            match fetch_bytes(&url).await.and_then(|b| exploremaps_format::depthmap::DepthMap::decode(&b, probes).map_err(|e| e.to_string())) {
                 Ok(map) => Fetched::DepthMap { probe, map },
                 Err(error) => Fetched::Failed { what: file, error, probe: None },
             }
