@@ -305,7 +305,14 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
     })?;
     bar.finish_and_clear();
     if let Some(proxy) = &graph.proxy {
-        let levels: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {:.0} KB ({})", l.triangles, l.bytes as f64 / 1024.0, l.file)).collect();
+        let levels: Vec<String> = proxy
+            .levels
+            .iter()
+            .map(|l| {
+                let files = if l.chunks.is_empty() { l.file.clone() } else { format!("{} chunks, {} …", l.chunks.len(), l.file) };
+                format!("{} triangles in {:.0} KB ({files})", l.triangles, l.bytes as f64 / 1024.0)
+            })
+            .collect();
         println!("  proxy       {}; {}", levels.join(", "), proxy.glb.as_deref().unwrap_or("no GLB"));
     }
     match web_dir() {

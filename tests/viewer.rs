@@ -110,7 +110,7 @@ pub fn synthetic_bundle(dir: &Path) {
         let (file, table) = (format!("proxy/{level}.emmc"), format!("proxy/{level}.seen"));
         write(&file, &coded.bytes);
         write(&table, &seen);
-        levels.push(exploremaps_format::ProxyLevel { file, triangles: 4, vertices: 8, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table) });
+        levels.push(exploremaps_format::ProxyLevel { file, triangles: 4, vertices: 8, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table), chunks: vec![] });
     }
     // Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
     let mut depth_maps = Vec::new();

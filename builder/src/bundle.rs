@@ -201,6 +201,8 @@ fn path_files(id: usize) -> (String, String) {
 }
 
 const PROXY_GLB: &str = "proxy/proxy.glb";
+/// The most triangles of a proxy chunk: about 2 ms of decoding in a browser.
+const CHUNK_TRIANGLES: usize = 7_000;
 /// Texels a face of a probe's point-to-go depth cube.
 const DEPTH_MAP_SIZE: u32 = 32;
 /// The proxy's entry for graph.json, written after its files: shards and
@@ -216,7 +218,8 @@ fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
 }
 
 fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
-    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps)
+    let chunks = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
+    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks)
 }
 
 /// Storey floor heights the free-space stage found (its `walk.levels`), for
@@ -233,7 +236,7 @@ fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
 /// `proxy/<level>.seen`, the finest also as a GLB, then listed in
 /// `proxy/proxy.json`.
 fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
-    use exploremaps_format::{meshcode, seen, Proxy, ProxyLevel};
+    use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel};
     let started = std::time::Instant::now();
     let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new() };
     let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
@@ -249,20 +252,31 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
     }
     for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
         let colours = crate::proxy::bake::bake(renderer, &level.mesh, level.error, params.bake_samples, i as u64);
-        let file = format!("proxy/{i}.emmc");
-        let mut data = level.mesh.to_coded();
-        data.colours = colours.clone();
-        let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), message: e.to_string() })?;
-        write(dir, &file, &coded.bytes)?;
         let best = crate::proxy::seen::best_probes(renderer.tracer.rays, &level.mesh, &probes, level.error);
-        let seen_file = format!("proxy/{i}.seen");
-        write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>()))?;
+        // A large level in spatial chunks (a viewer decodes one between two frames).
+        let parts = crate::proxy::chunks(&level.mesh, CHUNK_TRIANGLES);
+        let mut chunks = Vec::new();
+        for (c, triangles) in parts.iter().enumerate() {
+            let name = if parts.len() == 1 { format!("proxy/{i}") } else { format!("proxy/{i}-{c}") };
+            let (mesh, was) = level.mesh.subset(triangles);
+            let mut data = mesh.to_coded();
+            data.colours = was.iter().map(|&v| colours[v as usize]).collect();
+            let file = format!("{name}.emmc");
+            let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), message: e.to_string() })?;
+            write(dir, &file, &coded.bytes)?;
+            let seen_file = format!("{name}.seen");
+            write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[triangles[t as usize]]).collect::<Vec<u32>>()))?;
+            chunks.push(ProxyChunk { file, seen: Some(seen_file), triangles: triangles.len() as u64, bytes: coded.bytes.len() as u64 });
+        }
         if i == 0 {
             write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
             proxy.glb = Some(PROXY_GLB.to_string());
         }
         let (triangles, vertices) = (level.mesh.triangles.len() as u64, level.mesh.positions.len() as u64);
-        proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes: coded.bytes.len() as u64, seen: Some(seen_file) });
+        let (file, seen) = (chunks[0].file.clone(), chunks[0].seen.clone());
+        let bytes = chunks.iter().map(|c| c.bytes).sum();
+        let chunks = if chunks.len() > 1 { chunks } else { Vec::new() };
+        proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
     let depth_bytes: u64 = proxy.depth_maps.iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum();

@@ -103,6 +103,31 @@ pub struct ProxyLevel {
     /// probe that sees it best.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seen: Option<String>,
+    /// The level cut into spatial chunks, each coded on its own (a viewer
+    /// decodes one between two frames); when present they are the level, and
+    /// `file` and `seen` name the first of them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub chunks: Vec<ProxyChunk>,
+}
+
+/// A chunk of a proxy level: a coded mesh and its point-to-go table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProxyChunk {
+    pub file: String,
+    pub seen: Option<String>,
+    pub triangles: u64,
+    pub bytes: u64,
+}
+
+impl ProxyLevel {
+    /// The level's parts: its chunks, or the level whole.
+    pub fn parts(&self) -> Vec<ProxyChunk> {
+        if self.chunks.is_empty() {
+            vec![ProxyChunk { file: self.file.clone(), seen: self.seen.clone(), triangles: self.triangles, bytes: self.bytes }]
+        } else {
+            self.chunks.clone()
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -358,7 +383,8 @@ impl Graph {
             if !proxy.depth_maps.is_empty() && proxy.depth_maps.len() != self.probes.len() {
                 return bad(format!("proxy has {} depth maps for {} probes", proxy.depth_maps.len(), self.probes.len()));
             }
-            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)).chain(&proxy.depth_maps) {
+            let chunk_files = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
+            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)).chain(&proxy.depth_maps).chain(chunk_files) {
                 check_asset_name(name).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
             }
             if proxy.floors.iter().any(|f| !f.is_finite()) || !proxy.floors.is_sorted() {

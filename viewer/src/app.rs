@@ -57,8 +57,9 @@ pub enum Loaded {
     Pano { probe: u32, pano: Pano },
     /// The thumbnail is in the overlay's layer `probe`.
     Thumbnail { probe: u32 },
-    /// A proxy level decoded, with its point-to-go table (empty without one).
-    Proxy { level: usize, mesh: MeshData, seen: Vec<u32> },
+    /// A part (chunk) of a proxy level decoded, with its point-to-go table
+    /// (empty without one).
+    Proxy { level: usize, part: usize, mesh: MeshData, seen: Vec<u32> },
     /// A probe's point-to-go depth cube.
     DepthMap { probe: u32, map: DepthMap },
     /// `what` names the asset (its file), `error` what went wrong.
@@ -72,9 +73,10 @@ pub trait Platform {
     fn load_cube(&mut self, probe: u32, size: u32, faces: &[String; 6]);
     fn load_equirect(&mut self, probe: u32, file: &str);
     fn load_thumbnail(&mut self, probe: u32, file: &str);
-    /// Loads and decodes a proxy level (off the main thread where the
-    /// platform can) and its point-to-go table, checked against `probes`.
-    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32);
+    /// Loads and decodes a part of a proxy level (off the main thread where
+    /// the platform can, else one part between two frames) and its
+    /// point-to-go table, checked against `probes`.
+    fn load_proxy(&mut self, level: usize, part: usize, mesh: &str, seen: Option<&str>, probes: u32);
     /// Loads and decodes a probe's depth map, checked against `probes`.
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
@@ -224,6 +226,8 @@ pub struct App {
     /// Levels asked for (coarsest first), and whether one failed.
     proxy_requested: usize,
     proxy_failed: bool,
+    /// Parts of a level decoded while the others are on their way.
+    proxy_parts: Vec<(usize, usize, MeshData, Vec<u32>)>,
     orbit: Option<Orbit>,
     flight: Option<Flight>,
     /// Seconds left of the panorama fading in over the proxy after a flight.
@@ -292,6 +296,7 @@ impl App {
             proxy: None,
             proxy_requested: 0,
             proxy_failed: false,
+            proxy_parts: Vec::new(),
             orbit: None,
             flight: None,
             fade_in_s: 0.0,
@@ -445,10 +450,47 @@ impl App {
         if !wanted || self.proxy_requested == levels || (self.proxy_requested > 0 && ready > next && !self.proxy_failed) {
             return;
         }
-        let level = &proxy.levels[next - 1];
-        let (file, seen) = (level.file.clone(), level.seen.clone());
+        let parts = proxy.levels[next - 1].parts();
         self.proxy_requested += 1;
-        platform.load_proxy(next - 1, &file, seen.as_deref(), self.nav.graph().probes.len() as u32);
+        let probes = self.nav.graph().probes.len() as u32;
+        for (part, chunk) in parts.iter().enumerate() {
+            platform.load_proxy(next - 1, part, &chunk.file, chunk.seen.as_deref(), probes);
+        }
+    }
+
+    /// Takes in a decoded part of a proxy level; once the level's parts are
+    /// all in, it replaces a coarser level in the dollhouse.
+    fn proxy_part(&mut self, level: usize, part: usize, mesh: MeshData, seen: Vec<u32>) {
+        let Some(parts) = self.nav.graph().proxy.as_ref().and_then(|p| p.levels.get(level)).map(|l| l.parts().len()) else { return };
+        if self.proxy.as_ref().is_some_and(|m| m.level <= level) {
+            return;
+        }
+        self.proxy_parts.push((level, part, mesh, seen));
+        let mut mine: Vec<_> = self.proxy_parts.iter().filter(|p| p.0 == level).map(|p| p.1).collect();
+        mine.sort_unstable();
+        mine.dedup();
+        if mine.len() < parts {
+            return;
+        }
+        let (mut all, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut self.proxy_parts).into_iter().partition(|p| p.0 == level);
+        self.proxy_parts = rest;
+        all.sort_by_key(|p| p.1);
+        let (mut data, mut table) = (MeshData::default(), Vec::new());
+        for (_, _, m, s) in all {
+            let base = data.positions.len() as u32;
+            let colours = if m.colours.len() == m.positions.len() { m.colours } else { vec![[170; 3]; m.positions.len()] };
+            data.positions.extend(m.positions);
+            data.colours.extend(colours);
+            table.extend(if s.len() == m.triangles.len() { s } else { vec![NONE; m.triangles.len()] });
+            data.triangles.extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
+        }
+        let mesh = ProxyMesh::new(level, data, table);
+        self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
+        if self.orbit.is_none() {
+            self.orbit = Some(self.framing(&mesh));
+        }
+        self.sections = None;
+        self.proxy = Some(mesh);
     }
 
     fn evict(&mut self, keep: &[u32]) {
@@ -480,16 +522,7 @@ impl App {
                     }
                 }
                 Loaded::Thumbnail { .. } => self.thumbs += 1,
-                Loaded::Proxy { level, mesh, seen } => {
-                    if self.proxy.as_ref().is_none_or(|m| m.level > level) {
-                        let mesh = ProxyMesh::new(level, mesh, seen);
-                        self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
-                        if self.orbit.is_none() {
-                            self.orbit = Some(self.framing(&mesh));
-                        }
-                        self.proxy = Some(mesh);
-                    }
-                }
+                Loaded::Proxy { level, part, mesh, seen } => self.proxy_part(level, part, mesh, seen),
                 Loaded::DepthMap { probe, map } => {
                     self.depth_maps.insert(probe, map);
                 }

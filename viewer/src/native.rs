@@ -59,7 +59,7 @@ enum Job {
     Cube { probe: u32, size: u32, files: [String; 6] },
     Equirect { probe: u32, file: String },
     Thumbnail { probe: u32, file: String },
-    Proxy { level: usize, mesh: String, seen: Option<String>, probes: u32 },
+    Proxy { level: usize, part: usize, mesh: String, seen: Option<String>, probes: u32 },
     DepthMap { probe: u32, file: String, probes: u32 },
 }
 
@@ -67,7 +67,7 @@ enum Decoded {
     Cube { probe: u32, size: u32, faces: Vec<Vec<u8>> },
     Equirect { probe: u32, width: u32, height: u32, rgba: Vec<u8> },
     Thumbnail { probe: u32, rgba: Vec<u8> },
-    Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
+    Proxy { level: usize, part: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Failed { what: String, error: String, probe: Option<u32> },
 }
@@ -99,14 +99,14 @@ fn work(root: &Path, job: Job) -> Decoded {
             }
             Err(e) => failed(&file, e, Some(probe)),
         },
-        Job::Proxy { level, mesh, seen, probes } => {
+        Job::Proxy { level, part, mesh, seen, probes } => {
             let read = |f: &str| std::fs::read(root.join(f)).map_err(|e| (f.to_string(), format!("cannot be read ({e})")));
             let decoded = read(&mesh).and_then(|m| {
                 let s = seen.as_deref().map(|f| read(f).map(|b| (f, b))).transpose()?;
                 crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes)
             });
             match decoded {
-                Ok((mesh, seen)) => Decoded::Proxy { level, mesh, seen },
+                Ok((mesh, seen)) => Decoded::Proxy { level, part, mesh, seen },
                 Err((what, error)) => failed(&what, error, None),
             }
         }
@@ -236,8 +236,8 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::Thumbnail { probe, file: file.to_string() });
     }
 
-    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32) {
-        let _ = self.jobs.send(Job::Proxy { level, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
+    fn load_proxy(&mut self, level: usize, part: usize, mesh: &str, seen: Option<&str>, probes: u32) {
+        let _ = self.jobs.send(Job::Proxy { level, part, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
     }
 
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
@@ -264,7 +264,7 @@ impl Platform for NativePlatform {
                     overlay.write_thumbnail(&gpu.queue, probe, &rgba);
                     Loaded::Thumbnail { probe }
                 }
-                Decoded::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
+                Decoded::Proxy { level, part, mesh, seen } => Loaded::Proxy { level, part, mesh, seen },
                 Decoded::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });

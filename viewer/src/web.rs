@@ -75,7 +75,8 @@ fn fetch_bytes(url: &str) -> impl std::future::Future<Output = Result<Vec<u8>, S
 }
 
 enum Fetched {
-    Proxy { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
+    /// A proxy part's files, to decode.
+    ProxyBytes { level: usize, part: usize, file: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
     Equirect { probe: u32, image: web_sys::ImageBitmap },
@@ -115,6 +116,8 @@ struct WebPlatform {
     /// The video time last copied, and how many distinct ones were (for the benchmark).
     video_time: f64,
     video_frames: u32,
+    /// The longest decoding of a proxy part, finest level and coarser ones (ms).
+    decode_ms: [f64; 2],
 }
 
 impl WebPlatform {
@@ -180,28 +183,21 @@ impl Platform for WebPlatform {
         });
     }
 
-    fn load_proxy(&mut self, level: usize, mesh: &str, seen: Option<&str>, probes: u32) {
-        // Decoded on the main thread between frames (a 25,000-triangle level
-        // takes a few milliseconds in wasm).
+    fn load_proxy(&mut self, level: usize, part: usize, mesh: &str, seen: Option<&str>, probes: u32) {
+        // Fetched here, decoded in `poll`, one part between two frames.
         let (mesh, seen) = (mesh.to_string(), seen.map(str::to_string));
-        let (mesh_url, seen_url) = (self.url(&mesh), seen.as_deref().map(|f| self.url(f)));
-        // Both requests go out together.
-        let (mesh_bytes, seen_bytes) = (fetch_bytes(&mesh_url), seen_url.as_deref().map(fetch_bytes));
+        let (mesh_bytes, seen_bytes) = (fetch_bytes(&self.url(&mesh)), seen.as_deref().map(|f| fetch_bytes(&self.url(f))));
         self.spawn(async move {
-            let decoded = async {
+            let fetched = async {
                 let m = mesh_bytes.await.map_err(|e| (mesh.clone(), e))?;
-                let s = match (&seen, seen_bytes) {
-                    (Some(f), Some(bytes)) => Some((f.as_str(), bytes.await.map_err(|e| (f.clone(), e))?)),
+                let s = match (seen, seen_bytes) {
+                    (Some(f), Some(bytes)) => Some((f.clone(), bytes.await.map_err(|e| (f, e))?)),
                     _ => None,
                 };
-                let started = window().performance().map_or(0.0, |p| p.now());
-                let decoded = crate::dollhouse::decode_level(&mesh, &m, s.as_ref().map(|(f, b)| (*f, b.as_slice())), probes);
-                // How long the main thread was held, for the benchmark.
-                set_status(&format!("proxy_decode_ms_{level}"), &(window().performance().map_or(0.0, |p| p.now()) - started).into());
-                decoded
+                Ok::<_, (String, String)>((m, s))
             };
-            match decoded.await {
-                Ok((mesh, seen)) => Fetched::Proxy { level, mesh, seen },
+            match fetched.await {
+                Ok((bytes, seen)) => Fetched::ProxyBytes { level, part, file: mesh, bytes, seen, probes },
                 Err((what, error)) => Fetched::Failed { what, error, probe: None },
             }
         });
@@ -218,8 +214,12 @@ impl Platform for WebPlatform {
     }
 
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
-        let fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
-        fetched
+        let mut fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
+        // At most one proxy part is decoded a frame; the others wait for the next.
+        let mut decoding = false;
+        let (now, later): (Vec<Fetched>, Vec<Fetched>) = fetched.drain(..).partition(|f| !matches!(f, Fetched::ProxyBytes { .. }) || !std::mem::replace(&mut decoding, true));
+        self.done.borrow_mut().extend(later);
+        now
             .into_iter()
             .map(|f| match f {
                 Fetched::Cube { probe, size, faces } => {
@@ -247,7 +247,18 @@ impl Platform for WebPlatform {
                     }
                     Loaded::Thumbnail { probe }
                 }
-                Fetched::Proxy { level, mesh, seen } => Loaded::Proxy { level, mesh, seen },
+                Fetched::ProxyBytes { level, part, file, bytes, seen, probes } => {
+                    let started = window().performance().map_or(0.0, |p| p.now());
+                    let decoded = crate::dollhouse::decode_level(&file, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes);
+                    // The longest the main thread was held by one part's decoding, for the benchmark.
+                    let ms = window().performance().map_or(0.0, |p| p.now()) - started;
+                    self.decode_ms[level.min(1)] = self.decode_ms[level.min(1)].max(ms);
+                    set_status(&format!("proxy_decode_ms_{}", level.min(1)), &self.decode_ms[level.min(1)].into());
+                    match decoded {
+                        Ok((mesh, seen)) => Loaded::Proxy { level, part, mesh, seen },
+                        Err((what, error)) => Loaded::Failed { what, error, probe: None },
+                    }
+                }
                 Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             })
@@ -499,7 +510,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0 };
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2] };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;

@@ -75,6 +75,30 @@ pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
     out
 }
 
+/// Splits `mesh`'s triangles into spatial chunks of at most `max` triangles
+/// each (the longest side of their centres' box halved at the median, again
+/// and again), so a viewer decodes one small chunk between two frames.
+/// Returns each chunk's triangle indices.
+pub fn chunks(mesh: &Mesh, max: usize) -> Vec<Vec<usize>> {
+    let centre = |t: usize| mesh.triangles[t].iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0;
+    let mut out = Vec::new();
+    let mut todo = vec![(0..mesh.triangles.len()).collect::<Vec<usize>>()];
+    while let Some(mut part) = todo.pop() {
+        if part.len() <= max.max(1) {
+            out.push(part);
+            continue;
+        }
+        let (lo, hi) = part.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &t| (lo.min(centre(t)), hi.max(centre(t))));
+        let axis = (hi - lo).max_position();
+        part.sort_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+        let second = part.split_off(part.len() / 2);
+        // Second half pushed first, so chunks come out in sorted order.
+        todo.push(second);
+        todo.push(part);
+    }
+    out
+}
+
 /// An indexed triangle mesh with a group (material) per triangle.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
@@ -89,6 +113,25 @@ impl Mesh {
     /// The mesh as the coder takes it.
     pub fn to_coded(&self) -> exploremaps_format::meshcode::MeshData {
         exploremaps_format::meshcode::MeshData { positions: self.positions.iter().map(|p| p.to_array()).collect(), triangles: self.triangles.clone(), groups: self.groups.clone(), colours: Vec::new() }
+    }
+
+    /// The triangles `triangles` as a mesh of their own, and per new vertex
+    /// the index of the vertex it was (for per-vertex attributes).
+    pub fn subset(&self, triangles: &[usize]) -> (Mesh, Vec<u32>) {
+        let mut remap = vec![u32::MAX; self.positions.len()];
+        let (mut out, mut was) = (Mesh::default(), Vec::new());
+        for &t in triangles {
+            out.triangles.push(self.triangles[t].map(|v| {
+                if remap[v as usize] == u32::MAX {
+                    remap[v as usize] = out.positions.len() as u32;
+                    out.positions.push(self.positions[v as usize]);
+                    was.push(v);
+                }
+                remap[v as usize]
+            }));
+            out.groups.push(self.groups[t]);
+        }
+        (out, was)
     }
 
     pub fn diagonal(&self) -> f32 {
@@ -127,6 +170,29 @@ mod tests {
             assert!(r.is_some(), "{name}: triangle {input} is {got:?}, was {want:?}");
         }
         encoded.sizes.connectivity as f64 * 8.0 / mesh.triangles.len().max(1) as f64
+    }
+
+    #[test]
+    fn chunks_cover_every_triangle_once_within_their_size_and_keep_attributes() {
+        let scene = BuiltIn::parse("gallery").unwrap().generate(1);
+        let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
+        let chunks = super::chunks(&mesh, 7_000);
+        assert!(chunks.len() >= mesh.triangles.len() / 7_000 && chunks.iter().all(|c| c.len() <= 7_000 && !c.is_empty()));
+        let mut seen = vec![0u8; mesh.triangles.len()];
+        for c in &chunks {
+            for &t in c {
+                seen[t] += 1;
+            }
+            // A chunk is a mesh of its own whose triangles are the originals.
+            let (part, was) = mesh.subset(c);
+            for (k, &t) in c.iter().enumerate() {
+                assert_eq!(part.triangles[k].map(|v| was[v as usize]), mesh.triangles[t]);
+                assert_eq!(part.groups[k], mesh.groups[t]);
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "each triangle in exactly one chunk");
+        // Without a limit, one chunk.
+        assert_eq!(super::chunks(&mesh, usize::MAX).len(), 1);
     }
 
     #[test]

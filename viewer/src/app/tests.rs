@@ -16,7 +16,7 @@ struct Script {
     thumbnails: Vec<u32>,
     /// Proxy levels asked for, those to answer, and whether they fail.
     proxy_requests: Vec<usize>,
-    proxy_pending: Vec<usize>,
+    proxy_pending: Vec<(usize, usize)>,
     broken_proxy: bool,
     depth_requests: Vec<u32>,
     depth_pending: Vec<u32>,
@@ -51,9 +51,9 @@ impl Platform for Script {
         self.depth_requests.push(probe);
         self.depth_pending.push(probe);
     }
-    fn load_proxy(&mut self, level: usize, _mesh: &str, _seen: Option<&str>, _probes: u32) {
+    fn load_proxy(&mut self, level: usize, part: usize, _mesh: &str, _seen: Option<&str>, _probes: u32) {
         self.proxy_requests.push(level);
-        self.proxy_pending.push(level);
+        self.proxy_pending.push((level, part));
     }
     fn poll(&mut self, gpu: &Gpu, _overlay: &OverlayPass) -> Vec<Loaded> {
         // Proxy levels: the two-storey mesh, its lower floor seen best from probe 3, its upper from 1.
@@ -61,9 +61,9 @@ impl Platform for Script {
         let proxies: Vec<Loaded> = self
             .proxy_pending
             .drain(..)
-            .map(|level| match broken {
+            .map(|(level, part)| match broken {
                 true => Loaded::Failed { what: format!("proxy/{level}.emmc"), error: "coded mesh is corrupt: checksum mismatch".into(), probe: None },
-                false => Loaded::Proxy { level, mesh: crate::dollhouse::tests::two_storeys_data(), seen: vec![3, 3, 1, 1] },
+                false => Loaded::Proxy { level, part, mesh: crate::dollhouse::tests::two_storeys_data(), seen: vec![3, 3, 1, 1] },
             })
             .collect();
         let maps: Vec<Loaded> = self.depth_pending.drain(..).map(|probe| Loaded::DepthMap { probe, map: depth_map(probe) }).collect();
@@ -218,7 +218,7 @@ fn a_probe_with_only_large_levels_still_shows_and_one_with_none_gives_a_message(
 fn graph_with_proxy() -> Graph {
     let mut g = bundle_graph();
     g.scene.eye_height_m = Some(1.6);
-    let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")) };
+    let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")), chunks: vec![] };
     let depth_maps = (0..g.probes.len()).map(|p| format!("proxy/depth/{p}.emdm")).collect();
     g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0], depth_maps });
     g
