@@ -658,6 +658,20 @@ impl App {
         true
     }
 
+    /// A tap on the floor plan: the proxy point seen from above there (below
+    /// the plan's cut), and the probe that sees it best.
+    fn plan_to_go(&mut self, x: f32, y: f32) {
+        let (Some(frame), Some(mesh)) = (self.layout.map, &self.proxy) else { return };
+        let [wx, wz] = frame.to_world(x, y);
+        let cut = self.plan_cut();
+        let top = Vec3::new(wx, cut.min(mesh.hi.y) + 1e-3 * mesh.diagonal(), wz);
+        let Some((triangle, t)) = mesh.pick(top, Vec3::NEG_Y, cut) else { return };
+        let point = top + Vec3::NEG_Y * t;
+        if let Some(probe) = mesh.destination(self.nav.graph(), triangle, point) {
+            self.go_to(probe, Some(point));
+        }
+    }
+
     /// The camera the panorama view is seen from.
     fn panorama_camera(&self) -> Camera {
         Camera { eye: Vec3::from(self.nav.camera_position()), forward: Vec3::from(direction(self.nav.view.yaw, self.nav.view.pitch)), fov_y: self.nav.view.fov_y }
@@ -840,7 +854,7 @@ impl App {
                 self.show_map = !self.show_map;
                 return;
             }
-            Some(Action::ToggleTour | Action::TakePath(_)) => return,
+            Some(Action::ToggleTour | Action::TakePath(_) | Action::PlanPoint) => return,
             None => {}
         }
         let (Some(mesh), Some(orbit)) = (&self.proxy, &self.orbit) else { return };
@@ -951,6 +965,10 @@ impl App {
                 Ok(())
             }
             Some(Action::NextFloor) => Ok(()),
+            Some(Action::PlanPoint) => {
+                self.plan_to_go(x, y);
+                Ok(())
+            }
             None if self.point_to_go(x, y) => Ok(()),
             None => match self.nav.path_bar().first() {
                 Some(best) if best.angle < std::f32::consts::FRAC_PI_4 => self.nav.take_path(best.path),

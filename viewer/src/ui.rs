@@ -24,6 +24,8 @@ pub enum Action {
     ToggleTour,
     ToggleDollhouse,
     NextFloor,
+    /// A point of the floor plan (not a probe's dot): go where it is seen best.
+    PlanPoint,
 }
 
 /// A tappable region: a rectangle, or a disc when `round`.
@@ -121,6 +123,11 @@ pub struct MapFrame {
 impl MapFrame {
     pub fn to_map(&self, p: [f32; 3]) -> [f32; 2] {
         [self.x0 + self.size / 2.0 + (p[0] - self.centre[0]) * self.scale, self.y0 + self.size / 2.0 + (p[2] - self.centre[1]) * self.scale]
+    }
+
+    /// The world (x, z) under a point of the map.
+    pub fn to_world(&self, x: f32, y: f32) -> [f32; 2] {
+        [self.centre[0] + (x - self.x0 - self.size / 2.0) / self.scale, self.centre[1] + (y - self.y0 - self.size / 2.0) / self.scale]
     }
 }
 
@@ -283,6 +290,9 @@ fn map(out: &mut Layout, nav: &Navigator, graph: &Graph, s: &Screen) {
         out.shapes.push(Shape::rect(frame.x0, frame.y0, frame.size, frame.size, PANEL));
     }
     out.map = Some(frame);
+    // The square itself: a tap beside the dots is on the plan (and does
+    // nothing without one), never on the panorama underneath.
+    out.hits.push(Hit { x: frame.x0, y: frame.y0, w: frame.size, h: frame.size, round: false, action: Action::PlanPoint });
     let to_map = |p: [f32; 3]| frame.to_map(p);
     for s in s.sections.iter() {
         out.shapes.push(Shape::line(to_map([s[0], 0.0, s[1]]), to_map([s[2], 0.0, s[3]]), 1.5 * k, [0.02, 0.02, 0.03, 1.0]));

@@ -434,3 +434,29 @@ fn going_to_a_probe_no_path_joins_flies_over_the_dollhouse() {
     assert!(highest > 5.0, "it rose over the scene: {highest}");
     assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 4 }));
 }
+
+#[test]
+fn a_tap_on_the_floor_plan_goes_where_that_point_is_seen_best() {
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 720) else { return };
+    app.resize(1280, 720, 1.0);
+    for _ in 0..3 {
+        app.update(0.016, &mut script);
+    }
+    render_frame(&mut app, &mut script);
+    let frame = app.layout.map.expect("the map, over the plan");
+    // The lower floor at (1, 0, −2): the table says probe 3.
+    let pixel = frame.to_map([1.0, 0.0, -2.0]);
+    assert_eq!(app.layout.hit(pixel[0], pixel[1]), Some(Action::PlanPoint));
+    let back = frame.to_world(pixel[0], pixel[1]);
+    assert!((back[0] - 1.0).abs() < 1e-4 && (back[1] + 2.0).abs() < 1e-4);
+    tap(&mut app, &mut script, pixel);
+    assert!(matches!(app.nav.state, State::Travelling { .. }), "probe 3 is joined by a path: {:?}", app.nav.state);
+    for _ in 0..200 {
+        app.update(0.02, &mut script);
+    }
+    assert_eq!(app.nav.state, State::AtProbe { probe: 3 });
+    let facing = Vec3::from(direction(app.nav.view.yaw, app.nav.view.pitch));
+    let wanted = (Vec3::new(1.0, 0.0, -2.0) - Vec3::new(2.0, 0.0, 4.0)).normalize();
+    assert!(facing.dot(wanted) > 0.9999, "facing the point: {facing} vs {wanted}");
+}
