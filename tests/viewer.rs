@@ -133,6 +133,17 @@ pub fn synthetic_bundle(dir: &Path) {
     write("graph.json", graph.to_json().as_bytes());
 }
 
+/// The synthetic bundle in a temporary folder (as `b`), changed by
+/// `change`, and served.
+fn served(change: impl FnOnce(&Path)) -> (tempfile::TempDir, Server) {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("b");
+    synthetic_bundle(&bundle);
+    change(&bundle);
+    let server = serve(&bundle);
+    (dir, server)
+}
+
 /// A running `exploremaps serve`, stopped on drop.
 struct Server {
     child: Child,
@@ -232,10 +243,7 @@ fn near(a: [u8; 3], b: [u8; 3], tolerance: i32) -> bool {
 /// Loads the synthetic bundle, drags, takes the path and back, then opens a probe with
 /// a corrupt face: checks each step on screen and in the deep link.
 fn tour(webgpu: bool) {
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("b");
-    synthetic_bundle(&bundle);
-    let server = serve(&bundle);
+    let (dir, server) = served(|_| {});
     let lines = browser_on("tour", &server.url, dir.path(), webgpu);
     let backend = step(&lines, "start")["backend"].as_str().unwrap_or_default().to_string();
     assert_eq!(backend, if webgpu { "BrowserWebGpu" } else { "Gl" });
@@ -292,10 +300,7 @@ fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("b");
-    synthetic_bundle(&bundle);
-    let server = serve(&bundle);
+    let (dir, server) = served(|_| {});
     // The dollhouse on the phone frames the ground for a 720 × 1480 canvas facing yaw 0
     // (probe 0's way; the tap on the path bar leaves the view turned toward +X on arrival,
     // where probe 1 faces +Z: yaw π). A tap on the west half goes to probe 0.
@@ -325,10 +330,7 @@ fn the_web_viewer_shows_the_dollhouse_and_a_click_on_it_flies_to_the_probe_that_
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("b");
-    synthetic_bundle(&bundle);
-    let server = serve(&bundle);
+    let (dir, server) = served(|_| {});
     // Where the viewer frames the ground: probe 0 faces yaw 0 on a 1280 × 720 page.
     let camera = Orbit::framing(Vec3::new(-5.0, 0.0, -5.0), Vec3::new(9.0, 0.0, 9.0), 0.0, 1280.0 / 720.0).camera();
     let pixel = |p: Vec3| camera.project(p, 1280.0, 720.0).unwrap().map(|c| c.round() as u32);
@@ -357,10 +359,7 @@ fn a_click_on_a_panorama_goes_to_the_probe_that_sees_that_point_best_facing_it()
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("b");
-    synthetic_bundle(&bundle);
-    let server = serve(&bundle);
+    let (dir, server) = served(|_| {});
     let lines = browser("panorama_tap", &server.url, dir.path());
     // At probe 0 facing −Z, the click at the centre hits (0, 1.5, −3), which probe 1 sees
     // best: the viewer travels the path there and faces the point, not probe 1's +Z.
@@ -375,14 +374,12 @@ fn the_web_viewer_says_when_the_proxy_is_corrupt_and_the_panoramas_go_on() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("b");
-    synthetic_bundle(&bundle);
-    let coarse = bundle.join("proxy/1.emmc");
-    let mut bytes = std::fs::read(&coarse).unwrap();
-    bytes[12] ^= 0x55;
-    std::fs::write(&coarse, bytes).unwrap();
-    let server = serve(&bundle);
+    let (dir, server) = served(|bundle| {
+        let coarse = bundle.join("proxy/1.emmc");
+        let mut bytes = std::fs::read(&coarse).unwrap();
+        bytes[12] ^= 0x55;
+        std::fs::write(&coarse, bytes).unwrap();
+    });
     let lines = browser("dollhouse_broken", &server.url, dir.path());
     let broken = step(&lines, "broken");
     let message = broken["message"].as_str().unwrap_or_default();

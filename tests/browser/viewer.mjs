@@ -19,6 +19,12 @@ const browser = await chromium.launch({
   args: ['--no-sandbox', '--disable-quic', '--no-first-run', '--disable-background-networking',
          '--disable-component-update', '--disable-sync', ...gpu],
 });
+// The times between the page's next n animation frames.
+const frameTimes = (page, n) => page.evaluate((n) => new Promise((done) => {
+  const times = []; let last = performance.now();
+  const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
+  requestAnimationFrame(step);
+}), n);
 const report = (step, extra) => console.log(JSON.stringify({ step, ...extra }));
 const status = (page) => page.evaluate(() => ({ ...(window.exploremaps || {}), hash: location.hash,
   message: document.getElementById('message')?.className === 'shown' ? document.getElementById('message').textContent : null }));
@@ -131,13 +137,8 @@ try {
     const s = await status(page);
     report('dollhouse', { ...s, loaded_ms });
     if (mode === 'dollhouse_bench') {
-      const frames = (n) => page.evaluate((n) => new Promise((done) => {
-        const times = []; let last = performance.now();
-        const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
-        requestAnimationFrame(step);
-      }), n);
       await page.keyboard.down('ArrowRight');
-      report('orbit', { frames_ms: await frames(60) });
+      report('orbit', { frames_ms: await frameTimes(page, 60) });
       await page.keyboard.up('ArrowRight');
       report('memory', { js_heap_bytes: await page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null) });
     } else {
@@ -180,13 +181,8 @@ try {
     const s = await status(page);
     report('first', { first_panorama_ms: s.first_panorama_ms, page_ms: ms, backend: s.backend, wasm_ready_ms: s.t_wasm_ready, graph_ms: s.t_graph, device_ms: s.t_device, faces_ms: s.t_faces, app_ms: s.t_app });
     const heap = () => page.evaluate(() => performance.memory ? performance.memory.usedJSHeapSize : null);
-    const frames = (n) => page.evaluate((n) => new Promise((done) => {
-      const times = []; let last = performance.now();
-      const step = (t) => { times.push(t - last); last = t; if (times.length < n) requestAnimationFrame(step); else done(times); };
-      requestAnimationFrame(step);
-    }), n);
     await page.keyboard.down('ArrowRight');
-    report('probe', { frames_ms: await frames(60) });
+    report('probe', { frames_ms: await frameTimes(page, 60) });
     await page.keyboard.up('ArrowRight');
     // Frame times along a path, and how many distinct video frames reach the screen a second.
     const travel = async (step) => {
@@ -194,7 +190,7 @@ try {
       await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
       const before = (await status(page)).video_frames || 0;
       const t0 = Date.now();
-      const frames_ms = await frames(30);
+      const frames_ms = await frameTimes(page, 30);
       const shown = ((await status(page)).video_frames || 0) - before;
       report(step, { frames_ms, video_frames_per_s: shown / ((Date.now() - t0) / 1000) });
     };

@@ -140,6 +140,18 @@ type SectionKey = (usize, f32);
 /// Segments (x, z, x, z) of a section, shared with the interface.
 type Segments = std::rc::Rc<[[f32; 4]]>;
 
+/// What pointer input amounts to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Gesture {
+    /// One finger moved by (dx, dy) pixels.
+    Drag(f32, f32),
+    /// Two fingers: their spread's ratio (before / after) and the pan of their midpoint.
+    Pinch { spread: f32, pan: (f32, f32) },
+    Tap(f32, f32),
+    /// The end of a drag or pinch.
+    Release,
+}
+
 /// What fills the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -773,58 +785,80 @@ impl App {
         }
     }
 
-    /// Input while the dollhouse is shown: drags orbit, two fingers pinch
-    /// and pan, taps on a probe or on the proxy fly there.
-    fn dollhouse_input(&mut self, input: Input, platform: &mut dyn Platform) {
-        let k = self.scale;
-        let height = self.height;
-        let Some(orbit) = &mut self.orbit else {
-            if let Input::Key(Key::Dollhouse) = input {
-                self.leave_dollhouse_at_once();
-            }
-            return;
-        };
+    /// Pointer input as a gesture: one finger (or the mouse) drags or taps,
+    /// two pinch (and pan by their midpoint); the release of a drag or pinch.
+    fn gesture(&mut self, input: Input) -> Option<Gesture> {
         match input {
             Input::PointerDown { id, x, y } => {
                 self.pointers.retain(|p| p.0 != id);
                 self.pointers.push((id, x, y));
                 self.press = (self.pointers.len() == 1).then_some((x, y, false));
+                None
             }
             Input::PointerMove { id, x, y } => {
-                let Some(i) = self.pointers.iter().position(|p| p.0 == id) else { return };
+                let i = self.pointers.iter().position(|p| p.0 == id)?;
                 let (_, ox, oy) = self.pointers[i];
-                if self.pointers.len() >= 2 {
+                let gesture = if self.pointers.len() >= 2 {
                     let other = self.pointers[1 - i.min(1)];
                     let before = ((ox - other.1).powi(2) + (oy - other.2).powi(2)).sqrt();
                     let after = ((x - other.1).powi(2) + (y - other.2).powi(2)).sqrt();
-                    if before > 1.0 && after > 1.0 {
-                        orbit.zoom(before / after);
-                    }
-                    // The midpoint moves half as far as this finger.
-                    orbit.pan((x - ox) / 2.0, (y - oy) / 2.0, height);
                     self.press = None;
+                    // The midpoint moves half as far as this finger.
+                    Gesture::Pinch { spread: if before > 1.0 && after > 1.0 { before / after } else { 1.0 }, pan: ((x - ox) / 2.0, (y - oy) / 2.0) }
                 } else {
-                    orbit.turn(-(x - ox) * 4.0 / height, (y - oy) * 2.0 / height);
+                    let slop = TAP_SLOP * self.scale;
                     if let Some((px, py, moved)) = &mut self.press {
-                        *moved |= (x - *px).abs() + (y - *py).abs() > TAP_SLOP * k;
+                        *moved |= (x - *px).abs() + (y - *py).abs() > slop;
                     }
-                }
+                    Gesture::Drag(x - ox, y - oy)
+                };
                 self.pointers[i] = (id, x, y);
+                Some(gesture)
             }
             Input::PointerUp { id, x, y } => {
                 self.pointers.retain(|p| p.0 != id);
-                if let Some((_, _, false)) = self.press.take() {
-                    self.dollhouse_tap(x, y, platform);
-                }
+                Some(if let Some((_, _, false)) = self.press.take() { Gesture::Tap(x, y) } else { Gesture::Release })
             }
-            Input::Wheel(steps) => orbit.zoom(0.9f32.powf(steps)),
+            _ => None,
+        }
+    }
+
+    /// Input while the dollhouse is shown: drags orbit, two fingers pinch
+    /// and pan, taps on a probe or on the proxy fly there.
+    fn dollhouse_input(&mut self, input: Input, platform: &mut dyn Platform) {
+        let height = self.height;
+        if self.orbit.is_none() {
+            if let Input::Key(Key::Dollhouse) = input {
+                self.leave_dollhouse_at_once();
+            }
+            return;
+        }
+        match input {
+            Input::PointerDown { .. } | Input::PointerMove { .. } | Input::PointerUp { .. } => match self.gesture(input) {
+                Some(Gesture::Drag(dx, dy)) => self.orbit.iter_mut().for_each(|o| o.turn(-dx * 4.0 / height, dy * 2.0 / height)),
+                Some(Gesture::Pinch { spread, pan }) => {
+                    if let Some(o) = &mut self.orbit {
+                        o.zoom(spread);
+                        o.pan(pan.0, pan.1, height);
+                    }
+                }
+                Some(Gesture::Tap(x, y)) => self.dollhouse_tap(x, y, platform),
+                Some(Gesture::Release) | None => {}
+            },
+            Input::Wheel(steps) => self.orbit.iter_mut().for_each(|o| o.zoom(0.9f32.powf(steps))),
             Input::Key(key) => match key {
-                Key::Left => orbit.turn(-KEY_TURN, 0.0),
-                Key::Right => orbit.turn(KEY_TURN, 0.0),
-                Key::Up => orbit.turn(0.0, KEY_TURN),
-                Key::Down => orbit.turn(0.0, -KEY_TURN),
-                Key::ZoomIn => orbit.zoom(0.9),
-                Key::ZoomOut => orbit.zoom(1.0 / 0.9),
+                Key::Left | Key::Right | Key::Up | Key::Down | Key::ZoomIn | Key::ZoomOut => {
+                    if let Some(o) = &mut self.orbit {
+                        match key {
+                            Key::Left => o.turn(-KEY_TURN, 0.0),
+                            Key::Right => o.turn(KEY_TURN, 0.0),
+                            Key::Up => o.turn(0.0, KEY_TURN),
+                            Key::Down => o.turn(0.0, -KEY_TURN),
+                            Key::ZoomIn => o.zoom(0.9),
+                            _ => o.zoom(1.0 / 0.9),
+                        }
+                    }
+                }
                 Key::Dollhouse | Key::Go => self.toggle_dollhouse(platform),
                 Key::Floor => self.next_floor(),
                 Key::Map => self.show_map = !self.show_map,
@@ -875,43 +909,19 @@ impl App {
         if self.mode == Mode::Dollhouse {
             return self.dollhouse_input(input, platform);
         }
-        let k = self.scale;
         match input {
-            Input::PointerDown { id, x, y } => {
-                self.pointers.retain(|p| p.0 != id);
-                self.pointers.push((id, x, y));
-                self.press = (self.pointers.len() == 1).then_some((x, y, false));
-            }
-            Input::PointerMove { id, x, y } => {
-                let Some(i) = self.pointers.iter().position(|p| p.0 == id) else { return };
-                let (_, ox, oy) = self.pointers[i];
-                if self.pointers.len() >= 2 {
-                    // Pinch: the field of view follows the change of finger spread.
-                    let other = self.pointers[1 - i.min(1)];
-                    let before = ((ox - other.1).powi(2) + (oy - other.2).powi(2)).sqrt();
-                    let after = ((x - other.1).powi(2) + (y - other.2).powi(2)).sqrt();
-                    if before > 1.0 && after > 1.0 {
-                        self.nav.zoom(before / after);
-                    }
-                    self.press = None;
-                } else {
-                    // Drag: the scene follows the finger.
+            Input::PointerDown { .. } | Input::PointerMove { .. } | Input::PointerUp { .. } => match self.gesture(input) {
+                // Drag: the scene follows the finger.
+                Some(Gesture::Drag(dx, dy)) => {
                     let per_px = self.nav.view.fov_y / self.height;
-                    self.nav.look(-(x - ox) * per_px, (y - oy) * per_px);
-                    if let Some((px, py, moved)) = &mut self.press {
-                        *moved |= (x - *px).abs() + (y - *py).abs() > TAP_SLOP * k;
-                    }
+                    self.nav.look(-dx * per_px, dy * per_px);
                 }
-                self.pointers[i] = (id, x, y);
-            }
-            Input::PointerUp { id, x, y } => {
-                self.pointers.retain(|p| p.0 != id);
-                if let Some((_, _, false)) = self.press.take() {
-                    self.tap(x, y, platform);
-                } else {
-                    platform.link_changed(&self.link());
-                }
-            }
+                // Pinch: the field of view follows the change of finger spread.
+                Some(Gesture::Pinch { spread, .. }) => self.nav.zoom(spread),
+                Some(Gesture::Tap(x, y)) => self.tap(x, y, platform),
+                Some(Gesture::Release) => platform.link_changed(&self.link()),
+                None => {}
+            },
             Input::Wheel(steps) => self.nav.zoom(0.9f32.powf(steps)),
             Input::Key(key) => {
                 match key {
