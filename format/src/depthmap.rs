@@ -14,7 +14,7 @@
 //! Then the CRC-32 (u32 LE) of all before it.
 
 use crate::edgebreaker::CodingError;
-use crate::meshcode::{unzigzag, zigzag, Reader, Sink, Source, Writer};
+use crate::meshcode::{framed, unzigzag, zigzag, Sink, Source, Writer};
 use crate::seen::NONE;
 
 const MAGIC: &[u8; 4] = b"EMDM";
@@ -96,17 +96,8 @@ impl DepthMap {
     /// any inconsistency is an error, never a panic.
     pub fn decode(bytes: &[u8], probes: u32) -> Result<DepthMap, CodingError> {
         let corrupt = |m: String| Err(CodingError::Corrupt(m));
-        if bytes.len() < MAGIC.len() + 5 || &bytes[..4] != MAGIC {
-            return corrupt("not a depth map (no EMDM header)".into());
-        }
-        if bytes[4] != VERSION {
-            return corrupt(format!("depth map version {} (this reader knows {VERSION})", bytes[4]));
-        }
-        let (body, crc) = bytes.split_at(bytes.len() - 4);
-        if crc32fast::hash(body).to_le_bytes() != crc {
-            return corrupt("depth map checksum mismatch (truncated or damaged)".into());
-        }
-        let mut input = Reader { bytes: body, at: 5 };
+        let mut input = framed(bytes, MAGIC, VERSION, "depth map")?;
+        let body_len = input.bytes.len();
         let (size, count) = (input.varint()?, input.varint()?);
         if size == 0 || size > u64::from(MAX_SIZE) || count > u64::from(probes) {
             return corrupt(format!("a {size}-texel face or {count} probes (of {probes})"));
@@ -131,7 +122,7 @@ impl DepthMap {
             }
             map.best.extend(std::iter::repeat_n(if probe == 0 { NONE } else { probe - 1 }, length));
         }
-        if input.at != body.len() {
+        if input.at != body_len {
             return corrupt("bytes after the texels".into());
         }
         Ok(map)

@@ -166,17 +166,8 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 /// Decodes a coded mesh; any inconsistency is an error, never a panic.
 pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
-    if bytes.len() < MAGIC.len() + 5 || &bytes[..4] != MAGIC {
-        return Err(corrupt("not a coded mesh (no EMMC header)"));
-    }
-    if bytes[4] != VERSION {
-        return Err(CodingError::Corrupt(format!("version {} (this reader knows {VERSION})", bytes[4])));
-    }
-    let (body, crc) = bytes.split_at(bytes.len() - 4);
-    if crc32fast::hash(body).to_le_bytes() != crc {
-        return Err(corrupt("checksum mismatch (truncated or damaged)"));
-    }
-    let mut input = Reader { bytes: body, at: 5 };
+    let mut input = framed(bytes, MAGIC, VERSION, "coded mesh")?;
+    let body = input.bytes;
     let mut counts = [0u32; 9];
     for c in counts.iter_mut() {
         *c = u32::try_from(input.varint()?).map_err(|_| corrupt("count over 32 bits"))?;
@@ -469,6 +460,24 @@ impl Sink {
             self.raw(x & !(1 << (n - 1)), n - 1);
         }
     }
+}
+
+/// The body of a file framed as this crate's files are (a 4-byte magic, a
+/// version byte, the body, a CRC-32 of all before it), read past its
+/// version; `what` names the kind of file in errors.
+pub(crate) fn framed<'a>(bytes: &'a [u8], magic: &[u8; 4], version: u8, what: &str) -> Result<Reader<'a>, CodingError> {
+    let corrupt = |m: String| Err(CodingError::Corrupt(m));
+    if bytes.len() < magic.len() + 5 || &bytes[..4] != magic {
+        return corrupt(format!("not a {what} (no {} header)", String::from_utf8_lossy(magic)));
+    }
+    if bytes[4] != version {
+        return corrupt(format!("{what} version {} (this reader knows {version})", bytes[4]));
+    }
+    let (body, crc) = bytes.split_at(bytes.len() - 4);
+    if crc32fast::hash(body).to_le_bytes() != crc {
+        return corrupt(format!("{what} checksum mismatch (truncated or damaged)"));
+    }
+    Ok(Reader { bytes: body, at: 5 })
 }
 
 pub(crate) struct Reader<'a> {

@@ -9,7 +9,7 @@
 //! that precedes.
 
 use crate::edgebreaker::{CodingError, MAX_TRIANGLES};
-use crate::meshcode::{Reader, Writer};
+use crate::meshcode::{framed, Writer};
 
 const MAGIC: &[u8; 4] = b"EMSN";
 const VERSION: u8 = 1;
@@ -44,17 +44,8 @@ pub fn decode(bytes: &[u8], triangles: usize, probes: u32) -> Result<Vec<u32>, C
 /// files), or, given `triangles`, only a table of that length.
 pub fn decode_runs(bytes: &[u8], triangles: Option<usize>) -> Result<Vec<u32>, CodingError> {
     let corrupt = |m: String| Err(CodingError::Corrupt(m));
-    if bytes.len() < MAGIC.len() + 5 || &bytes[..4] != MAGIC {
-        return corrupt("not a point-to-go table (no EMSN header)".into());
-    }
-    if bytes[4] != VERSION {
-        return corrupt(format!("table version {} (this reader knows {VERSION})", bytes[4]));
-    }
-    let (body, crc) = bytes.split_at(bytes.len() - 4);
-    if crc32fast::hash(body).to_le_bytes() != crc {
-        return corrupt("table checksum mismatch (truncated or damaged)".into());
-    }
-    let mut input = Reader { bytes: body, at: 5 };
+    let mut input = framed(bytes, MAGIC, VERSION, "point-to-go table")?;
+    let body = input.bytes;
     let count = input.varint()?;
     if count > u64::from(MAX_TRIANGLES) || triangles.is_some_and(|t| t as u64 != count) {
         return corrupt(format!("table for {count} triangles, but the mesh has {}", triangles.map_or("fewer".into(), |t| t.to_string())));

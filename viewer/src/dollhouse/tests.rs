@@ -128,47 +128,13 @@ pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Op
     render_with(mesh, size, |pass, device, queue, encoder, target| pass.draw(device, queue, encoder, target, size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal()))
 }
 
-type DrawCall<'a> = dyn FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView) + 'a;
-
-/// Clears a `size`² target to black, runs `call` on it and reads it back.
+/// Clears a `size`² target to black, runs `call` on it with a pass holding
+/// `mesh`, and reads it back.
 fn render_with(mesh: &ProxyMesh, size: u32, call: impl FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView)) -> Option<Vec<u8>> {
-    let call: Box<DrawCall<'_>> = Box::new(call);
     let (device, queue) = crate::panorama::tests::gpu()?;
-    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let mut pass = DollhousePass::new(&device, format);
+    let mut pass = DollhousePass::new(&device, wgpu::TextureFormat::Rgba8UnormSrgb);
     pass.upload(&device, &queue, mesh);
-    let target = device.create_texture(&wgpu::TextureDescriptor {
-        label: None,
-        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let readback = device.create_buffer(&wgpu::BufferDescriptor { label: None, size: (size * size * 4) as u64, usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    let view = target.create_view(&Default::default());
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: None,
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: &view, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store } })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    call(&mut pass, &device, &queue, &mut encoder, &view);
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-        wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) } },
-        wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-    );
-    queue.submit([encoder.finish()]);
-    readback.slice(..).map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-    device.poll(wgpu::PollType::wait_indefinitely()).expect("poll");
-    let pixels = readback.slice(..).get_mapped_range().expect("mapped").to_vec();
-    Some(pixels)
+    Some(crate::panorama::tests::render_target(&device, &queue, size, |encoder, target| call(&mut pass, &device, &queue, encoder, target)))
 }
 
 #[test]
