@@ -429,7 +429,9 @@ impl App {
             }
         }
         // Thumbnails and neighbours once the first panorama is in, so they do not delay it.
-        if !self.thumbs_requested && self.panorama_ready() {
+        // (In the dollhouse, once its proxy is whole: it shows the probe bar too.)
+        let proxy_whole = self.mode == Mode::Dollhouse && self.proxy.as_ref().is_some_and(|m| m.level == 0);
+        if !self.thumbs_requested && (self.panorama_ready() || proxy_whole) {
             self.thumbs_requested = true;
             for p in &self.nav.graph().probes {
                 if let Some(t) = &p.assets.thumbnail {
