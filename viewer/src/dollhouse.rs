@@ -248,9 +248,21 @@ pub struct Floors {
 }
 
 impl Floors {
+    /// The builder's storeys; for bundles written before it listed them,
+    /// where probes stand on floors, the floors under the probes (within
+    /// half an eye height of each other counted as one).
     pub fn of(graph: &Graph) -> Floors {
-        let heights = graph.proxy.as_ref().map(|p| p.floors.clone()).unwrap_or_default();
         let eye = graph.scene.eye_height_m.map_or(0.0, |e| e / graph.scene.metres_per_unit.max(1e-6));
+        let mut heights = graph.proxy.as_ref().map(|p| p.floors.clone()).unwrap_or_default();
+        if heights.is_empty() && eye > 0.0 {
+            let mut under: Vec<f32> = graph.probes.iter().map(|p| p.position[1] - eye).collect();
+            under.sort_by(f32::total_cmp);
+            for h in under {
+                if heights.last().is_none_or(|&last| h - last > 0.5 * eye) {
+                    heights.push(h);
+                }
+            }
+        }
         Floors { heights, eye }
     }
 

@@ -110,6 +110,20 @@ fn a_probe_the_proxy_hides_the_point_from_is_not_chosen() {
 }
 
 #[test]
+fn without_listed_storeys_the_floors_under_standing_probes_stand_in() {
+    let mut g = graph();
+    // Probes at y = 0 (the test graph) and one a storey up, eye height 1.6: floors at −1.6 and 1.4.
+    g.probes[4].position[1] = 3.0;
+    g.scene.eye_height_m = Some(1.6);
+    let floors = Floors::of(&g);
+    assert_eq!(floors.heights.len(), 2);
+    assert!((floors.heights[0] + 1.6).abs() < 1e-5 && (floors.heights[1] - 1.4).abs() < 1e-5, "{:?}", floors.heights);
+    // Flying probes give no storeys.
+    g.scene.eye_height_m = None;
+    assert!(Floors::of(&g).heights.is_empty());
+}
+
+#[test]
 fn floors_cut_above_head_height_and_below_the_next_storey() {
     let floors = Floors { heights: vec![0.0, 3.0, 10.0], eye: 1.6 };
     assert_eq!(floors.cut(None), f32::INFINITY);
