@@ -131,6 +131,8 @@ const KEY_TURN: f32 = 0.08;
 /// Seconds of a flight between the dollhouse and a probe, and of the
 /// panorama's fade over the proxy at either end of it.
 const FLIGHT_S: f32 = 1.0;
+/// Probes whose markers are tested against the proxy each frame.
+const MARKER_TESTS: usize = 8;
 /// Seconds of a flight over the dollhouse between probes no path joins.
 const OVER_S: f32 = 1.8;
 const FADE_S: f32 = 0.35;
@@ -250,6 +252,10 @@ pub struct App {
     floor: Option<usize>,
     /// The floor plan's wall outlines, for (proxy level, section height).
     sections: Option<(SectionKey, Segments)>,
+    /// Per probe, whether the proxy hides it from the dollhouse camera; the
+    /// next probe to test.
+    hidden: Vec<bool>,
+    marker_cursor: usize,
     /// Point-to-go depth maps of probes, and those asked for.
     depth_maps: HashMap<u32, DepthMap>,
     depth_requested: HashSet<u32>,
@@ -316,6 +322,8 @@ impl App {
             floors,
             floor: None,
             sections: None,
+            hidden: Vec::new(),
+            marker_cursor: 0,
             depth_maps: HashMap::new(),
             depth_requested: HashSet::new(),
         };
@@ -989,11 +997,32 @@ impl App {
         };
     }
 
+    /// Which probes the proxy hides from the dollhouse camera, a few a frame
+    /// in turn ([`MARKER_TESTS`]), so a frame's cost does not grow with the
+    /// probes; while the camera moves the answers lag by a few frames.
+    fn update_hidden(&mut self, camera: &Camera, cut: f32) {
+        let Some(mesh) = &self.proxy else { return };
+        let probes = &self.nav.graph().probes;
+        self.hidden.resize(probes.len(), false);
+        let slack = 1e-3 * mesh.diagonal();
+        for _ in 0..MARKER_TESTS.min(probes.len()) {
+            let i = self.marker_cursor % probes.len();
+            self.marker_cursor = i + 1;
+            let d = Vec3::from(probes[i].position) - camera.eye;
+            let dist = d.length();
+            self.hidden[i] = dist > slack && mesh.pick(camera.eye, d / dist, cut).is_some_and(|(_, t)| t < dist - slack);
+        }
+    }
+
     /// The interface shapes for the current frame (also kept for taps).
     fn shapes(&mut self, camera: Option<&Camera>) -> Vec<Shape> {
         let cut = self.cut();
         // Over the dollhouse and during flights (markers only when still).
-        let dollhouse = camera.filter(|_| self.mode == Mode::Dollhouse || self.flight.is_some()).map(|c| DollhouseScreen {
+        let dollhouse_shown = self.mode == Mode::Dollhouse || self.flight.is_some();
+        if let (Some(c), true, None) = (camera, dollhouse_shown, self.flight) {
+            self.update_hidden(c, cut);
+        }
+        let dollhouse = camera.filter(|_| dollhouse_shown).map(|c| DollhouseScreen {
             markers: match self.flight {
                 Some(_) => Vec::new(),
                 None => self
@@ -1002,7 +1031,7 @@ impl App {
                     .probes
                     .iter()
                     .filter(|p| p.position[1] - 0.5 * self.floors.eye <= cut)
-                    .filter_map(|p| Some((p.id, c.project(Vec3::from(p.position), self.width, self.height)?)))
+                    .filter_map(|p| Some((p.id, c.project(Vec3::from(p.position), self.width, self.height)?, self.hidden.get(p.id as usize).copied().unwrap_or(false))))
                     .collect(),
             },
             floors: self.floors.heights.len(),

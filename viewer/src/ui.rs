@@ -155,8 +155,8 @@ pub fn map_frame(graph: &Graph, s: &Screen) -> Option<MapFrame> {
 /// What the interface shows over the dollhouse.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DollhouseScreen {
-    /// Probes in view: id and pixel.
-    pub markers: Vec<(u32, [f32; 2])>,
+    /// Probes in view: id, pixel, and whether the proxy hides it.
+    pub markers: Vec<(u32, [f32; 2], bool)>,
     /// Storeys, and the one shown (None: the whole scene, uncut).
     pub floors: usize,
     pub floor: Option<usize>,
@@ -190,10 +190,12 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     }
 
     // Probes over the dollhouse.
-    for &(p, [x, y]) in s.dollhouse.iter().flat_map(|d| &d.markers) {
-        let r = 9.0 * k;
-        out.shapes.push(Shape::disc(x, y, r + 2.0 * k, [0.0, 0.0, 0.0, 0.6]));
-        out.shapes.push(Shape::disc(x, y, r, if p == current { HIGHLIGHT } else { WHITE }));
+    for &(p, [x, y], hidden) in s.dollhouse.iter().flat_map(|d| &d.markers) {
+        // A probe behind a wall: smaller and faint, still tappable.
+        let (r, alpha) = if hidden { (6.0 * k, 0.45) } else { (9.0 * k, 1.0) };
+        let [cr, cg, cb, ca] = if p == current { HIGHLIGHT } else { WHITE };
+        out.shapes.push(Shape::disc(x, y, r + 2.0 * k, [0.0, 0.0, 0.0, 0.6 * alpha]));
+        out.shapes.push(Shape::disc(x, y, r, [cr, cg, cb, ca * alpha]));
         let hr = 16.0 * k;
         out.hits.push(Hit { x: x - hr, y: y - hr, w: 2.0 * hr, h: 2.0 * hr, round: true, action: Action::GoTo(p) });
     }

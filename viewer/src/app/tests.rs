@@ -460,3 +460,27 @@ fn a_tap_on_the_floor_plan_goes_where_that_point_is_seen_best() {
     let wanted = (Vec3::new(1.0, 0.0, -2.0) - Vec3::new(2.0, 0.0, 4.0)).normalize();
     assert!(facing.dot(wanted) > 0.9999, "facing the point: {facing} vs {wanted}");
 }
+
+#[test]
+fn markers_the_proxy_hides_are_told_apart() {
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 360) else { return };
+    app.resize(640, 360, 1.0);
+    for _ in 0..3 {
+        app.update(0.016, &mut script);
+    }
+    app.input(Input::Key(Key::Dollhouse), &mut script);
+    settle(&mut app, &mut script);
+    // Showing the upper storey, looking straight down: its floor (y = 3, x and z in ±5)
+    // hides the probes under it; probe 4 at (9, 0, 9) is beside it.
+    app.orbit.as_mut().unwrap().pitch = -1.55;
+    app.input(Input::Key(Key::Floor), &mut script);
+    render_frame(&mut app, &mut script);
+    assert_eq!(app.hidden, vec![true, true, true, true, false]);
+    // The ground storey alone: nothing hides them.
+    app.input(Input::Key(Key::Floor), &mut script);
+    app.input(Input::Key(Key::Floor), &mut script);
+    assert_eq!(app.floor, Some(0));
+    render_frame(&mut app, &mut script);
+    assert_eq!(app.hidden, vec![false; 5]);
+}
