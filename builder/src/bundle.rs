@@ -244,10 +244,12 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
     // the near distance to twice the scene's size.
     let diagonal = scene.bounds().diagonal();
     let near = graph.scene.near_distance.unwrap_or(1e-3 * diagonal).max(1e-4 * diagonal);
+    let mut depth_bytes = 0;
     for (id, &eye) in probes.iter().enumerate() {
-        let map = crate::proxy::seen::depth_map(renderer.tracer.rays, eye, &probes, DEPTH_MAP_SIZE, near, 2.0 * diagonal, 1e-4 * diagonal);
+        let map = crate::proxy::seen::depth_map(renderer.tracer.rays, eye, &probes, DEPTH_MAP_SIZE, near, 2.0 * diagonal, 1e-4 * diagonal).encode();
         let file = format!("proxy/depth/{id}.emdm");
-        write(dir, &file, &map.encode())?;
+        write(dir, &file, &map)?;
+        depth_bytes += map.len();
         proxy.depth_maps.push(file);
     }
     for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
@@ -279,8 +281,7 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
-    let depth_bytes: u64 = proxy.depth_maps.iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum();
-    tracing::info!("proxy: {}; depth maps {} bytes a probe ({:.2} s)", sizes.join(", "), depth_bytes / probes.len().max(1) as u64, started.elapsed().as_secs_f64());
+    tracing::info!("proxy: {}; depth maps {} bytes a probe ({:.2} s)", sizes.join(", "), depth_bytes / probes.len().max(1), started.elapsed().as_secs_f64());
     write(dir, PROXY_LIST, serde_json::to_string_pretty(&proxy).expect("JSON of plain values").as_bytes())
 }
 

@@ -120,6 +120,11 @@ pub struct ProxyChunk {
 }
 
 impl ProxyLevel {
+    /// How many parts the level comes in.
+    pub fn part_count(&self) -> usize {
+        self.chunks.len().max(1)
+    }
+
     /// The level's parts: its chunks, or the level whole.
     pub fn parts(&self) -> Vec<ProxyChunk> {
         if self.chunks.is_empty() {

@@ -4,7 +4,7 @@
 //! memory budget for textures) and draws a frame. Platforms (`native`,
 //! `web`) own the window, files and decoding.
 
-use crate::dollhouse::{camera_at, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
+use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
 use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
@@ -256,6 +256,9 @@ pub struct App {
     /// next probe to test.
     hidden: Vec<bool>,
     marker_cursor: usize,
+    /// What `hidden` was last tested for, and how many tests since.
+    hidden_key: Option<(Camera, f32, usize)>,
+    hidden_tested: usize,
     /// Point-to-go depth maps of probes, and those asked for.
     depth_maps: HashMap<u32, DepthMap>,
     depth_requested: HashSet<u32>,
@@ -324,6 +327,8 @@ impl App {
             sections: None,
             hidden: Vec::new(),
             marker_cursor: 0,
+            hidden_key: None,
+            hidden_tested: 0,
             depth_maps: HashMap::new(),
             depth_requested: HashSet::new(),
         };
@@ -483,30 +488,18 @@ impl App {
     /// Takes in a decoded part of a proxy level; once the level's parts are
     /// all in, it replaces a coarser level in the dollhouse.
     fn proxy_part(&mut self, level: usize, part: usize, mesh: MeshData, seen: Vec<u32>) {
-        let Some(parts) = self.nav.graph().proxy.as_ref().and_then(|p| p.levels.get(level)).map(|l| l.parts().len()) else { return };
+        let Some(parts) = self.nav.graph().proxy.as_ref().and_then(|p| p.levels.get(level)).map(|l| l.part_count()) else { return };
         if self.proxy.as_ref().is_some_and(|m| m.level <= level) {
             return;
         }
         self.proxy_parts.push((level, part, mesh, seen));
-        let mut mine: Vec<_> = self.proxy_parts.iter().filter(|p| p.0 == level).map(|p| p.1).collect();
-        mine.sort_unstable();
-        mine.dedup();
-        if mine.len() < parts {
+        if self.proxy_parts.iter().filter(|p| p.0 == level).count() < parts {
             return;
         }
         let (mut all, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut self.proxy_parts).into_iter().partition(|p| p.0 == level);
         self.proxy_parts = rest;
         all.sort_by_key(|p| p.1);
-        let (mut data, mut table) = (MeshData::default(), Vec::new());
-        for (_, _, m, s) in all {
-            let base = data.positions.len() as u32;
-            let colours = if m.colours.len() == m.positions.len() { m.colours } else { vec![[170; 3]; m.positions.len()] };
-            data.positions.extend(m.positions);
-            data.colours.extend(colours);
-            table.extend(if s.len() == m.triangles.len() { s } else { vec![NONE; m.triangles.len()] });
-            data.triangles.extend(m.triangles.iter().map(|t| t.map(|v| v + base)));
-        }
-        let mesh = ProxyMesh::new(level, data, table);
+        let mesh = ProxyMesh::from_parts(level, all.into_iter().map(|(_, _, m, s)| (m, s)).collect());
         self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
         if self.orbit.is_none() {
             self.orbit = Some(self.framing(&mesh));
@@ -641,7 +634,7 @@ impl App {
             return;
         }
         let target = Vec3::from(p.position);
-        let facing = point.map(|q| camera_at(target, q, self.nav.view.fov_y).1);
+        let facing = point.map(|q| facing(target, q));
         let joined = self.nav.path_bar().iter().any(|c| c.to == probe);
         if joined || self.proxy.is_none() {
             let _ = match facing {
@@ -742,7 +735,7 @@ impl App {
         let Some(p) = self.nav.graph().probes.get(probe as usize) else { return };
         let eye = Vec3::from(p.position);
         let (yaw, pitch) = match (toward, p.preferred_directions.first()) {
-            (Some(t), _) => camera_at(eye, t, self.nav.view.fov_y).1,
+            (Some(t), _) => facing(eye, t),
             (None, Some(d)) if probe != self.nav.probe() => (d.yaw, d.pitch),
             _ => (self.nav.view.yaw, self.nav.view.pitch),
         };
@@ -1003,6 +996,15 @@ impl App {
     fn update_hidden(&mut self, camera: &Camera, cut: f32) {
         let Some(mesh) = &self.proxy else { return };
         let probes = &self.nav.graph().probes;
+        // Nothing to redo while the camera, the cut and the mesh stay as they were.
+        let key = (*camera, cut, mesh.level);
+        if self.hidden_key != Some(key) {
+            (self.hidden_key, self.hidden_tested) = (Some(key), 0);
+        }
+        if self.hidden_tested >= probes.len() {
+            return;
+        }
+        self.hidden_tested += MARKER_TESTS;
         self.hidden.resize(probes.len(), false);
         let slack = 1e-3 * mesh.diagonal();
         for _ in 0..MARKER_TESTS.min(probes.len()) {

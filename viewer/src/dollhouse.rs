@@ -21,11 +21,26 @@ pub struct ProxyMesh {
 
 impl ProxyMesh {
     pub fn new(level: usize, data: MeshData, seen: Vec<u32>) -> ProxyMesh {
-        let positions: Vec<Vec3> = data.positions.iter().map(|&p| Vec3::from(p)).collect();
-        let (lo, hi) = positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-        let (lo, hi) = if positions.is_empty() { (Vec3::ZERO, Vec3::ZERO) } else { (lo, hi) };
-        let colours = if data.colours.len() == positions.len() { data.colours } else { vec![[170; 3]; positions.len()] };
-        ProxyMesh { level, positions, triangles: data.triangles, colours, seen, lo, hi }
+        ProxyMesh::from_parts(level, vec![(data, seen)])
+    }
+
+    /// A level from its decoded parts (chunks), in order: their vertices and
+    /// triangles one after the other. A part without colours is grey; one
+    /// without a table has no probe for its triangles.
+    pub fn from_parts(level: usize, parts: Vec<(MeshData, Vec<u32>)>) -> ProxyMesh {
+        let mut mesh = ProxyMesh { level, positions: Vec::new(), triangles: Vec::new(), colours: Vec::new(), seen: Vec::new(), lo: Vec3::ZERO, hi: Vec3::ZERO };
+        for (data, seen) in parts {
+            let base = mesh.positions.len() as u32;
+            let n = data.positions.len();
+            mesh.positions.extend(data.positions.iter().map(|&p| Vec3::from(p)));
+            mesh.colours.extend(if data.colours.len() == n { data.colours } else { vec![[170; 3]; n] });
+            mesh.seen.extend(if seen.len() == data.triangles.len() { seen } else { vec![NONE; data.triangles.len()] });
+            mesh.triangles.extend(data.triangles.iter().map(|t| t.map(|v| v + base)));
+        }
+        if !mesh.positions.is_empty() {
+            (mesh.lo, mesh.hi) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        }
+        mesh
     }
 
     pub fn diagonal(&self) -> f32 {
@@ -232,11 +247,9 @@ impl Orbit {
     }
 }
 
-/// The camera at a probe looking at a point, as the panorama will show it.
-pub fn camera_at(eye: Vec3, toward: Vec3, fov_y: f32) -> (Camera, (f32, f32)) {
-    let forward = (toward - eye).try_normalize().unwrap_or(Vec3::NEG_Z);
-    let (yaw, pitch) = yaw_pitch(forward.to_array());
-    (Camera { eye, forward, fov_y }, (yaw, pitch))
+/// The view direction (yaw, pitch) from `eye` toward a point.
+pub fn facing(eye: Vec3, toward: Vec3) -> (f32, f32) {
+    yaw_pitch((toward - eye).try_normalize().unwrap_or(Vec3::NEG_Z).to_array())
 }
 
 /// The storeys' floors, and the heights the dollhouse cuts at.

@@ -82,22 +82,8 @@ impl Simplified {
 
     /// The simplified mesh compacted: used vertices only, surviving triangles.
     pub fn compact(&self) -> Mesh {
-        let mut remap = vec![u32::MAX; self.mesh.positions.len()];
-        let mut out = Mesh::default();
-        for (t, tri) in self.mesh.triangles.iter().enumerate() {
-            if !self.alive[t] {
-                continue;
-            }
-            out.triangles.push(tri.map(|v| {
-                if remap[v as usize] == u32::MAX {
-                    remap[v as usize] = out.positions.len() as u32;
-                    out.positions.push(self.mesh.positions[v as usize]);
-                }
-                remap[v as usize]
-            }));
-            out.groups.push(self.mesh.groups[t]);
-        }
-        out
+        let alive: Vec<usize> = (0..self.mesh.triangles.len()).filter(|&t| self.alive[t]).collect();
+        self.mesh.subset(&alive).0
     }
 }
 

@@ -214,3 +214,21 @@ fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
     let i = 4 * (32 * 64 + 16);
     assert!(px[i..i + 3].iter().all(|&c| c < 60), "{:?}", &px[i..i + 3]);
 }
+
+#[test]
+fn a_level_in_parts_is_their_meshes_one_after_the_other() {
+    let whole = two_storeys_data();
+    let (mut a, mut b) = (MeshData::default(), MeshData::default());
+    a.positions = whole.positions[..4].to_vec();
+    a.colours = whole.colours[..4].to_vec();
+    a.triangles = whole.triangles[..2].to_vec();
+    b.positions = whole.positions[4..].to_vec();
+    b.triangles = whole.triangles[2..].iter().map(|t| t.map(|v| v - 4)).collect();
+    // Part b has neither colours nor a table.
+    let mesh = ProxyMesh::from_parts(0, vec![(a, vec![3, 3]), (b, vec![])]);
+    assert_eq!(mesh.triangles, whole.triangles, "the second part's corners offset past the first's vertices");
+    assert_eq!(mesh.seen, vec![3, 3, NONE, NONE]);
+    assert_eq!(&mesh.colours[..4], &whole.colours[..4]);
+    assert_eq!(&mesh.colours[4..], &[[170; 3]; 4], "grey where a part has no colours");
+    assert_eq!((mesh.lo, mesh.hi), (Vec3::new(-5.0, 0.0, -5.0), Vec3::new(5.0, 3.0, 5.0)));
+}
