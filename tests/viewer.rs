@@ -128,7 +128,7 @@ pub fn synthetic_bundle(dir: &Path) {
         write(&file, &map.encode());
         depth_maps.push(file);
     }
-    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps });
+    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps, stream: None });
     graph.validate().unwrap();
     write("graph.json", graph.to_json().as_bytes());
 }

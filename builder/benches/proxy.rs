@@ -21,12 +21,20 @@
 //!    Edgebreaker, 14-bit positions, other settings default); decoding speed
 //!    natively and in Node's WebAssembly (ours: the format crate's
 //!    `wasm_decode` example, built by this bench; Draco: its npm module).
+//! 3. The progressive stream as the bundle sends it (the scene simplified
+//!    to 25 000 triangles, a 2 500-triangle base coded whole, then vertex
+//!    splits in packets of 3 000 triangles, geometry only): bytes received
+//!    against the error of the mesh the viewer then shows (as in 1, against
+//!    the welded scene), the splits' bytes a triangle they bring back, the
+//!    whole 25 000-triangle level coded at once for comparison, and how fast
+//!    packets apply natively.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
 use exploremaps_builder::proxy::weld::weld_scene;
 use exploremaps_builder::proxy::Mesh;
-use exploremaps_format::meshcode;
+use exploremaps_builder::proxy::progressive::Progressive;
+use exploremaps_format::{meshcode, splits};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
 use parry3d::math::{Isometry, Point};
@@ -50,6 +58,7 @@ fn main() {
         }
     }
     let mut coding = Vec::new();
+    let mut streams = Vec::new();
     println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way)");
     println!("{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8}", "scene", "ratio", "input", "reached", "seconds", "Hausdorff", "RMS", "flip", "reached", "seconds", "Hausdorff", "RMS");
     for (name, scene) in &scenes {
@@ -62,6 +71,7 @@ fn main() {
         let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
         let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
         coding.push((format!("{name} 100%"), mesh.clone()));
+        streams.push((name.clone(), mesh.clone(), diagonal));
         for ratio in [0.5, 0.1, 0.02, 0.01] {
             let target = (mesh.triangles.len() as f64 * ratio) as usize;
             let t = Instant::now();
@@ -132,6 +142,58 @@ fn main() {
             theirs,
             theirs as f64 / n,
             draco_bytes as f64 / n
+        );
+    }
+
+    println!("\n== progressive stream: base 2 500 + vertex splits to 25 000 (14-bit, geometry only; error as in 1, in % of the diagonal)");
+    println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
+    for (name, mesh, diagonal) in &streams {
+        let detail = if mesh.triangles.len() > 25_000 { simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact() } else { mesh.clone() };
+        if detail.triangles.len() <= 5_000 {
+            println!("{name:<16} skipped: {} triangles, no stream", detail.triangles.len());
+            continue;
+        }
+        let s = simplify(&detail, &SimplifyParams { target_triangles: 2_500, max_error: f32::INFINITY });
+        let mut pm = Progressive::new(&detail, &s);
+        let base = meshcode::encode(&pm.base.to_coded(), 14).expect("codes");
+        let decoded = meshcode::decode(&base.bytes).expect("decodes");
+        pm.renumber_base(&base.order.vertices, &base.order.triangles);
+        let packets = splits::encode(&decoded, &pm.refinements, 14, 3_000).expect("codes");
+        let input_tree = tree(&mesh.positions, &mesh.triangles);
+        let input_samples = sample(&mesh.positions, &mesh.triangles);
+        let pct = |x: f32| 100.0 * x / diagonal;
+        let mut refiner = splits::Refiner::new(decoded.clone()).expect("a valid base");
+        let mut bytes = base.bytes.len();
+        for k in 0..=packets.len() {
+            if k > 0 {
+                refiner.apply_packet(&packets[k - 1].bytes).expect("applies");
+                bytes += packets[k - 1].bytes.len();
+            }
+            let positions: Vec<Vec3> = refiner.mesh.positions.iter().map(|&p| Vec3::from(p)).collect();
+            let (h, r) = distances(&input_tree, &input_samples, &positions, &refiner.mesh.triangles);
+            let label = if k == 0 { "base".to_string() } else { k.to_string() };
+            println!("{name:<16} {label:>7} {:>9} {bytes:>10} {:>9.4} {:>8.4}", refiner.mesh.triangles.len(), pct(h), pct(r));
+        }
+        let split_bytes: usize = packets.iter().map(|p| p.bytes.len()).sum();
+        let added = detail.triangles.len() - decoded.triangles.len();
+        let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
+        let t = Instant::now();
+        let mut runs = 0;
+        while runs < 3 || t.elapsed().as_secs_f64() < 0.5 {
+            let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
+            for p in &packets {
+                r.apply_packet(&p.bytes).expect("applies");
+            }
+            std::hint::black_box(r);
+            runs += 1;
+        }
+        let rate = added as f64 * runs as f64 / t.elapsed().as_secs_f64() / 1e6;
+        println!(
+            "{name:<16} splits {split_bytes} B for {added} triangles ({:.2} B/tri, {} packets); base + splits {} B vs the level whole {whole} B ({:.2}x); apply {rate:.1} M tri/s",
+            split_bytes as f64 / added as f64,
+            packets.len(),
+            base.bytes.len() + split_bytes,
+            (base.bytes.len() + split_bytes) as f64 / whole as f64
         );
     }
 }

@@ -203,6 +203,10 @@ fn path_files(id: usize) -> (String, String) {
 const PROXY_GLB: &str = "proxy/proxy.glb";
 /// The most triangles of a proxy chunk: about 2 ms of decoding in a browser.
 const CHUNK_TRIANGLES: usize = 7_000;
+/// Triangles a packet of vertex splits brings back: applying one takes a
+/// few milliseconds in a phone's browser (splits cost more a triangle to
+/// decode than a level sent whole).
+const PACKET_TRIANGLES: usize = 3_000;
 /// Texels a face of a probe's point-to-go depth cube.
 const DEPTH_MAP_SIZE: u32 = 32;
 /// The proxy's entry for graph.json, written after its files: shards and
@@ -219,7 +223,8 @@ fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
 
 fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
     let chunks = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
-    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks)
+    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file).chain(&s.seen));
+    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks).chain(stream)
 }
 
 /// Storey floor heights the free-space stage found (its `walk.levels`), for
@@ -236,9 +241,9 @@ fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
 /// `proxy/<level>.seen`, the finest also as a GLB, then listed in
 /// `proxy/proxy.json`.
 fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
-    use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel};
+    use exploremaps_format::{meshcode, seen, splits, Proxy, ProxyChunk, ProxyLevel, ProxyPacket, ProxyStream};
     let started = std::time::Instant::now();
-    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new() };
+    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new(), stream: None };
     let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
     // Point-to-go from panoramas: a 32² depth cube a probe (a few KB), from
     // the near distance to twice the scene's size.
@@ -252,12 +257,15 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         depth_bytes += map.len();
         proxy.depth_maps.push(file);
     }
-    for (i, level) in crate::proxy::levels(scene, params).iter().enumerate() {
+    // The finer level's colours and table, for the stream that rebuilds it.
+    let mut finer: Option<(Vec<[u8; 3]>, Vec<u32>)> = None;
+    for (i, level) in crate::proxy::levels(scene, params).into_iter().enumerate() {
         let colours = crate::proxy::bake::bake(renderer, &level.mesh, level.error, params.bake_samples, i as u64);
         let best = crate::proxy::seen::best_probes(renderer.tracer.rays, &level.mesh, &probes, level.error);
         // A large level in spatial chunks (a viewer decodes one between two frames).
         let parts = crate::proxy::chunks(&level.mesh, CHUNK_TRIANGLES);
         let mut chunks = Vec::new();
+        let mut coded_last = None;
         for (c, triangles) in parts.iter().enumerate() {
             let name = if parts.len() == 1 { format!("proxy/{i}") } else { format!("proxy/{i}-{c}") };
             let (mesh, was) = level.mesh.subset(triangles);
@@ -269,6 +277,9 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
             let seen_file = format!("{name}.seen");
             write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[triangles[t as usize]]).collect::<Vec<u32>>()))?;
             chunks.push(ProxyChunk { file, seen: Some(seen_file), triangles: triangles.len() as u64, bytes: coded.bytes.len() as u64 });
+            // Decoded vertex and triangle k are the level's `vertices[k]` and `triangles[k]`.
+            let vertices = coded.order.vertices.iter().map(|&v| was[v as usize]).collect::<Vec<u32>>();
+            coded_last = Some((coded.bytes, vertices, coded.order.triangles.iter().map(|&t| triangles[t as usize] as u32).collect::<Vec<u32>>()));
         }
         if i == 0 {
             write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
@@ -278,6 +289,25 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         let (file, seen) = (chunks[0].file.clone(), chunks[0].seen.clone());
         let bytes = chunks.iter().map(|c| c.bytes).sum();
         let chunks = if chunks.len() > 1 { chunks } else { Vec::new() };
+        // A level coded whole that refines into the one before it: its
+        // vertex splits, numbered as the level decodes.
+        if let (Some(mut stream), Some((colours, best)), Some((bytes, vertices, triangles)), true) = (level.refines, finer.take(), coded_last, chunks.is_empty()) {
+            let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), message: e.to_string() };
+            let base = meshcode::decode(&bytes).map_err(|e| fail(&file, e))?;
+            stream.renumber_base(&vertices, &triangles);
+            stream.colour(&colours);
+            let packets = splits::encode(&base, &stream.refinements, params.bits, PACKET_TRIANGLES).map_err(|e| fail("proxy/splits-0.emvs", e))?;
+            let mut listed = Vec::new();
+            for (k, packet) in packets.iter().enumerate() {
+                let file = format!("proxy/splits-{k}.emvs");
+                write(dir, &file, &packet.bytes)?;
+                listed.push(ProxyPacket { file, triangles: packet.triangles, bytes: packet.bytes.len() as u64 });
+            }
+            let seen_file = "proxy/splits.seen".to_string();
+            write(dir, &seen_file, &seen::encode(&stream.triangle_order.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>()))?;
+            proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets: listed, seen: Some(seen_file) });
+        }
+        finer = Some((colours, best));
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
@@ -537,6 +567,8 @@ fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
         "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
         "seen" => exploremaps_format::seen::decode_runs(&bytes, None).map(drop).map_err(|e| bad(&e)),
         "emdm" => exploremaps_format::depthmap::DepthMap::decode(&bytes, u32::MAX).map(drop).map_err(|e| bad(&e)),
+        // A packet applies to the mesh before it; alone, its frame is checked.
+        "emvs" => exploremaps_format::splits::check(&bytes).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
             Ok(parsed) => parsed.map(drop).map_err(|e| bad(&e)),
             Err(_) => Err(bad(&"a panic in gltf")),

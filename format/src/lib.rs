@@ -13,6 +13,7 @@ pub mod depthmap;
 pub mod edgebreaker;
 pub mod meshcode;
 pub mod seen;
+pub mod splits;
 #[cfg(feature = "video")]
 pub mod video;
 
@@ -88,6 +89,31 @@ pub struct Proxy {
     /// in bundles written before they existed.
     #[serde(default)]
     pub depth_maps: Vec<String>,
+    /// The vertex splits that refine the coarsest level into the finest, in
+    /// packets; absent in bundles written before them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stream: Option<ProxyStream>,
+}
+
+/// A progressive proxy: packets of vertex splits ([`splits`]) that, applied
+/// in order to level `from` as decoded, rebuild level `to` triangle for
+/// triangle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProxyStream {
+    pub from: usize,
+    pub to: usize,
+    pub packets: Vec<ProxyPacket>,
+    /// Point-to-go table ([`seen`]) of the rebuilt level, in the stream's
+    /// triangle order (the base's decoded triangles, then each split's).
+    pub seen: Option<String>,
+}
+
+/// A packet of vertex splits, and the mesh's size once it is applied.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProxyPacket {
+    pub file: String,
+    pub triangles: u64,
+    pub bytes: u64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

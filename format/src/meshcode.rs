@@ -330,22 +330,23 @@ fn predict(predictors: &[u32; 3], kept: &[u32], copy_of: &[u32], values: &[[u32;
     }
 }
 
-struct Grid {
+/// A quantization grid: `2^bits` steps per axis of a box.
+pub(crate) struct Grid {
     lo: [f32; 3],
     step: [f32; 3],
-    max: u32,
+    pub(crate) max: u32,
 }
 
 impl Grid {
-    fn new(lo: [f32; 3], hi: [f32; 3], bits: u32) -> Grid {
+    pub(crate) fn new(lo: [f32; 3], hi: [f32; 3], bits: u32) -> Grid {
         let max = (1u32 << bits) - 1;
         let step = std::array::from_fn(|i| if hi[i] > lo[i] { (hi[i] - lo[i]) / max as f32 } else { 0.0 });
         Grid { lo, step, max }
     }
-    fn quantize(&self, p: [f32; 3]) -> [u32; 3] {
+    pub(crate) fn quantize(&self, p: [f32; 3]) -> [u32; 3] {
         std::array::from_fn(|i| if self.step[i] > 0.0 { ((p[i] - self.lo[i]) / self.step[i]).round().clamp(0.0, self.max as f32) as u32 } else { 0 })
     }
-    fn dequantize(&self, q: [u32; 3]) -> [f32; 3] {
+    pub(crate) fn dequantize(&self, q: [u32; 3]) -> [f32; 3] {
         std::array::from_fn(|i| self.lo[i] + q[i] as f32 * self.step[i])
     }
 }
@@ -358,7 +359,7 @@ pub(crate) fn unzigzag(x: u32) -> i64 {
     (x >> 1) as i64 ^ -((x & 1) as i64)
 }
 
-fn bit_length(x: u32) -> u32 {
+pub(crate) fn bit_length(x: u32) -> u32 {
     32 - x.leading_zeros()
 }
 
@@ -435,7 +436,7 @@ impl Sink {
     pub(crate) fn new(models: usize) -> Sink {
         Sink { counts: vec![Vec::new(); models], symbols: Vec::new(), raw: Vec::new(), raw_bits: 0 }
     }
-    fn symbol(&mut self, model: usize, symbol: usize) {
+    pub(crate) fn symbol(&mut self, model: usize, symbol: usize) {
         let counts = &mut self.counts[model];
         if counts.len() <= symbol {
             counts.resize(symbol + 1, 0);
@@ -443,7 +444,7 @@ impl Sink {
         counts[symbol] += 1;
         self.symbols.push((model as u8, symbol as u8));
     }
-    fn raw(&mut self, value: u32, bits: u32) {
+    pub(crate) fn raw(&mut self, value: u32, bits: u32) {
         for i in 0..bits {
             if self.raw_bits.is_multiple_of(8) {
                 self.raw.push(0);
@@ -546,10 +547,10 @@ impl<'a> Source<'a> {
         let raw = input.take(raw_len)?;
         Ok(Source { models: tables, decoder, raw, raw_at: 0 })
     }
-    fn symbol(&mut self, model: usize) -> Result<usize, CodingError> {
+    pub(crate) fn symbol(&mut self, model: usize) -> Result<usize, CodingError> {
         self.decoder.decode_symbol(&self.models[model]).map_err(|_| CodingError::Corrupt("entropy coder".into()))
     }
-    fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
+    pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
         if bits == 0 {
             return Ok(0);
         }

@@ -9,7 +9,7 @@ use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
-use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE};
+use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyStream};
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 
@@ -60,6 +60,9 @@ pub enum Loaded {
     /// A part (chunk) of a proxy level decoded, with its point-to-go table
     /// (empty without one).
     Proxy { level: usize, part: usize, mesh: MeshData, seen: Vec<u32> },
+    /// The proxy as refined by the vertex splits so far: `level` is the
+    /// stream's coarse level until its last packet, then its fine one.
+    Refined { level: usize, mesh: MeshData, seen: Vec<u32> },
     /// A probe's point-to-go depth cube.
     DepthMap { probe: u32, map: DepthMap },
     /// `what` names the asset (its file), `error` what went wrong.
@@ -77,6 +80,11 @@ pub trait Platform {
     /// the platform can, else one part between two frames) and its
     /// point-to-go table, checked against `probes`.
     fn load_proxy(&mut self, level: usize, part: usize, mesh: &str, seen: Option<&str>, probes: u32);
+    /// Loads the vertex splits that refine the proxy level `base` (its file,
+    /// decoded again) and applies their packets in order, off the main
+    /// thread where the platform can, else one packet between two frames;
+    /// answers each with a [`Loaded::Refined`].
+    fn load_stream(&mut self, stream: &ProxyStream, base: &str, probes: u32);
     /// Loads and decodes a probe's depth map, checked against `probes`.
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
@@ -240,6 +248,8 @@ pub struct App {
     /// Levels asked for (coarsest first), and whether one failed.
     proxy_requested: usize,
     proxy_failed: bool,
+    /// The vertex-split stream failed: its level comes whole instead.
+    stream_failed: bool,
     /// Parts of a level decoded while the others are on their way.
     proxy_parts: Vec<(usize, usize, MeshData, Vec<u32>)>,
     orbit: Option<Orbit>,
@@ -250,7 +260,7 @@ pub struct App {
     link_dirty: bool,
     floors: Floors,
     floor: Option<usize>,
-    /// The floor plan's wall outlines, for (proxy level, section height).
+    /// The floor plan's wall outlines, for (proxy triangles, section height).
     sections: Option<(SectionKey, Segments)>,
     /// Per probe, whether the proxy hides it from the dollhouse camera; the
     /// next probe to test.
@@ -317,6 +327,7 @@ impl App {
             proxy: None,
             proxy_requested: 0,
             proxy_failed: false,
+            stream_failed: false,
             proxy_parts: Vec::new(),
             orbit: None,
             flight: None,
@@ -477,9 +488,13 @@ impl App {
         if !wanted || self.proxy_requested == levels || (self.proxy_requested > 0 && ready > next && !self.proxy_failed) {
             return;
         }
-        let parts = proxy.levels[next - 1].parts();
         self.proxy_requested += 1;
         let probes = self.nav.graph().probes.len() as u32;
+        // A level the stream refines from the one just in comes as vertex splits.
+        if let Some(stream) = proxy.stream.as_ref().filter(|s| s.to + 1 == next && s.from == next && !self.stream_failed) {
+            return platform.load_stream(stream, &proxy.levels[stream.from].file, probes);
+        }
+        let parts = proxy.levels[next - 1].parts();
         for (part, chunk) in parts.iter().enumerate() {
             platform.load_proxy(next - 1, part, &chunk.file, chunk.seen.as_deref(), probes);
         }
@@ -499,7 +514,19 @@ impl App {
         let (mut all, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut self.proxy_parts).into_iter().partition(|p| p.0 == level);
         self.proxy_parts = rest;
         all.sort_by_key(|p| p.1);
-        let mesh = ProxyMesh::from_parts(level, all.into_iter().map(|(_, _, m, s)| (m, s)).collect());
+        self.show_proxy(ProxyMesh::from_parts(level, all.into_iter().map(|(_, _, m, s)| (m, s)).collect()));
+    }
+
+    /// Takes in the proxy as the vertex splits so far made it, unless a
+    /// finer one is shown already.
+    fn proxy_refined(&mut self, level: usize, mesh: MeshData, seen: Vec<u32>) {
+        if self.proxy.as_ref().is_some_and(|m| m.level < level || (m.level == level && m.triangles.len() >= mesh.triangles.len())) {
+            return;
+        }
+        self.show_proxy(ProxyMesh::new(level, mesh, seen));
+    }
+
+    fn show_proxy(&mut self, mesh: ProxyMesh) {
         self.dollhouse.upload(&self.gpu.device, &self.gpu.queue, &mesh);
         if self.orbit.is_none() {
             self.orbit = Some(self.framing(&mesh));
@@ -538,12 +565,18 @@ impl App {
                 }
                 Loaded::Thumbnail { .. } => self.thumbs += 1,
                 Loaded::Proxy { level, part, mesh, seen } => self.proxy_part(level, part, mesh, seen),
+                Loaded::Refined { level, mesh, seen } => self.proxy_refined(level, mesh, seen),
                 Loaded::DepthMap { probe, map } => {
                     self.depth_maps.insert(probe, map);
                 }
                 Loaded::Failed { what, error, probe } => {
                     self.failed.extend(probe);
-                    if what.starts_with("proxy/") {
+                    if what.starts_with("proxy/splits") && !self.stream_failed {
+                        // The level the splits refine to comes whole instead.
+                        self.stream_failed = true;
+                        self.proxy_requested -= 1;
+                        self.message(&format!("{what}: {error} (loading the 3D overview whole instead)"), platform);
+                    } else if what.starts_with("proxy/") {
                         self.proxy_failed = true;
                         if self.proxy.is_none() && self.mode == Mode::Dollhouse {
                             self.leave_dollhouse_at_once();
@@ -777,7 +810,7 @@ impl App {
             Some(k) => self.floors.heights[k] + 0.75 * self.floors.eye,
             None => y,
         };
-        let key = (mesh.level, height);
+        let key = (mesh.triangles.len(), height);
         match &self.sections {
             Some((k, s)) if *k == key => s.clone(),
             _ => {
@@ -997,7 +1030,7 @@ impl App {
         let Some(mesh) = &self.proxy else { return };
         let probes = &self.nav.graph().probes;
         // Nothing to redo while the camera, the cut and the mesh stay as they were.
-        let key = (*camera, cut, mesh.level);
+        let key = (*camera, cut, mesh.triangles.len());
         if self.hidden_key != Some(key) {
             (self.hidden_key, self.hidden_tested) = (Some(key), 0);
         }

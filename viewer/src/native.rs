@@ -61,6 +61,7 @@ enum Job {
     Thumbnail { probe: u32, file: String },
     Proxy { level: usize, part: usize, mesh: String, seen: Option<String>, probes: u32 },
     DepthMap { probe: u32, file: String, probes: u32 },
+    Stream { stream: exploremaps_format::ProxyStream, base: String, probes: u32 },
 }
 
 enum Decoded {
@@ -68,6 +69,7 @@ enum Decoded {
     Equirect { probe: u32, width: u32, height: u32, rgba: Vec<u8> },
     Thumbnail { probe: u32, rgba: Vec<u8> },
     Proxy { level: usize, part: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
+    Refined { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Failed { what: String, error: String, probe: Option<u32> },
 }
@@ -77,20 +79,24 @@ fn decode(root: &Path, file: &str) -> Result<image::RgbaImage, String> {
     Ok(image::load_from_memory(&bytes).map_err(|e| format!("is not a readable image ({e})"))?.to_rgba8())
 }
 
-fn work(root: &Path, job: Job) -> Decoded {
-    let failed = |what: &str, error: String, probe| Decoded::Failed { what: what.to_string(), error, probe };
-    match job {
-        Job::Cube { probe, size, files } => {
-            let mut faces = Vec::with_capacity(6);
-            for f in &files {
-                match decode(root, f) {
-                    Ok(img) if img.dimensions() == (size, size) => faces.push(img.into_raw()),
-                    Ok(img) => return failed(f, format!("is {}×{}, but graph.json says {size}×{size}", img.width(), img.height()), Some(probe)),
-                    Err(e) => return failed(f, e, Some(probe)),
-                }
-            }
-            Decoded::Cube { probe, size, faces }
+/// A cube level's six faces, each the size graph.json says.
+fn cube(root: &Path, probe: u32, size: u32, files: &[String; 6]) -> Decoded {
+    let mut faces = Vec::with_capacity(6);
+    for f in files {
+        match decode(root, f) {
+            Ok(img) if img.dimensions() == (size, size) => faces.push(img.into_raw()),
+            Ok(img) => return Decoded::Failed { what: f.clone(), error: format!("is {}×{}, but graph.json says {size}×{size}", img.width(), img.height()), probe: Some(probe) },
+            Err(e) => return Decoded::Failed { what: f.clone(), error: e, probe: Some(probe) },
         }
+    }
+    Decoded::Cube { probe, size, faces }
+}
+
+/// Does a job and sends what came of it; false once the viewer has gone.
+fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
+    let failed = |what: &str, error: String, probe| Decoded::Failed { what: what.to_string(), error, probe };
+    let decoded = match job {
+        Job::Cube { probe, size, files } => cube(root, probe, size, &files),
         Job::Equirect { probe, file } => match decode(root, &file) {
             Ok(img) => {
                 // Within every GPU's texture limit.
@@ -110,6 +116,7 @@ fn work(root: &Path, job: Job) -> Decoded {
                 Err((what, error)) => failed(&what, error, None),
             }
         }
+        Job::Stream { stream, base, probes } => return refine(root, &stream, &base, probes, results),
         Job::DepthMap { probe, file, probes } => match std::fs::read(root.join(&file)) {
             Ok(bytes) => match exploremaps_format::depthmap::DepthMap::decode(&bytes, probes) {
                 Ok(map) => Decoded::DepthMap { probe, map },
@@ -121,7 +128,34 @@ fn work(root: &Path, job: Job) -> Decoded {
             Ok(img) => Decoded::Thumbnail { probe, rgba: image::imageops::resize(&img, THUMB_W, THUMB_H, image::imageops::FilterType::Triangle).into_raw() },
             Err(e) => failed(&file, e, None),
         },
+    };
+    results.send(decoded).is_ok()
+}
+
+/// Refines a proxy level by its vertex splits in this worker, sending the
+/// mesh after each packet; false once the viewer has gone.
+fn refine(root: &Path, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32, results: &Sender<Decoded>) -> bool {
+    let read = |f: &str| std::fs::read(root.join(f)).map_err(|e| (f.to_string(), format!("cannot be read ({e})")));
+    let triangles = stream.packets.last().map_or(0, |p| p.triangles);
+    let started = read(base).and_then(|b| {
+        let seen = stream.seen.as_deref().map(|f| read(f).map(|bytes| (f, bytes))).transpose()?;
+        crate::dollhouse::Refining::new(base, &b, seen.as_ref().map(|(f, bytes)| (*f, bytes.as_slice())), triangles, probes)
+    });
+    let mut refining = match started {
+        Ok(r) => r,
+        Err((what, error)) => return results.send(Decoded::Failed { what, error, probe: None }).is_ok(),
+    };
+    for (k, packet) in stream.packets.iter().enumerate() {
+        let level = if k + 1 == stream.packets.len() { stream.to } else { stream.from };
+        let sent = match read(&packet.file).and_then(|bytes| refining.apply(&packet.file, &bytes)) {
+            Ok((mesh, seen)) => results.send(Decoded::Refined { level, mesh, seen }),
+            Err((what, error)) => return results.send(Decoded::Failed { what, error, probe: None }).is_ok(),
+        };
+        if sent.is_err() {
+            return false;
+        }
     }
+    true
 }
 
 /// A decoded video frame: its place in travel order, RGBA pixels, size.
@@ -214,7 +248,7 @@ impl NativePlatform {
                     Ok(job) => job,
                     Err(_) => return,
                 };
-                if results.send(work(&root, job)).is_err() {
+                if !work(&root, job, &results) {
                     return;
                 }
             });
@@ -238,6 +272,10 @@ impl Platform for NativePlatform {
 
     fn load_proxy(&mut self, level: usize, part: usize, mesh: &str, seen: Option<&str>, probes: u32) {
         let _ = self.jobs.send(Job::Proxy { level, part, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
+    }
+
+    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32) {
+        let _ = self.jobs.send(Job::Stream { stream: stream.clone(), base: base.to_string(), probes });
     }
 
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
@@ -265,6 +303,7 @@ impl Platform for NativePlatform {
                     Loaded::Thumbnail { probe }
                 }
                 Decoded::Proxy { level, part, mesh, seen } => Loaded::Proxy { level, part, mesh, seen },
+                Decoded::Refined { level, mesh, seen } => Loaded::Refined { level, mesh, seen },
                 Decoded::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });

@@ -77,6 +77,11 @@ fn fetch_bytes(url: &str) -> impl std::future::Future<Output = Result<Vec<u8>, S
 enum Fetched {
     /// A proxy part's files, to decode.
     ProxyBytes { level: usize, part: usize, file: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
+    /// A vertex-split stream's coarse level and table, to start refining.
+    StreamStart { base: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, triangles: u64, probes: u32 },
+    /// A packet of vertex splits (they arrive in order), and the level the
+    /// mesh is at once it is applied.
+    Packet { level: usize, file: String, bytes: Vec<u8> },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
     Equirect { probe: u32, image: web_sys::ImageBitmap },
@@ -118,6 +123,8 @@ struct WebPlatform {
     video_frames: u32,
     /// The longest decoding of a proxy part, finest level and coarser ones (ms).
     decode_ms: [f64; 2],
+    /// The proxy level being refined by vertex splits.
+    refining: Option<crate::dollhouse::Refining>,
 }
 
 impl WebPlatform {
@@ -203,6 +210,37 @@ impl Platform for WebPlatform {
         });
     }
 
+    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32) {
+        // All requests leave now; the packets are handed over in order, and
+        // `poll` applies one between two frames.
+        let base = base.to_string();
+        let base_bytes = fetch_bytes(&self.url(&base));
+        let seen = stream.seen.clone().map(|f| (fetch_bytes(&self.url(&f)), f));
+        let packets: Vec<_> = stream.packets.iter().enumerate().map(|(k, p)| (fetch_bytes(&self.url(&p.file)), p.file.clone(), if k + 1 == stream.packets.len() { stream.to } else { stream.from })).collect();
+        let triangles = stream.packets.last().map_or(0, |p| p.triangles);
+        let done = self.done.clone();
+        wasm_bindgen_futures::spawn_local(async move {
+            let start = async {
+                let bytes = base_bytes.await.map_err(|e| (base.clone(), e))?;
+                let seen = match seen {
+                    Some((bytes, f)) => Some((f.clone(), bytes.await.map_err(|e| (f, e))?)),
+                    None => None,
+                };
+                Ok::<_, (String, String)>(Fetched::StreamStart { base, bytes, seen, triangles, probes })
+            };
+            match start.await {
+                Ok(f) => done.borrow_mut().push(f),
+                Err((what, error)) => return done.borrow_mut().push(Fetched::Failed { what, error, probe: None }),
+            }
+            for (bytes, file, level) in packets {
+                match bytes.await {
+                    Ok(bytes) => done.borrow_mut().push(Fetched::Packet { level, file, bytes }),
+                    Err(error) => return done.borrow_mut().push(Fetched::Failed { what: file, error, probe: None }),
+                }
+            }
+        });
+    }
+
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {
         let (file, url) = (file.to_string(), self.url(file));
         self.spawn(async move {
@@ -215,13 +253,16 @@ impl Platform for WebPlatform {
 
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let mut fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
-        // At most one proxy part is decoded a frame; the others wait for the next.
+        // At most one proxy part or packet is decoded a frame; the others
+        // wait for the next (in the order they came).
         let mut decoding = false;
-        let (now, later): (Vec<Fetched>, Vec<Fetched>) = fetched.drain(..).partition(|f| !matches!(f, Fetched::ProxyBytes { .. }) || !std::mem::replace(&mut decoding, true));
+        let heavy = |f: &Fetched| matches!(f, Fetched::ProxyBytes { .. } | Fetched::StreamStart { .. } | Fetched::Packet { .. });
+        let (now, later): (Vec<Fetched>, Vec<Fetched>) = fetched.drain(..).partition(|f| !heavy(f) || !std::mem::replace(&mut decoding, true));
         self.done.borrow_mut().extend(later);
-        now
-            .into_iter()
-            .map(|f| match f {
+        let now_ms = || window().performance().map_or(0.0, |p| p.now());
+        now.into_iter()
+            .filter_map(|f| {
+                Some(match f {
                 Fetched::Cube { probe, size, faces } => {
                     if !self.faces_marked {
                         self.faces_marked = true;
@@ -248,10 +289,10 @@ impl Platform for WebPlatform {
                     Loaded::Thumbnail { probe }
                 }
                 Fetched::ProxyBytes { level, part, file, bytes, seen, probes } => {
-                    let started = window().performance().map_or(0.0, |p| p.now());
+                    let started = now_ms();
                     let decoded = crate::dollhouse::decode_level(&file, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes);
                     // The longest the main thread was held by one part's decoding, for the benchmark.
-                    let ms = window().performance().map_or(0.0, |p| p.now()) - started;
+                    let ms = now_ms() - started;
                     self.decode_ms[level.min(1)] = self.decode_ms[level.min(1)].max(ms);
                     set_status(&format!("proxy_decode_ms_{}", level.min(1)), &self.decode_ms[level.min(1)].into());
                     match decoded {
@@ -259,8 +300,32 @@ impl Platform for WebPlatform {
                         Err((what, error)) => Loaded::Failed { what, error, probe: None },
                     }
                 }
+                Fetched::StreamStart { base, bytes, seen, triangles, probes } => {
+                    match crate::dollhouse::Refining::new(&base, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), triangles, probes) {
+                        Ok(r) => {
+                            self.refining = Some(r);
+                            return None;
+                        }
+                        Err((what, error)) => Loaded::Failed { what, error, probe: None },
+                    }
+                }
+                Fetched::Packet { level, file, bytes } => {
+                    let started = now_ms();
+                    let applied = self.refining.as_mut()?.apply(&file, &bytes);
+                    // The longest the main thread was held by one packet, for the benchmark.
+                    self.decode_ms[0] = self.decode_ms[0].max(now_ms() - started);
+                    set_status("proxy_decode_ms_0", &self.decode_ms[0].into());
+                    match applied {
+                        Ok((mesh, seen)) => Loaded::Refined { level, mesh, seen },
+                        Err((what, error)) => {
+                            self.refining = None;
+                            Loaded::Failed { what, error, probe: None }
+                        }
+                    }
+                }
                 Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
                 Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
+            })
             })
             .collect()
     }
@@ -510,7 +575,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2] };
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2], refining: None };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;

@@ -51,6 +51,9 @@ impl Default for ProxyParams {
 pub struct Level {
     pub mesh: Mesh,
     pub error: f32,
+    /// For a level simplified from the one before it: the vertex splits
+    /// that rebuild that one from this (whose base is `mesh`).
+    pub refines: Option<progressive::Progressive>,
 }
 
 /// The proxy's levels, finest first: the welded scene simplified to
@@ -58,15 +61,18 @@ pub struct Level {
 /// (left out when the detail level is that small already).
 pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
     let (welded, _) = weld::weld_scene(scene, 1e-5 * scene.bounds().diagonal());
-    let down = |from: &Level, target: usize| {
-        let s = simplify(&from.mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
-        Level { mesh: s.compact(), error: from.error + s.error }
+    let whole = Level { mesh: welded, error: 0.0, refines: None };
+    let detail = if whole.mesh.triangles.len() > params.detail_triangles {
+        let s = simplify(&whole.mesh, &SimplifyParams { target_triangles: params.detail_triangles, max_error: f32::INFINITY });
+        Level { mesh: s.compact(), error: s.error, refines: None }
+    } else {
+        whole
     };
-    let whole = Level { mesh: welded, error: 0.0 };
-    let detail = if whole.mesh.triangles.len() > params.detail_triangles { down(&whole, params.detail_triangles) } else { whole };
     let mut out = Vec::new();
     if detail.mesh.triangles.len() > 2 * params.base_triangles {
-        let base = down(&detail, params.base_triangles);
+        let s = simplify(&detail.mesh, &SimplifyParams { target_triangles: params.base_triangles, max_error: f32::INFINITY });
+        let stream = progressive::Progressive::new(&detail.mesh, &s);
+        let base = Level { mesh: stream.base.clone(), error: detail.error + s.error, refines: Some(stream) };
         out.push(detail);
         out.push(base);
     } else {

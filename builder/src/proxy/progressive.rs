@@ -12,25 +12,18 @@
 //!
 //! Unlike Hoppe's compact records (a split names two neighbours and the
 //! triangles between them switch), a split here lists the triangles that
-//! switch: that also holds around non-manifold vertices. The coder makes it
-//! compact.
+//! switch: that also holds around non-manifold vertices. The format crate
+//! codes it compactly and applies it (`exploremaps_format::splits`), here
+//! as in the viewer.
 
 use super::simplify::{Simplified, Step};
 use super::Mesh;
+use exploremaps_format::meshcode::MeshData;
+use exploremaps_format::splits::{Refinement, Refiner};
 use glam::Vec3;
 
-/// One refinement of the stream.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Refinement {
-    /// `vertex` moves back to `position`, a vertex appears at `new_position`,
-    /// the triangles `moved` have their `vertex` corner changed to the new
-    /// vertex, and `added` triangles appear (corners in stream numbering).
-    Split { vertex: u32, position: Vec3, new_position: Vec3, moved: Vec<u32>, added: Vec<[u32; 3]> },
-    /// A separate part: vertices and triangles appended.
-    Part { positions: Vec<Vec3>, triangles: Vec<[u32; 3]> },
-}
-
-/// A base mesh and its refinements, coarse to fine.
+/// A base mesh and its refinements, coarse to fine (colours left black
+/// until [`Progressive::colour`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Progressive {
     pub base: Mesh,
@@ -65,6 +58,7 @@ impl Progressive {
             }
         }
         base.positions = vertex_order.iter().map(|&v| simplified.mesh.positions[v as usize]).collect();
+        let group = |t: u32| simplified.mesh.groups[t as usize];
         let mut refinements = Vec::with_capacity(simplified.steps.len());
         // Positions of the kept vertices as the stream goes, in input numbering.
         let mut positions = simplified.mesh.positions.clone();
@@ -83,10 +77,13 @@ impl Progressive {
                     }
                     refinements.push(Refinement::Split {
                         vertex,
-                        position: c.kept_was,
-                        new_position: positions[c.removed as usize],
+                        position: c.kept_was.to_array(),
+                        new_position: positions[c.removed as usize].to_array(),
+                        colour: [0; 3],
+                        new_colour: [0; 3],
                         moved: c.moved.iter().map(|&t| triangle_id[t as usize]).collect(),
                         added,
+                        groups: c.deleted.iter().map(|&(t, _)| group(t)).collect(),
                     });
                 }
                 Step::Prune(tris) => {
@@ -97,40 +94,82 @@ impl Progressive {
                         triangle_order.push(t);
                         triangles.push(tri.map(|v| number_vertex(v, &mut vertex_id, &mut vertex_order)));
                     }
-                    let positions = vertex_order[first..].iter().map(|&v| positions[v as usize]).collect();
-                    refinements.push(Refinement::Part { positions, triangles });
+                    let positions = vertex_order[first..].iter().map(|&v| positions[v as usize].to_array()).collect();
+                    let groups = tris.iter().map(|&(t, _)| group(t)).collect();
+                    refinements.push(Refinement::Part { positions, colours: Vec::new(), triangles, groups });
                 }
             }
         }
         Progressive { base, refinements, vertex_order, triangle_order }
     }
 
-    /// The mesh after the first `count` refinements (groups are the base's,
-    /// then the input's through `triangle_order` when `groups` is given).
+    /// The mesh after the first `count` refinements.
     pub fn level(&self, count: usize) -> Mesh {
-        let mut m = self.base.clone();
-        for r in &self.refinements[..count.min(self.refinements.len())] {
+        let mut r = Refiner::new(self.base.to_coded()).expect("a simplified mesh is a valid base");
+        for x in &self.refinements[..count.min(self.refinements.len())] {
+            r.apply(x).expect("the stream fits its base");
+        }
+        let MeshData { positions, triangles, groups, .. } = r.mesh;
+        Mesh { positions: positions.into_iter().map(Vec3::from).collect(), triangles, groups }
+    }
+
+    /// Renumbers the base as a decoder of it numbers it: its decoded vertex
+    /// `k` is base vertex `vertices[k]`, its decoded triangle `k` base
+    /// triangle `triangles[k]` (both permutations). Refinements follow.
+    pub fn renumber_base(&mut self, vertices: &[u32], triangles: &[u32]) {
+        let (nv, nt) = (self.base.positions.len(), self.base.triangles.len());
+        assert!(vertices.len() == nv && triangles.len() == nt, "a permutation of the base");
+        let invert = |order: &[u32]| {
+            let mut inverse = vec![0u32; order.len()];
+            for (k, &x) in order.iter().enumerate() {
+                inverse[x as usize] = k as u32;
+            }
+            inverse
+        };
+        let (to_v, to_t) = (invert(vertices), invert(triangles));
+        let v = |x: u32| if (x as usize) < nv { to_v[x as usize] } else { x };
+        let t = |x: u32| if (x as usize) < nt { to_t[x as usize] } else { x };
+        let base = &self.base;
+        self.base = Mesh {
+            positions: vertices.iter().map(|&x| base.positions[x as usize]).collect(),
+            triangles: triangles.iter().map(|&x| base.triangles[x as usize].map(v)).collect(),
+            groups: triangles.iter().map(|&x| base.groups[x as usize]).collect(),
+        };
+        let (old_v, old_t) = (self.vertex_order.clone(), self.triangle_order.clone());
+        for (k, &x) in vertices.iter().enumerate() {
+            self.vertex_order[k] = old_v[x as usize];
+        }
+        for (k, &x) in triangles.iter().enumerate() {
+            self.triangle_order[k] = old_t[x as usize];
+        }
+        for r in &mut self.refinements {
             match r {
-                Refinement::Split { vertex, position, new_position, moved, added } => {
-                    m.positions[*vertex as usize] = *position;
-                    let new = m.positions.len() as u32;
-                    m.positions.push(*new_position);
-                    for &t in moved {
-                        for c in &mut m.triangles[t as usize] {
-                            if *c == *vertex {
-                                *c = new;
-                            }
-                        }
-                    }
-                    m.triangles.extend(added);
+                Refinement::Split { vertex, moved, added, .. } => {
+                    *vertex = v(*vertex);
+                    moved.iter_mut().for_each(|x| *x = t(*x));
+                    added.iter_mut().for_each(|tri| *tri = tri.map(v));
                 }
-                Refinement::Part { positions, triangles } => {
-                    m.positions.extend(positions);
-                    m.triangles.extend(triangles);
+                Refinement::Part { triangles, .. } => triangles.iter_mut().for_each(|tri| *tri = tri.map(v)),
+            }
+        }
+    }
+
+    /// Gives the refinements colours: `colours` per input vertex.
+    pub fn colour(&mut self, colours: &[[u8; 3]]) {
+        let of = |stream: usize| colours[self.vertex_order[stream] as usize];
+        let mut next = self.base.positions.len();
+        for r in &mut self.refinements {
+            match r {
+                Refinement::Split { vertex, colour, new_colour, .. } => {
+                    (*colour, *new_colour) = (of(*vertex as usize), of(next));
+                    next += 1;
+                }
+                Refinement::Part { positions, colours, .. } => {
+                    *colours = (next..next + positions.len()).map(of).collect();
+                    next += positions.len();
                 }
             }
         }
-        m
     }
 }
 
@@ -178,5 +217,100 @@ mod tests {
         bumpy.triangles.push([b, b + 1, b + 2]);
         bumpy.groups.push(0);
         check_round_trip(&bumpy, 20);
+    }
+
+    /// A stream coded as the bundle codes it: the base through Edgebreaker
+    /// and back, the splits in packets of about `packet` triangles. Returns
+    /// the decoded base, the renumbered stream, its packets and per input
+    /// vertex a colour.
+    fn coded(input: &Mesh, target: usize, packet: usize) -> (MeshData, Progressive, Vec<exploremaps_format::splits::Packet>, Vec<[u8; 3]>) {
+        use exploremaps_format::meshcode;
+        let s = simplify(input, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
+        let mut pm = Progressive::new(input, &s);
+        let colours: Vec<[u8; 3]> = (0..input.positions.len()).map(|i| [(i * 37) as u8, (i * 11) as u8, 200]).collect();
+        let mut base = pm.base.to_coded();
+        base.colours = pm.vertex_order[..base.positions.len()].iter().map(|&v| colours[v as usize]).collect();
+        let encoded = meshcode::encode(&base, 14).unwrap();
+        let decoded = meshcode::decode(&encoded.bytes).unwrap();
+        pm.renumber_base(&encoded.order.vertices, &encoded.order.triangles);
+        pm.colour(&colours);
+        let packets = exploremaps_format::splits::encode(&decoded, &pm.refinements, 14, packet).unwrap();
+        (decoded, pm, packets, colours)
+    }
+
+    fn bumpy() -> Mesh {
+        let plane = super::super::simplify::tests::plane(12);
+        let mut bumpy = super::super::simplify::tests::subdivide(&plane);
+        for (i, p) in bumpy.positions.iter_mut().enumerate() {
+            p.z = 0.2 * ((i * 7919) % 11) as f32 / 11.0;
+        }
+        for (t, g) in bumpy.groups.iter_mut().enumerate() {
+            *g = (t / 100) as u32 % 3;
+        }
+        let b = bumpy.positions.len() as u32;
+        bumpy.positions.extend([Vec3::new(9.0, 0.0, 0.0), Vec3::new(9.01, 0.0, 0.0), Vec3::new(9.0, 0.01, 0.0)]);
+        bumpy.triangles.push([b, b + 1, b + 2]);
+        bumpy.groups.push(2);
+        bumpy
+    }
+
+    /// Base + every packet, decoded as the viewer decodes them, is the input:
+    /// each triangle the same corners in the same turn (positions within the
+    /// grid's step), its group, and each vertex its colour.
+    #[test]
+    fn coded_packets_rebuild_the_input() {
+        let input = bumpy();
+        let (decoded, pm, packets, colours) = coded(&input, 40, 150);
+        assert!(packets.len() >= 3, "{} packets", packets.len());
+        let mut refiner = exploremaps_format::splits::Refiner::new(decoded).unwrap();
+        for p in &packets {
+            refiner.apply_packet(&p.bytes).unwrap();
+            assert_eq!(refiner.mesh.triangles.len() as u64, p.triangles);
+        }
+        let m = &refiner.mesh;
+        assert_eq!(m.triangles.len(), input.triangles.len());
+        let step = input.diagonal() / (1 << 14) as f32;
+        for (k, &v) in pm.vertex_order.iter().enumerate() {
+            assert!(Vec3::from(m.positions[k]).distance(input.positions[v as usize]) <= step, "vertex {v}");
+            assert_eq!(m.colours[k], colours[v as usize], "vertex {v}");
+        }
+        for (k, &t) in pm.triangle_order.iter().enumerate() {
+            let got = m.triangles[k].map(|v| pm.vertex_order[v as usize]);
+            let want = input.triangles[t as usize];
+            assert!((0..3).any(|r| (0..3).all(|i| got[(i + r) % 3] == want[i])), "triangle {t}: {got:?} for {want:?}");
+            assert_eq!(m.groups[k], input.groups[t as usize], "triangle {t}");
+        }
+    }
+
+    /// Packets out of order, truncated, damaged or lying (checksum redone)
+    /// are errors or a valid mesh, never a panic.
+    #[test]
+    fn bad_packets_are_errors() {
+        let (decoded, _, packets, _) = coded(&bumpy(), 40, 150);
+        let fresh = || exploremaps_format::splits::Refiner::new(decoded.clone()).unwrap();
+        let err = fresh().apply_packet(&packets[1].bytes).unwrap_err().to_string();
+        assert!(err.contains("out of order"), "{err}");
+        let bytes = &packets[0].bytes;
+        for n in 0..bytes.len() {
+            assert!(fresh().apply_packet(&bytes[..n]).is_err(), "truncated to {n}");
+        }
+        let body = bytes.len() - 4;
+        let mut state = 99u64;
+        for trial in 0..4000 {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let mut bad = bytes[..body].to_vec();
+            let i = (state >> 33) as usize % body;
+            bad[i] = (state >> 20) as u8;
+            if trial % 2 == 0 && bad[i] != bytes[i] {
+                assert!(fresh().apply_packet(&[bad.as_slice(), &bytes[body..]].concat()).is_err(), "byte {i} changed, checksum kept");
+            }
+            let crc = crc32fast::hash(&bad);
+            bad.extend_from_slice(&crc.to_le_bytes());
+            let mut r = fresh();
+            let _ = r.apply_packet(&bad);
+            let m = &r.mesh;
+            assert!(m.triangles.iter().flatten().all(|&v| (v as usize) < m.positions.len()));
+            assert!(m.groups.len() == m.triangles.len() && m.colours.len() == m.positions.len());
+        }
     }
 }

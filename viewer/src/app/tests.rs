@@ -18,6 +18,11 @@ struct Script {
     proxy_requests: Vec<usize>,
     proxy_pending: Vec<(usize, usize)>,
     broken_proxy: bool,
+    /// Vertex-split streams asked for (from, to, base file), their answers
+    /// (one a poll), and whether their second packet is broken.
+    stream_requests: Vec<(usize, usize, String)>,
+    stream_pending: Vec<Loaded>,
+    broken_stream: bool,
     depth_requests: Vec<u32>,
     depth_pending: Vec<u32>,
 }
@@ -55,7 +60,22 @@ impl Platform for Script {
         self.proxy_requests.push(level);
         self.proxy_pending.push((level, part));
     }
+    fn load_stream(&mut self, stream: &ProxyStream, base: &str, _probes: u32) {
+        self.stream_requests.push((stream.from, stream.to, base.to_string()));
+        // The two-storey mesh grown by a triangle a packet.
+        let grown = |extra: usize| {
+            let mut m = crate::dollhouse::tests::two_storeys_data();
+            m.triangles.extend_from_within(..extra);
+            m
+        };
+        self.stream_pending.push(Loaded::Refined { level: stream.from, mesh: grown(1), seen: vec![3, 3, 1, 1, 3] });
+        self.stream_pending.push(match self.broken_stream {
+            true => Loaded::Failed { what: "proxy/splits-1.emvs".into(), error: "vertex-split packet checksum mismatch".into(), probe: None },
+            false => Loaded::Refined { level: stream.to, mesh: grown(2), seen: vec![3, 3, 1, 1, 3, 3] },
+        });
+    }
     fn poll(&mut self, gpu: &Gpu, _overlay: &OverlayPass) -> Vec<Loaded> {
+        let refined = (!self.stream_pending.is_empty()).then(|| self.stream_pending.remove(0));
         // Proxy levels: the two-storey mesh, its lower floor seen best from probe 3, its upper from 1.
         let broken = self.broken_proxy;
         let proxies: Vec<Loaded> = self
@@ -67,7 +87,7 @@ impl Platform for Script {
             })
             .collect();
         let maps: Vec<Loaded> = self.depth_pending.drain(..).map(|probe| Loaded::DepthMap { probe, map: depth_map(probe) }).collect();
-        proxies.into_iter().chain(maps).chain(self.pending
+        proxies.into_iter().chain(refined).chain(maps).chain(self.pending
             .drain(..)
             .map(|(probe, size)| {
                 if self.broken.contains(&probe) {
@@ -220,8 +240,42 @@ fn graph_with_proxy() -> Graph {
     g.scene.eye_height_m = Some(1.6);
     let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")), chunks: vec![] };
     let depth_maps = (0..g.probes.len()).map(|p| format!("proxy/depth/{p}.emdm")).collect();
-    g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0], depth_maps });
+    g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0], depth_maps, stream: None });
     g
+}
+
+/// Level 0 comes as vertex splits on level 1, a packet a poll; when a
+/// packet is broken, the viewer says so and loads level 0 whole instead.
+#[test]
+fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
+    for broken in [false, true] {
+        let mut script = Script { broken_stream: broken, ..Script::default() };
+        let mut g = graph_with_proxy();
+        let packet = |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), triangles, bytes: 10 };
+        g.proxy.as_mut().unwrap().stream = Some(ProxyStream { from: 1, to: 0, packets: vec![packet(0, 5), packet(1, 6)], seen: Some("proxy/splits.seen".into()) });
+        let Some(mut app) = app_of(g, &mut script, 1 << 30, 360) else { return };
+        app.resize(640, 360, 1.0);
+        let mut shown = Vec::new();
+        for _ in 0..8 {
+            app.update(0.016, &mut script);
+            let now = app.proxy.as_ref().map(|m| (m.level, m.triangles.len()));
+            if now.is_some() && shown.last() != Some(&now) {
+                shown.push(now);
+            }
+        }
+        assert_eq!(script.stream_requests, vec![(1, 0, "proxy/1.emmc".to_string())]);
+        if broken {
+            assert_eq!(script.proxy_requests, vec![1, 0], "level 0 whole after the failure");
+            assert_eq!(shown, vec![Some((1, 4)), Some((1, 5)), Some((0, 4))]);
+            assert!(script.messages.iter().any(|m| m.contains("proxy/splits-1.emvs") && m.contains("whole")), "{:?}", script.messages);
+            assert!(!app.proxy_failed);
+        } else {
+            assert_eq!(script.proxy_requests, vec![1], "no level asked for whole");
+            assert_eq!(shown, vec![Some((1, 4)), Some((1, 5)), Some((0, 6))], "base, a packet, the last packet");
+            assert_eq!(app.proxy.as_ref().unwrap().seen, vec![3, 3, 1, 1, 3, 3]);
+            assert!(script.messages.is_empty(), "{:?}", script.messages);
+        }
+    }
 }
 
 /// Presses and releases at a pixel.
