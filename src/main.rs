@@ -314,6 +314,11 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
             })
             .collect();
         println!("  proxy       {}; {}", levels.join(", "), proxy.glb.as_deref().unwrap_or("no GLB"));
+        if let Some(s) = &proxy.stream {
+            let bytes: u64 = s.packets.iter().map(|p| p.bytes).sum();
+            let (from, to) = (proxy.levels.get(s.from).map_or(0, |l| l.triangles), proxy.levels.get(s.to).map_or(0, |l| l.triangles));
+            println!("  streamed    {from} -> {to} triangles by vertex splits in {:.0} KB ({} packets, proxy/splits-0.emvs …)", bytes as f64 / 1024.0, s.packets.len());
+        }
     }
     match web_dir() {
         Some(web) => {

@@ -206,7 +206,7 @@ const CHUNK_TRIANGLES: usize = 7_000;
 /// Triangles a packet of vertex splits brings back: applying one takes a
 /// few milliseconds in a phone's browser (splits cost more a triangle to
 /// decode than a level sent whole).
-const PACKET_TRIANGLES: usize = 3_000;
+const PACKET_TRIANGLES: usize = 1_000;
 /// Texels a face of a probe's point-to-go depth cube.
 const DEPTH_MAP_SIZE: u32 = 32;
 /// The proxy's entry for graph.json, written after its files: shards and
@@ -223,7 +223,7 @@ fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
 
 fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
     let chunks = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
-    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file).chain(&s.seen));
+    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file));
     proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks).chain(stream)
 }
 
@@ -291,11 +291,16 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         let chunks = if chunks.len() > 1 { chunks } else { Vec::new() };
         // A level coded whole that refines into the one before it: its
         // vertex splits, numbered as the level decodes.
-        if let (Some(mut stream), Some((colours, best)), Some((bytes, vertices, triangles)), true) = (level.refines, finer.take(), coded_last, chunks.is_empty()) {
+        if let (Some(mut stream), Some((colours, finer_best)), Some((bytes, vertices, triangles)), true) = (level.refines, finer.take(), coded_last, chunks.is_empty()) {
             let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), message: e.to_string() };
-            let base = meshcode::decode(&bytes).map_err(|e| fail(&file, e))?;
+            // Groups carry the point-to-go table, "none" as the probe count:
+            // the base's as in its table, then the finer level's.
+            let label = |p: u32| p.min(probes.len() as u32);
+            let mut base = meshcode::decode(&bytes).map_err(|e| fail(&file, e))?;
+            base.groups = triangles.iter().map(|&t| label(best[t as usize])).collect();
             stream.renumber_base(&vertices, &triangles);
             stream.colour(&colours);
+            stream.regroup(&finer_best.iter().map(|&p| label(p)).collect::<Vec<u32>>());
             let packets = splits::encode(&base, &stream.refinements, params.bits, PACKET_TRIANGLES).map_err(|e| fail("proxy/splits-0.emvs", e))?;
             let mut listed = Vec::new();
             for (k, packet) in packets.iter().enumerate() {
@@ -303,9 +308,7 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
                 write(dir, &file, &packet.bytes)?;
                 listed.push(ProxyPacket { file, triangles: packet.triangles, bytes: packet.bytes.len() as u64 });
             }
-            let seen_file = "proxy/splits.seen".to_string();
-            write(dir, &seen_file, &seen::encode(&stream.triangle_order.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>()))?;
-            proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets: listed, seen: Some(seen_file) });
+            proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets: listed });
         }
         finer = Some((colours, best));
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });

@@ -96,16 +96,16 @@ pub struct Proxy {
 }
 
 /// A progressive proxy: packets of vertex splits ([`splits`]) that, applied
-/// in order to level `from` as decoded, rebuild level `to` triangle for
-/// triangle.
+/// in order to level `from` as decoded (its groups replaced by its
+/// point-to-go table), rebuild level `to` triangle for triangle.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProxyStream {
     pub from: usize,
     pub to: usize,
+    /// Each triangle's group in the packets is its point-to-go entry (the
+    /// probe that sees it best; the probe count for none), continuing the
+    /// coarse level's table ([`ProxyLevel::seen`]).
     pub packets: Vec<ProxyPacket>,
-    /// Point-to-go table ([`seen`]) of the rebuilt level, in the stream's
-    /// triangle order (the base's decoded triangles, then each split's).
-    pub seen: Option<String>,
 }
 
 /// A packet of vertex splits, and the mesh's size once it is applied.

@@ -19,6 +19,10 @@
 //!   one of their neighbours (common neighbours first: a short index), or
 //!   any vertex (raw); a group as "the same as the last" or raw.
 //!
+//! A triangle's group is any number per triangle the stream carries: a
+//! material, or (in bundles) the probe that sees the triangle best, which a
+//! neighbour predicts well.
+//!
 //! A separate part (a piece the simplifier removed whole) is coded as its
 //! positions and colours in deltas and its corners as distances back from
 //! the newest vertex. All of a packet is one rANS section (a model per
@@ -63,8 +67,8 @@ const ADDED_ESCAPE: u32 = 63;
 pub enum Refinement {
     /// `vertex` moves to `position` (its colour becomes `colour`); a vertex
     /// appears at `new_position`; in the triangles `moved`, the corners that
-    /// are `vertex` become the new vertex; the triangles `added` (one group
-    /// each in `groups`) appear.
+    /// are `vertex` become the new vertex (`moved` ascending); the triangles `added` (one group
+    /// each in `groups`, a number per triangle) appear.
     Split { vertex: u32, position: [f32; 3], new_position: [f32; 3], colour: [u8; 3], new_colour: [u8; 3], moved: Vec<u32>, added: Vec<[u32; 3]>, groups: Vec<u32> },
     /// A separate piece: vertices (with colours when the mesh has them) and
     /// triangles appended.
@@ -119,10 +123,8 @@ impl Refiner {
                 if *vertex >= n || !finite(position) || !finite(new_position) || groups.len() != added.len() || added.iter().flatten().any(|&c| c > n) {
                     return corrupt(format!("split {} does not fit the mesh", self.applied));
                 }
-                let mut sorted = moved.clone();
-                sorted.sort_unstable();
-                if sorted.windows(2).any(|w| w[0] == w[1]) || sorted.iter().any(|t| self.incident[v].binary_search(t).is_err()) {
-                    return corrupt(format!("split {} moves a triangle not around its vertex", self.applied));
+                if moved.windows(2).any(|w| w[0] >= w[1]) || moved.iter().any(|t| self.incident[v].binary_search(t).is_err()) {
+                    return corrupt(format!("split {} moves triangles not around its vertex, or not in ascending order", self.applied));
                 }
                 self.mesh.positions[v] = *position;
                 self.mesh.positions.push(*new_position);
@@ -130,15 +132,15 @@ impl Refiner {
                     self.mesh.colours[v] = *colour;
                     self.mesh.colours.push(*new_colour);
                 }
-                self.incident[v].retain(|t| sorted.binary_search(t).is_err());
-                for &t in &sorted {
+                self.incident[v].retain(|t| moved.binary_search(t).is_err());
+                for &t in moved {
                     for c in &mut self.mesh.triangles[t as usize] {
                         if *c == *vertex {
                             *c = n;
                         }
                     }
                 }
-                self.incident.push(sorted);
+                self.incident.push(moved.clone());
                 self.append(added, groups);
             }
             Refinement::Part { positions, colours, triangles, groups } => {

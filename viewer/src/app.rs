@@ -9,7 +9,7 @@ use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
-use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyStream};
+use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 
@@ -84,7 +84,7 @@ pub trait Platform {
     /// decoded again) and applies their packets in order, off the main
     /// thread where the platform can, else one packet between two frames;
     /// answers each with a [`Loaded::Refined`].
-    fn load_stream(&mut self, stream: &ProxyStream, base: &str, probes: u32);
+    fn load_stream(&mut self, stream: &ProxyStream, base: &ProxyLevel, probes: u32);
     /// Loads and decodes a probe's depth map, checked against `probes`.
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
@@ -492,7 +492,7 @@ impl App {
         let probes = self.nav.graph().probes.len() as u32;
         // A level the stream refines from the one just in comes as vertex splits.
         if let Some(stream) = proxy.stream.as_ref().filter(|s| s.to + 1 == next && s.from == next && !self.stream_failed) {
-            return platform.load_stream(stream, &proxy.levels[stream.from].file, probes);
+            return platform.load_stream(stream, &proxy.levels[stream.from], probes);
         }
         let parts = proxy.levels[next - 1].parts();
         for (part, chunk) in parts.iter().enumerate() {
@@ -556,7 +556,16 @@ impl App {
     /// Advances time by `dt_s` seconds: takes in loads, moves, tours.
     pub fn update(&mut self, dt_s: f32, platform: &mut dyn Platform) {
         self.frame += 1;
-        for loaded in platform.poll(&self.gpu, &self.overlay) {
+        let mut batch = platform.poll(&self.gpu, &self.overlay);
+        // Of the proxy's refinements in one batch, the last holds them all.
+        if let Some(last) = batch.iter().rposition(|l| matches!(l, Loaded::Refined { .. })) {
+            let mut k = 0;
+            batch.retain(|l| {
+                k += 1;
+                !matches!(l, Loaded::Refined { .. }) || k - 1 == last
+            });
+        }
+        for loaded in batch {
             match loaded {
                 Loaded::Pano { probe, pano } => {
                     if self.panos.get(&probe).is_none_or(|l| l.pano.size() < pano.size()) {

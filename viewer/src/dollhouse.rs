@@ -132,32 +132,30 @@ pub fn decode_level(mesh_file: &str, mesh: &[u8], seen_file: Option<(&str, &[u8]
 }
 
 /// A proxy level being refined by vertex splits as their packets arrive
-/// (the builder's stream, [`exploremaps_format::splits`]).
+/// (the builder's stream, [`exploremaps_format::splits`]); the triangles'
+/// groups carry their point-to-go entries ([`exploremaps_format::ProxyStream`]).
 pub struct Refining {
     refiner: exploremaps_format::splits::Refiner,
-    /// The refined level's point-to-go table, in stream order.
-    seen: Vec<u32>,
+    probes: u32,
 }
 
 impl Refining {
-    /// Starts from the coarse level's files (already read), with the
-    /// stream's table for its final `triangles`; an error names the file.
-    pub fn new(base_file: &str, base: &[u8], seen_file: Option<(&str, &[u8])>, triangles: u64, probes: u32) -> Result<Refining, (String, String)> {
-        let data = exploremaps_format::meshcode::decode(base).map_err(|e| (base_file.to_string(), e.to_string()))?;
+    /// Starts from the coarse level's files (already read); an error names
+    /// the file at fault.
+    pub fn new(base_file: &str, base: &[u8], seen_file: Option<(&str, &[u8])>, probes: u32) -> Result<Refining, (String, String)> {
+        let (mut data, seen) = decode_level(base_file, base, seen_file, probes)?;
+        data.groups = if seen.is_empty() { vec![probes; data.triangles.len()] } else { seen.iter().map(|&p| p.min(probes)).collect() };
         let refiner = exploremaps_format::splits::Refiner::new(data).map_err(|e| (base_file.to_string(), e.to_string()))?;
-        let seen = match seen_file {
-            Some((file, bytes)) => exploremaps_format::seen::decode(bytes, triangles as usize, probes).map_err(|e| (file.to_string(), e.to_string()))?,
-            None => Vec::new(),
-        };
-        Ok(Refining { refiner, seen })
+        Ok(Refining { refiner, probes })
     }
 
-    /// Applies the next packet; returns the mesh as it now is, with its
-    /// triangles' part of the table.
+    /// Applies the next packet; returns the mesh as it now is and its
+    /// point-to-go table.
     pub fn apply(&mut self, file: &str, packet: &[u8]) -> Result<(MeshData, Vec<u32>), (String, String)> {
         self.refiner.apply_packet(packet).map_err(|e| (file.to_string(), e.to_string()))?;
-        let n = self.refiner.mesh.triangles.len();
-        Ok((self.refiner.mesh.clone(), self.seen.get(..n).map_or_else(Vec::new, <[u32]>::to_vec)))
+        let mesh = self.refiner.mesh.clone();
+        let seen = mesh.groups.iter().map(|&p| if p < self.probes { p } else { NONE }).collect();
+        Ok((mesh, seen))
     }
 }
 

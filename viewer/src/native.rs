@@ -61,7 +61,7 @@ enum Job {
     Thumbnail { probe: u32, file: String },
     Proxy { level: usize, part: usize, mesh: String, seen: Option<String>, probes: u32 },
     DepthMap { probe: u32, file: String, probes: u32 },
-    Stream { stream: exploremaps_format::ProxyStream, base: String, probes: u32 },
+    Stream { stream: exploremaps_format::ProxyStream, base: exploremaps_format::ProxyLevel, probes: u32 },
 }
 
 enum Decoded {
@@ -134,12 +134,11 @@ fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
 
 /// Refines a proxy level by its vertex splits in this worker, sending the
 /// mesh after each packet; false once the viewer has gone.
-fn refine(root: &Path, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32, results: &Sender<Decoded>) -> bool {
+fn refine(root: &Path, stream: &exploremaps_format::ProxyStream, base: &exploremaps_format::ProxyLevel, probes: u32, results: &Sender<Decoded>) -> bool {
     let read = |f: &str| std::fs::read(root.join(f)).map_err(|e| (f.to_string(), format!("cannot be read ({e})")));
-    let triangles = stream.packets.last().map_or(0, |p| p.triangles);
-    let started = read(base).and_then(|b| {
-        let seen = stream.seen.as_deref().map(|f| read(f).map(|bytes| (f, bytes))).transpose()?;
-        crate::dollhouse::Refining::new(base, &b, seen.as_ref().map(|(f, bytes)| (*f, bytes.as_slice())), triangles, probes)
+    let started = read(&base.file).and_then(|b| {
+        let seen = base.seen.as_deref().map(|f| read(f).map(|bytes| (f, bytes))).transpose()?;
+        crate::dollhouse::Refining::new(&base.file, &b, seen.as_ref().map(|(f, bytes)| (*f, bytes.as_slice())), probes)
     });
     let mut refining = match started {
         Ok(r) => r,
@@ -274,8 +273,8 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::Proxy { level, part, mesh: mesh.to_string(), seen: seen.map(str::to_string), probes });
     }
 
-    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32) {
-        let _ = self.jobs.send(Job::Stream { stream: stream.clone(), base: base.to_string(), probes });
+    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &exploremaps_format::ProxyLevel, probes: u32) {
+        let _ = self.jobs.send(Job::Stream { stream: stream.clone(), base: base.clone(), probes });
     }
 
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32) {

@@ -78,7 +78,7 @@ enum Fetched {
     /// A proxy part's files, to decode.
     ProxyBytes { level: usize, part: usize, file: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
     /// A vertex-split stream's coarse level and table, to start refining.
-    StreamStart { base: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, triangles: u64, probes: u32 },
+    StreamStart { base: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
     /// A packet of vertex splits (they arrive in order), and the level the
     /// mesh is at once it is applied.
     Packet { level: usize, file: String, bytes: Vec<u8> },
@@ -110,6 +110,9 @@ type FaceResult = Result<web_sys::ImageBitmap, Fetched>;
 /// The frame callback, which schedules itself again.
 type FrameLoop = Rc<RefCell<Option<Closure<dyn FnMut(f64)>>>>;
 
+/// Milliseconds of a frame that decoding proxy parts may take (after the first).
+const DECODE_BUDGET_MS: f64 = 4.0;
+
 struct WebPlatform {
     base: String,
     done: Rc<RefCell<Vec<Fetched>>>,
@@ -128,6 +131,75 @@ struct WebPlatform {
 }
 
 impl WebPlatform {
+    /// Turns what was fetched into what the app takes in (None: nothing yet).
+    fn take(&mut self, f: Fetched, gpu: &Gpu, overlay: &OverlayPass) -> Option<Loaded> {
+        let now_ms = || window().performance().map_or(0.0, |p| p.now());
+        Some(match f {
+            Fetched::Cube { probe, size, faces } => {
+                if !self.faces_marked {
+                    self.faces_marked = true;
+                    mark("faces");
+                }
+                let cube = Cube::new(&gpu.device, size);
+                for (layer, face) in faces.into_iter().enumerate() {
+                    // Not closed here: WebGL copies when the queue is submitted.
+                    copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(face), &cube.texture, layer as u32, size, size);
+                }
+                Loaded::Pano { probe, pano: Pano::Cube(cube) }
+            }
+            Fetched::Equirect { probe, image } => {
+                let limit = gpu.device.limits().max_texture_dimension_2d;
+                let (w, h) = (image.width().min(limit), image.height().min(limit));
+                let t = VideoTexture::new(&gpu.device, w, h);
+                copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &t.texture, 0, w, h);
+                Loaded::Pano { probe, pano: Pano::Equirect(t) }
+            }
+            Fetched::Thumbnail { probe, image } => {
+                if probe < overlay.thumb_count {
+                    copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &overlay.thumbs, probe, THUMB_W, THUMB_H);
+                }
+                Loaded::Thumbnail { probe }
+            }
+            Fetched::ProxyBytes { level, part, file, bytes, seen, probes } => {
+                let started = now_ms();
+                let decoded = crate::dollhouse::decode_level(&file, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes);
+                // The longest the main thread was held by one part's decoding, for the benchmark.
+                let ms = now_ms() - started;
+                self.decode_ms[level.min(1)] = self.decode_ms[level.min(1)].max(ms);
+                set_status(&format!("proxy_decode_ms_{}", level.min(1)), &self.decode_ms[level.min(1)].into());
+                match decoded {
+                    Ok((mesh, seen)) => Loaded::Proxy { level, part, mesh, seen },
+                    Err((what, error)) => Loaded::Failed { what, error, probe: None },
+                }
+            }
+            Fetched::StreamStart { base, bytes, seen, probes } => {
+                match crate::dollhouse::Refining::new(&base, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes) {
+                    Ok(r) => {
+                        self.refining = Some(r);
+                        return None;
+                    }
+                    Err((what, error)) => Loaded::Failed { what, error, probe: None },
+                }
+            }
+            Fetched::Packet { level, file, bytes } => {
+                let started = now_ms();
+                let applied = self.refining.as_mut()?.apply(&file, &bytes);
+                // The longest the main thread was held by one packet, for the benchmark.
+                self.decode_ms[0] = self.decode_ms[0].max(now_ms() - started);
+                set_status("proxy_decode_ms_0", &self.decode_ms[0].into());
+                match applied {
+                    Ok((mesh, seen)) => Loaded::Refined { level, mesh, seen },
+                    Err((what, error)) => {
+                        self.refining = None;
+                        Loaded::Failed { what, error, probe: None }
+                    }
+                }
+            }
+            Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
+            Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
+        })
+    }
+
     fn url(&self, file: &str) -> String {
         format!("{}{file}", self.base)
     }
@@ -210,14 +282,13 @@ impl Platform for WebPlatform {
         });
     }
 
-    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &str, probes: u32) {
+    fn load_stream(&mut self, stream: &exploremaps_format::ProxyStream, base: &exploremaps_format::ProxyLevel, probes: u32) {
         // All requests leave now; the packets are handed over in order, and
         // `poll` applies one between two frames.
-        let base = base.to_string();
-        let base_bytes = fetch_bytes(&self.url(&base));
-        let seen = stream.seen.clone().map(|f| (fetch_bytes(&self.url(&f)), f));
+        let base_bytes = fetch_bytes(&self.url(&base.file));
+        let seen = base.seen.clone().map(|f| (fetch_bytes(&self.url(&f)), f));
+        let base = base.file.clone();
         let packets: Vec<_> = stream.packets.iter().enumerate().map(|(k, p)| (fetch_bytes(&self.url(&p.file)), p.file.clone(), if k + 1 == stream.packets.len() { stream.to } else { stream.from })).collect();
-        let triangles = stream.packets.last().map_or(0, |p| p.triangles);
         let done = self.done.clone();
         wasm_bindgen_futures::spawn_local(async move {
             let start = async {
@@ -226,7 +297,7 @@ impl Platform for WebPlatform {
                     Some((bytes, f)) => Some((f.clone(), bytes.await.map_err(|e| (f, e))?)),
                     None => None,
                 };
-                Ok::<_, (String, String)>(Fetched::StreamStart { base, bytes, seen, triangles, probes })
+                Ok::<_, (String, String)>(Fetched::StreamStart { base, bytes, seen, probes })
             };
             match start.await {
                 Ok(f) => done.borrow_mut().push(f),
@@ -252,82 +323,26 @@ impl Platform for WebPlatform {
     }
 
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
-        let mut fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
-        // At most one proxy part or packet is decoded a frame; the others
-        // wait for the next (in the order they came).
-        let mut decoding = false;
-        let heavy = |f: &Fetched| matches!(f, Fetched::ProxyBytes { .. } | Fetched::StreamStart { .. } | Fetched::Packet { .. });
-        let (now, later): (Vec<Fetched>, Vec<Fetched>) = fetched.drain(..).partition(|f| !heavy(f) || !std::mem::replace(&mut decoding, true));
-        self.done.borrow_mut().extend(later);
+        let fetched: Vec<Fetched> = self.done.borrow_mut().drain(..).collect();
+        // Proxy parts and packets are decoded, in the order they came, until
+        // a few milliseconds of this frame are spent (at least one a frame);
+        // the others wait for the next.
         let now_ms = || window().performance().map_or(0.0, |p| p.now());
-        now.into_iter()
-            .filter_map(|f| {
-                Some(match f {
-                Fetched::Cube { probe, size, faces } => {
-                    if !self.faces_marked {
-                        self.faces_marked = true;
-                        mark("faces");
-                    }
-                    let cube = Cube::new(&gpu.device, size);
-                    for (layer, face) in faces.into_iter().enumerate() {
-                        // Not closed here: WebGL copies when the queue is submitted.
-                        copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(face), &cube.texture, layer as u32, size, size);
-                    }
-                    Loaded::Pano { probe, pano: Pano::Cube(cube) }
+        let started = now_ms();
+        let heavy = |f: &Fetched| matches!(f, Fetched::ProxyBytes { .. } | Fetched::StreamStart { .. } | Fetched::Packet { .. });
+        let (mut decoded, mut later, mut out) = (false, Vec::new(), Vec::new());
+        for f in fetched {
+            if heavy(&f) {
+                if !later.is_empty() || (decoded && now_ms() - started > DECODE_BUDGET_MS) {
+                    later.push(f);
+                    continue;
                 }
-                Fetched::Equirect { probe, image } => {
-                    let limit = gpu.device.limits().max_texture_dimension_2d;
-                    let (w, h) = (image.width().min(limit), image.height().min(limit));
-                    let t = VideoTexture::new(&gpu.device, w, h);
-                    copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &t.texture, 0, w, h);
-                    Loaded::Pano { probe, pano: Pano::Equirect(t) }
-                }
-                Fetched::Thumbnail { probe, image } => {
-                    if probe < overlay.thumb_count {
-                        copy_image(gpu, wgpu::ExternalImageSource::ImageBitmap(image), &overlay.thumbs, probe, THUMB_W, THUMB_H);
-                    }
-                    Loaded::Thumbnail { probe }
-                }
-                Fetched::ProxyBytes { level, part, file, bytes, seen, probes } => {
-                    let started = now_ms();
-                    let decoded = crate::dollhouse::decode_level(&file, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes);
-                    // The longest the main thread was held by one part's decoding, for the benchmark.
-                    let ms = now_ms() - started;
-                    self.decode_ms[level.min(1)] = self.decode_ms[level.min(1)].max(ms);
-                    set_status(&format!("proxy_decode_ms_{}", level.min(1)), &self.decode_ms[level.min(1)].into());
-                    match decoded {
-                        Ok((mesh, seen)) => Loaded::Proxy { level, part, mesh, seen },
-                        Err((what, error)) => Loaded::Failed { what, error, probe: None },
-                    }
-                }
-                Fetched::StreamStart { base, bytes, seen, triangles, probes } => {
-                    match crate::dollhouse::Refining::new(&base, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), triangles, probes) {
-                        Ok(r) => {
-                            self.refining = Some(r);
-                            return None;
-                        }
-                        Err((what, error)) => Loaded::Failed { what, error, probe: None },
-                    }
-                }
-                Fetched::Packet { level, file, bytes } => {
-                    let started = now_ms();
-                    let applied = self.refining.as_mut()?.apply(&file, &bytes);
-                    // The longest the main thread was held by one packet, for the benchmark.
-                    self.decode_ms[0] = self.decode_ms[0].max(now_ms() - started);
-                    set_status("proxy_decode_ms_0", &self.decode_ms[0].into());
-                    match applied {
-                        Ok((mesh, seen)) => Loaded::Refined { level, mesh, seen },
-                        Err((what, error)) => {
-                            self.refining = None;
-                            Loaded::Failed { what, error, probe: None }
-                        }
-                    }
-                }
-                Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
-                Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
-            })
-            })
-            .collect()
+                decoded = true;
+            }
+            out.extend(self.take(f, gpu, overlay));
+        }
+        self.done.borrow_mut().extend(later);
+        out
     }
 
     fn play_video(&mut self, file: &str, reversed: bool) {

@@ -81,7 +81,7 @@ impl Progressive {
                         new_position: positions[c.removed as usize].to_array(),
                         colour: [0; 3],
                         new_colour: [0; 3],
-                        moved: c.moved.iter().map(|&t| triangle_id[t as usize]).collect(),
+                        moved: sorted(c.moved.iter().map(|&t| triangle_id[t as usize]).collect()),
                         added,
                         groups: c.deleted.iter().map(|&(t, _)| group(t)).collect(),
                     });
@@ -146,10 +146,22 @@ impl Progressive {
             match r {
                 Refinement::Split { vertex, moved, added, .. } => {
                     *vertex = v(*vertex);
-                    moved.iter_mut().for_each(|x| *x = t(*x));
+                    *moved = sorted(moved.iter().map(|&x| t(x)).collect());
                     added.iter_mut().for_each(|tri| *tri = tri.map(v));
                 }
                 Refinement::Part { triangles, .. } => triangles.iter_mut().for_each(|tri| *tri = tri.map(v)),
+            }
+        }
+    }
+
+    /// Gives the returning triangles new groups: `groups` per input triangle.
+    pub fn regroup(&mut self, groups: &[u32]) {
+        let mut next = self.base.triangles.len();
+        for r in &mut self.refinements {
+            let (Refinement::Split { groups: g, .. } | Refinement::Part { groups: g, .. }) = r;
+            for x in g.iter_mut() {
+                *x = groups[self.triangle_order[next] as usize];
+                next += 1;
             }
         }
     }
@@ -171,6 +183,11 @@ impl Progressive {
             }
         }
     }
+}
+
+fn sorted(mut v: Vec<u32>) -> Vec<u32> {
+    v.sort_unstable();
+    v
 }
 
 #[cfg(test)]

@@ -60,8 +60,8 @@ impl Platform for Script {
         self.proxy_requests.push(level);
         self.proxy_pending.push((level, part));
     }
-    fn load_stream(&mut self, stream: &ProxyStream, base: &str, _probes: u32) {
-        self.stream_requests.push((stream.from, stream.to, base.to_string()));
+    fn load_stream(&mut self, stream: &ProxyStream, base: &ProxyLevel, _probes: u32) {
+        self.stream_requests.push((stream.from, stream.to, base.file.clone()));
         // The two-storey mesh grown by a triangle a packet.
         let grown = |extra: usize| {
             let mut m = crate::dollhouse::tests::two_storeys_data();
@@ -252,7 +252,7 @@ fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
         let mut script = Script { broken_stream: broken, ..Script::default() };
         let mut g = graph_with_proxy();
         let packet = |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), triangles, bytes: 10 };
-        g.proxy.as_mut().unwrap().stream = Some(ProxyStream { from: 1, to: 0, packets: vec![packet(0, 5), packet(1, 6)], seen: Some("proxy/splits.seen".into()) });
+        g.proxy.as_mut().unwrap().stream = Some(ProxyStream { from: 1, to: 0, packets: vec![packet(0, 5), packet(1, 6)] });
         let Some(mut app) = app_of(g, &mut script, 1 << 30, 360) else { return };
         app.resize(640, 360, 1.0);
         let mut shown = Vec::new();
