@@ -23,7 +23,7 @@
 //!    `wasm_decode` example, built by this bench; Draco: its npm module).
 //! 3. The progressive stream as the bundle sends it (the scene simplified
 //!    to 25 000 triangles, a 2 500-triangle base coded whole, then vertex
-//!    splits in packets of 1 000 triangles, geometry only): bytes received
+//!    splits in packets of 750 triangles, geometry only): bytes received
 //!    against the error of the mesh the viewer then shows (as in 1, against
 //!    the welded scene), the splits' bytes a triangle they bring back, the
 //!    whole 25 000-triangle level coded at once for comparison, and how fast
@@ -158,7 +158,7 @@ fn main() {
         let base = meshcode::encode(&pm.base.to_coded(), 14).expect("codes");
         let decoded = meshcode::decode(&base.bytes).expect("decodes");
         pm.renumber_base(&base.order.vertices, &base.order.triangles);
-        let packets = splits::encode(&decoded, &pm.refinements, 14, 1_000).expect("codes");
+        let packets = splits::encode(&decoded, &pm.refinements, 14, 750).expect("codes");
         let input_tree = tree(&mesh.positions, &mesh.triangles);
         let input_samples = sample(&mesh.positions, &mesh.triangles);
         let pct = |x: f32| 100.0 * x / diagonal;

@@ -206,7 +206,7 @@ const CHUNK_TRIANGLES: usize = 7_000;
 /// Triangles a packet of vertex splits brings back: applying one takes a
 /// few milliseconds in a phone's browser (splits cost more a triangle to
 /// decode than a level sent whole).
-const PACKET_TRIANGLES: usize = 1_000;
+const PACKET_TRIANGLES: usize = 750;
 /// Texels a face of a probe's point-to-go depth cube.
 const DEPTH_MAP_SIZE: u32 = 32;
 /// The proxy's entry for graph.json, written after its files: shards and
@@ -223,7 +223,8 @@ fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
 
 fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
     let chunks = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
-    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file));
+    // Packets share files: each file once.
+    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file).enumerate().filter(|&(k, f)| k == 0 || s.packets[k - 1].file != *f).map(|(_, f)| f));
     proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks).chain(stream)
 }
 
@@ -302,11 +303,16 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
             stream.colour(&colours);
             stream.regroup(&finer_best.iter().map(|&p| label(p)).collect::<Vec<u32>>());
             let packets = splits::encode(&base, &stream.refinements, params.bits, PACKET_TRIANGLES).map_err(|e| fail("proxy/splits-0.emvs", e))?;
-            let mut listed = Vec::new();
+            // Small packets (a few ms each to apply), a file bringing back a chunk's worth of triangles.
+            let (mut listed, mut file_bytes, mut files, mut first) = (Vec::new(), Vec::new(), 0, base.triangles.len() as u64);
             for (k, packet) in packets.iter().enumerate() {
-                let file = format!("proxy/splits-{k}.emvs");
-                write(dir, &file, &packet.bytes)?;
-                listed.push(ProxyPacket { file, triangles: packet.triangles, bytes: packet.bytes.len() as u64 });
+                let file = format!("proxy/splits-{files}.emvs");
+                listed.push(ProxyPacket { file: file.clone(), offset: file_bytes.len() as u64, bytes: packet.bytes.len() as u64, triangles: packet.triangles });
+                file_bytes.extend_from_slice(&packet.bytes);
+                if packet.triangles - first >= CHUNK_TRIANGLES as u64 || k + 1 == packets.len() {
+                    write(dir, &file, &std::mem::take(&mut file_bytes))?;
+                    (files, first) = (files + 1, packet.triangles);
+                }
             }
             proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets: listed });
         }
@@ -570,8 +576,8 @@ fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
         "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
         "seen" => exploremaps_format::seen::decode_runs(&bytes, None).map(drop).map_err(|e| bad(&e)),
         "emdm" => exploremaps_format::depthmap::DepthMap::decode(&bytes, u32::MAX).map(drop).map_err(|e| bad(&e)),
-        // A packet applies to the mesh before it; alone, its frame is checked.
-        "emvs" => exploremaps_format::splits::check(&bytes).map_err(|e| bad(&e)),
+        // A packet applies to the mesh before it; alone, each one's frame is checked.
+        "emvs" => exploremaps_format::splits::packets(&bytes).map(drop).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {
             Ok(parsed) => parsed.map(drop).map_err(|e| bad(&e)),
             Err(_) => Err(bad(&"a panic in gltf")),

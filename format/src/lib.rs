@@ -108,12 +108,47 @@ pub struct ProxyStream {
     pub packets: Vec<ProxyPacket>,
 }
 
-/// A packet of vertex splits, and the mesh's size once it is applied.
+/// A packet of vertex splits: `bytes` bytes from `offset` in `file` (a
+/// file holds several, so a viewer fetches a few files yet applies small
+/// packets), and the mesh's triangle count once it is applied.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProxyPacket {
     pub file: String,
-    pub triangles: u64,
+    #[serde(default)]
+    pub offset: u64,
     pub bytes: u64,
+    pub triangles: u64,
+}
+
+impl ProxyPacket {
+    /// The packet's bytes in its file's, or an error to show.
+    pub fn slice<'a>(&self, file: &'a [u8]) -> Result<&'a [u8], String> {
+        let end = self.offset.checked_add(self.bytes).filter(|&e| e <= file.len() as u64);
+        end.map(|e| &file[self.offset as usize..e as usize]).ok_or_else(|| format!("is {} bytes, shorter than graph.json says (a packet at {}..{})", file.len(), self.offset, self.offset.saturating_add(self.bytes)))
+    }
+}
+
+impl ProxyStream {
+    /// The files the packets are in, in order, each with its packets' indices.
+    pub fn files(&self) -> Vec<(String, Vec<usize>)> {
+        let mut out: Vec<(String, Vec<usize>)> = Vec::new();
+        for (k, p) in self.packets.iter().enumerate() {
+            match out.last_mut() {
+                Some((file, ks)) if *file == p.file => ks.push(k),
+                _ => out.push((p.file.clone(), vec![k])),
+            }
+        }
+        out
+    }
+
+    /// The level the proxy is at once packet `k` is applied.
+    pub fn level_after(&self, k: usize) -> usize {
+        if k + 1 >= self.packets.len() {
+            self.to
+        } else {
+            self.from
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

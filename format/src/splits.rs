@@ -34,7 +34,7 @@
 //! box (6 × f32 LE), the section, a CRC-32 (u32 LE) of all that precedes.
 
 use crate::edgebreaker::{CodingError, MAX_TRIANGLES};
-use crate::meshcode::{bit_length, framed, unzigzag, zigzag, Grid, MeshData, Sink, Source, Writer};
+use crate::meshcode::{bit_length, framed, unzigzag, zigzag, Grid, MeshData, Reader, Sink, Source, Writer};
 
 const MAGIC: &[u8; 4] = b"EMVS";
 const VERSION: u8 = 1;
@@ -485,20 +485,19 @@ impl Refiner {
     /// helper here) have gone to the new vertex: those next to both first,
     /// then the others, each ascending.
     fn neighbours(&self, vertex: u32, moved: &[u32]) -> Vec<u32> {
-        let (mut stay, mut go) = (Vec::new(), Vec::new());
-        for &t in &self.incident[vertex as usize] {
-            let side = if moved.binary_search(&t).is_ok() { &mut go } else { &mut stay };
-            side.extend(self.mesh.triangles[t as usize].iter().filter(|&&c| c != vertex));
+        // Each corner beside the vertex, marked 1 beside a triangle that
+        // stays, 2 beside one that moves; sorted, equal corners run together.
+        let around = &self.incident[vertex as usize];
+        let mut marks: Vec<(u32, u8)> = Vec::with_capacity(2 * around.len());
+        for &t in around {
+            let side = if moved.binary_search(&t).is_ok() { 2 } else { 1 };
+            marks.extend(self.mesh.triangles[t as usize].iter().filter(|&&c| c != vertex).map(|&c| (c, side)));
         }
-        for side in [&mut stay, &mut go] {
-            side.sort_unstable();
-            side.dedup();
-        }
-        let (mut both, mut either): (Vec<u32>, Vec<u32>) = stay.iter().partition(|&c| go.binary_search(c).is_ok());
-        either.extend(go.iter().filter(|&c| stay.binary_search(c).is_err()));
-        either.sort_unstable();
-        both.extend(either);
-        both
+        marks.sort_unstable();
+        let runs = marks.chunk_by(|a, b| a.0 == b.0).map(|run| (run[0].0, run.iter().fold(0, |m, x| m | x.1)));
+        let mut out: Vec<u32> = runs.clone().filter(|r| r.1 == 3).map(|r| r.0).collect();
+        out.extend(runs.filter(|r| r.1 != 3).map(|r| r.0));
+        out
     }
 
     /// The group a split's first returning triangle is predicted to have:
@@ -527,14 +526,32 @@ fn add_incident(incident: &mut [Vec<u32>], tri: [u32; 3], t: u32) {
     }
 }
 
-/// Checks a packet on its own (its frame and header): applying it needs the
-/// mesh it refines.
-pub fn check(bytes: &[u8]) -> Result<(), CodingError> {
-    let mut input = framed(bytes, MAGIC, VERSION, "vertex-split packet")?;
-    for _ in 0..10 {
-        input.varint()?;
+/// The packets of a file that holds several one after the other, each
+/// frame checked (applying one needs the mesh it refines).
+pub fn packets(bytes: &[u8]) -> Result<Vec<&[u8]>, CodingError> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        let rest = &bytes[at..];
+        if rest.len() < 5 || &rest[..4] != MAGIC || rest[4] != VERSION {
+            return corrupt(format!("no vertex-split packet (EMVS, version {VERSION}) at byte {at}"));
+        }
+        let mut input = Reader { bytes: rest, at: 5 };
+        for _ in 0..10 {
+            input.varint()?;
+        }
+        input.take(24)?;
+        Source::new(&mut input, MODELS)?;
+        let end = input.at + 4;
+        if end > rest.len() {
+            return corrupt("vertex-split packet truncated");
+        }
+        let packet = &rest[..end];
+        framed(packet, MAGIC, VERSION, "vertex-split packet")?;
+        out.push(packet);
+        at += end;
     }
-    input.take(24).map(drop)
+    Ok(out)
 }
 
 /// A coded packet, and the mesh's size once it is applied.

@@ -149,13 +149,16 @@ impl Refining {
         Ok(Refining { refiner, probes })
     }
 
-    /// Applies the next packet; returns the mesh as it now is and its
-    /// point-to-go table.
-    pub fn apply(&mut self, file: &str, packet: &[u8]) -> Result<(MeshData, Vec<u32>), (String, String)> {
-        self.refiner.apply_packet(packet).map_err(|e| (file.to_string(), e.to_string()))?;
+    /// Applies the next packet (from `file`).
+    pub fn apply(&mut self, file: &str, packet: &[u8]) -> Result<(), (String, String)> {
+        self.refiner.apply_packet(packet).map_err(|e| (file.to_string(), e.to_string()))
+    }
+
+    /// The mesh as it now is, and its point-to-go table.
+    pub fn snapshot(&self) -> (MeshData, Vec<u32>) {
         let mesh = self.refiner.mesh.clone();
         let seen = mesh.groups.iter().map(|&p| if p < self.probes { p } else { NONE }).collect();
-        Ok((mesh, seen))
+        (mesh, seen)
     }
 }
 

@@ -144,14 +144,23 @@ fn refine(root: &Path, stream: &exploremaps_format::ProxyStream, base: &explorem
         Ok(r) => r,
         Err((what, error)) => return results.send(Decoded::Failed { what, error, probe: None }).is_ok(),
     };
-    for (k, packet) in stream.packets.iter().enumerate() {
-        let level = if k + 1 == stream.packets.len() { stream.to } else { stream.from };
-        let sent = match read(&packet.file).and_then(|bytes| refining.apply(&packet.file, &bytes)) {
-            Ok((mesh, seen)) => results.send(Decoded::Refined { level, mesh, seen }),
+    for (file, packets) in stream.files() {
+        let bytes = match read(&file) {
+            Ok(b) => b,
             Err((what, error)) => return results.send(Decoded::Failed { what, error, probe: None }).is_ok(),
         };
-        if sent.is_err() {
-            return false;
+        for k in packets {
+            let applied = stream.packets[k].slice(&bytes).map_err(|e| (file.clone(), e)).and_then(|p| refining.apply(&file, p));
+            let sent = match applied {
+                Ok(()) => {
+                    let (mesh, seen) = refining.snapshot();
+                    results.send(Decoded::Refined { level: stream.level_after(k), mesh, seen })
+                }
+                Err((what, error)) => return results.send(Decoded::Failed { what, error, probe: None }).is_ok(),
+            };
+            if sent.is_err() {
+                return false;
+            }
         }
     }
     true

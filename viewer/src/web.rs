@@ -126,8 +126,10 @@ struct WebPlatform {
     video_frames: u32,
     /// The longest decoding of a proxy part, finest level and coarser ones (ms).
     decode_ms: [f64; 2],
-    /// The proxy level being refined by vertex splits.
+    /// The proxy level being refined by vertex splits, and the level it is
+    /// at when this frame's packets have changed it.
     refining: Option<crate::dollhouse::Refining>,
+    refined: Option<usize>,
 }
 
 impl WebPlatform {
@@ -188,7 +190,11 @@ impl WebPlatform {
                 self.decode_ms[0] = self.decode_ms[0].max(now_ms() - started);
                 set_status("proxy_decode_ms_0", &self.decode_ms[0].into());
                 match applied {
-                    Ok((mesh, seen)) => Loaded::Refined { level, mesh, seen },
+                    // The mesh is handed over once, after this frame's packets.
+                    Ok(()) => {
+                        self.refined = Some(level);
+                        return None;
+                    }
                     Err((what, error)) => {
                         self.refining = None;
                         Loaded::Failed { what, error, probe: None }
@@ -288,7 +294,8 @@ impl Platform for WebPlatform {
         let base_bytes = fetch_bytes(&self.url(&base.file));
         let seen = base.seen.clone().map(|f| (fetch_bytes(&self.url(&f)), f));
         let base = base.file.clone();
-        let packets: Vec<_> = stream.packets.iter().enumerate().map(|(k, p)| (fetch_bytes(&self.url(&p.file)), p.file.clone(), if k + 1 == stream.packets.len() { stream.to } else { stream.from })).collect();
+        let files: Vec<_> = stream.files().into_iter().map(|(file, ks)| (fetch_bytes(&self.url(&file)), file, ks)).collect();
+        let stream = stream.clone();
         let done = self.done.clone();
         wasm_bindgen_futures::spawn_local(async move {
             let start = async {
@@ -303,10 +310,16 @@ impl Platform for WebPlatform {
                 Ok(f) => done.borrow_mut().push(f),
                 Err((what, error)) => return done.borrow_mut().push(Fetched::Failed { what, error, probe: None }),
             }
-            for (bytes, file, level) in packets {
-                match bytes.await {
-                    Ok(bytes) => done.borrow_mut().push(Fetched::Packet { level, file, bytes }),
+            for (bytes, file, ks) in files {
+                let bytes = match bytes.await {
+                    Ok(b) => b,
                     Err(error) => return done.borrow_mut().push(Fetched::Failed { what: file, error, probe: None }),
+                };
+                for k in ks {
+                    match stream.packets[k].slice(&bytes) {
+                        Ok(p) => done.borrow_mut().push(Fetched::Packet { level: stream.level_after(k), file: file.clone(), bytes: p.to_vec() }),
+                        Err(error) => return done.borrow_mut().push(Fetched::Failed { what: file, error, probe: None }),
+                    }
                 }
             }
         });
@@ -330,18 +343,26 @@ impl Platform for WebPlatform {
         let now_ms = || window().performance().map_or(0.0, |p| p.now());
         let started = now_ms();
         let heavy = |f: &Fetched| matches!(f, Fetched::ProxyBytes { .. } | Fetched::StreamStart { .. } | Fetched::Packet { .. });
-        let (mut decoded, mut later, mut out) = (false, Vec::new(), Vec::new());
+        // The next one is started when the last one's time still fits.
+        let (mut last_ms, mut later, mut out) = (None, Vec::new(), Vec::new());
         for f in fetched {
             if heavy(&f) {
-                if !later.is_empty() || (decoded && now_ms() - started > DECODE_BUDGET_MS) {
+                if !later.is_empty() || last_ms.is_some_and(|ms| now_ms() - started + ms > DECODE_BUDGET_MS) {
                     later.push(f);
                     continue;
                 }
-                decoded = true;
+                let t = now_ms();
+                out.extend(self.take(f, gpu, overlay));
+                last_ms = Some(now_ms() - t);
+                continue;
             }
             out.extend(self.take(f, gpu, overlay));
         }
         self.done.borrow_mut().extend(later);
+        if let (Some(level), Some(r)) = (self.refined.take(), &self.refining) {
+            let (mesh, seen) = r.snapshot();
+            out.push(Loaded::Refined { level, mesh, seen });
+        }
         out
     }
 
@@ -590,7 +611,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2], refining: None };
+    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2], refining: None, refined: None };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
