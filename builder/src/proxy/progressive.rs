@@ -338,35 +338,3 @@ mod tests {
         }
     }
 }
-#[cfg(test)]
-mod cost {
-    #[test]
-    #[ignore]
-    fn split_cost() {
-        use super::*;
-        use exploremaps_format::meshcode;
-        let scene = exploremaps_scenes::BuiltIn::parse("gallery").unwrap().generate(1);
-        let (mesh, _) = super::super::weld::weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
-        let d = super::super::simplify::simplify(&mesh, &super::super::simplify::SimplifyParams { target_triangles: 25000, max_error: f32::INFINITY }).compact();
-        let s = super::super::simplify::simplify(&d, &super::super::simplify::SimplifyParams { target_triangles: 2500, max_error: f32::INFINITY });
-        let mut pm = Progressive::new(&d, &s);
-        let base = meshcode::encode(&pm.base.to_coded(), 14).unwrap();
-        let decoded = meshcode::decode(&base.bytes).unwrap();
-        pm.renumber_base(&base.order.vertices, &base.order.triangles);
-        let p = exploremaps_format::splits::encode(&decoded, &pm.refinements, 14, 1000).unwrap();
-        eprintln!("{} bytes, {} packets", p.iter().map(|x| x.bytes.len()).sum::<usize>(), p.len());
-        let t = std::time::Instant::now();
-        for _ in 0..200 {
-            let mut r = exploremaps_format::splits::Refiner::new(decoded.clone()).unwrap();
-            for x in &p { r.apply_packet(&x.bytes).unwrap(); }
-        }
-        eprintln!("{:.2} ms a run", t.elapsed().as_secs_f64() * 5.0);
-        let mut r = exploremaps_format::splits::Refiner::new(decoded.clone()).unwrap();
-        for x in &p { r.apply_packet(&x.bytes).unwrap(); }
-        let mut val = vec![0usize; r.mesh.positions.len()];
-        for t in &r.mesh.triangles { for &c in t { val[c as usize] += 1; } }
-        val.sort();
-        let n = val.len();
-        eprintln!("valence mean {:.1} median {} p90 {} p99 {} max {} sum-of-squares/n {:.1}", val.iter().sum::<usize>() as f64 / n as f64, val[n/2], val[n*9/10], val[n*99/100], val[n-1], val.iter().map(|&v| (v*v) as f64).sum::<f64>() / n as f64);
-    }
-}
