@@ -238,6 +238,10 @@ pub struct RenderArgs {
     /// Video frame width (height is half), a multiple of 16; default by quality.
     #[arg(long)]
     pub video_width: Option<u32>,
+    /// Triangles of the 3D proxy's finest level (its coarse level, which the
+    /// viewer shows first and refines by vertex splits, has a tenth).
+    #[arg(long, default_value_t = 25_000)]
+    pub proxy_triangles: usize,
     /// Samples a pixel for panoramas; default by quality.
     #[arg(long)]
     pub spp: Option<u32>,

@@ -279,6 +279,11 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
         }
         settings.video_width = width;
     }
+    if !(100..=2_000_000).contains(&args.proxy_triangles) {
+        bail!(BadInput(format!("--proxy-triangles {}: use 100 to 2000000 (phones show about 25000 well)", args.proxy_triangles)));
+    }
+    settings.proxy.detail_triangles = args.proxy_triangles;
+    settings.proxy.base_triangles = args.proxy_triangles / 10;
     if let Some(spp) = args.spp {
         if !(1..=65536).contains(&spp) {
             bail!(BadInput(format!("--spp {spp}: use 1 to 65536 samples a pixel")));

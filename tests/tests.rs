@@ -252,7 +252,7 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     for entry in std::fs::read_dir(&one).unwrap().flatten() {
         std::fs::copy(entry.path(), sharded.join(entry.file_name())).unwrap();
     }
-    let small = ["--quality", "preview", "--face", "64", "--video-width", "128"];
+    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100"];
     let render = |bundle: &std::path::Path, extra: &[&str]| {
         let mut args = vec!["render", bundle.to_str().unwrap()];
         args.extend(small);
@@ -289,6 +289,25 @@ fn render_fills_in_assets_resumably_and_in_shards() {
         let mesh = exploremaps_format::meshcode::decode(&bytes).unwrap();
         assert_eq!((mesh.triangles.len() as u64, mesh.colours.len()), (level.triangles, mesh.positions.len()), "{}", level.file);
     }
+    // Its vertex splits rebuild the finest level from the coarsest, each
+    // triangle with its point-to-go entry (a probe, or the probe count for none).
+    let stream = proxy.stream.as_ref().expect("a 10-triangle level refined to 100 by vertex splits");
+    let coarse = &proxy.levels[stream.from];
+    let mut base = exploremaps_format::meshcode::decode(&std::fs::read(one.join(&coarse.file)).unwrap()).unwrap();
+    let probes = graph.probes.len() as u32;
+    let seen = exploremaps_format::seen::decode(&std::fs::read(one.join(coarse.seen.as_ref().unwrap())).unwrap(), base.triangles.len(), probes).unwrap();
+    base.groups = seen.iter().map(|&p| p.min(probes)).collect();
+    let mut refiner = exploremaps_format::splits::Refiner::new(base).unwrap();
+    for (file, packets) in stream.files() {
+        let bytes = std::fs::read(one.join(&file)).unwrap();
+        assert_eq!(exploremaps_format::splits::packets(&bytes).unwrap().len(), packets.len(), "{file}");
+        for k in packets {
+            refiner.apply_packet(stream.packets[k].slice(&bytes).unwrap()).unwrap();
+            assert_eq!(refiner.mesh.triangles.len() as u64, stream.packets[k].triangles);
+        }
+    }
+    assert_eq!(refiner.mesh.triangles.len() as u64, proxy.levels[stream.to].triangles);
+    assert!(refiner.mesh.groups.iter().all(|&p| p <= probes) && refiner.mesh.groups.iter().any(|&p| p < probes));
     let (document, buffers, _) = gltf::import(one.join(proxy.glb.as_ref().expect("a GLB"))).unwrap();
     let primitive = document.meshes().next().unwrap().primitives().next().unwrap();
     let reader = primitive.reader(|b| Some(&buffers[b.index()]));

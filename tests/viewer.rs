@@ -102,16 +102,38 @@ pub fn synthetic_bundle(dir: &Path) {
         ground.colours.extend([colour; 4]);
         ground.triangles.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
     }
-    let coded = exploremaps_format::meshcode::encode(&ground, 14).unwrap();
+    // Level 0 whole; level 1 the east quad's corner (9, −5) collapsed into
+    // (9, 9), which a vertex split of the stream undoes.
     let best = [0, 0, 1, 1];
-    let seen = exploremaps_format::seen::encode(&coded.order.triangles.iter().map(|&t| best[t as usize]).collect::<Vec<u32>>());
     let mut levels = Vec::new();
-    for level in 0..2 {
+    let mut coarse = ground.clone();
+    coarse.positions[5] = [9.0, 0.0, 9.0];
+    coarse.positions.remove(6);
+    coarse.colours.remove(6);
+    coarse.triangles = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]];
+    let coarse_best = [0, 0, 1];
+    let mut coded_coarse = None;
+    for (level, mesh, best) in [(0, &ground, &best[..]), (1, &coarse, &coarse_best[..])] {
+        let coded = exploremaps_format::meshcode::encode(mesh, 14).unwrap();
         let (file, table) = (format!("proxy/{level}.emmc"), format!("proxy/{level}.seen"));
+        let seen: Vec<u32> = coded.order.triangles.iter().map(|&t| best[t as usize]).collect();
         write(&file, &coded.bytes);
-        write(&table, &seen);
-        levels.push(exploremaps_format::ProxyLevel { file, triangles: 4, vertices: 8, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table), chunks: vec![] });
+        write(&table, &exploremaps_format::seen::encode(&seen));
+        levels.push(exploremaps_format::ProxyLevel { file, triangles: mesh.triangles.len() as u64, vertices: mesh.positions.len() as u64, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table), chunks: vec![] });
+        coded_coarse = Some((coded, seen));
     }
+    let (coded, seen) = coded_coarse.unwrap();
+    let mut base = exploremaps_format::meshcode::decode(&coded.bytes).unwrap();
+    base.groups = seen;
+    let decoded = |input: u32| coded.order.vertices.iter().position(|&v| v == input).unwrap() as u32;
+    let [e, f] = [4, 5].map(decoded);
+    let g = base.positions.len() as u32;
+    let moved = coded.order.triangles.iter().position(|&t| t == 2).unwrap() as u32;
+    let split = exploremaps_format::splits::Refinement::Split { vertex: f, position: [9.0, 0.0, -5.0], new_position: [9.0, 0.0, 9.0], colour: EAST, new_colour: EAST, moved: vec![moved], added: vec![[e, f, g]], groups: vec![1] };
+    let packet = exploremaps_format::splits::encode(&base, &[split], 14, 1).unwrap().remove(0);
+    write("proxy/splits-0.emvs", &packet.bytes);
+    let packets = vec![exploremaps_format::ProxyPacket { file: "proxy/splits-0.emvs".into(), offset: 0, bytes: packet.bytes.len() as u64, triangles: 4 }];
+    let stream = Some(exploremaps_format::ProxyStream { from: 1, to: 0, packets });
     // Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
     let mut depth_maps = Vec::new();
     for p in 0..positions.len() as u32 {
@@ -128,7 +150,7 @@ pub fn synthetic_bundle(dir: &Path) {
         write(&file, &map.encode());
         depth_maps.push(file);
     }
-    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps, stream: None });
+    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps, stream });
     graph.validate().unwrap();
     write("graph.json", graph.to_json().as_bytes());
 }
