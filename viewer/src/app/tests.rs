@@ -251,7 +251,7 @@ fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
     for broken in [false, true] {
         let mut script = Script { broken_stream: broken, ..Script::default() };
         let mut g = graph_with_proxy();
-        let packet = |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), triangles, bytes: 10 };
+        let packet = |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), offset: 0, triangles, bytes: 10 };
         g.proxy.as_mut().unwrap().stream = Some(ProxyStream { from: 1, to: 0, packets: vec![packet(0, 5), packet(1, 6)] });
         let Some(mut app) = app_of(g, &mut script, 1 << 30, 360) else { return };
         app.resize(640, 360, 1.0);
