@@ -506,9 +506,22 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// A model being decoded with: by search of its cumulative table at first,
+/// by a lookup table (4,096 entries to build) once it has decoded enough
+/// symbols to repay it. Both give the same symbols.
+struct Model {
+    probabilities: Vec<u16>,
+    search: SmallContiguousCategoricalEntropyModel,
+    lookup: Option<SmallContiguousLookupDecoderModel>,
+    used: u32,
+}
+
+/// Symbols a model decodes by search before it builds its lookup table.
+const SEARCHED: u32 = 512;
+
 /// A section being decoded.
 pub(crate) struct Source<'a> {
-    models: Vec<SmallContiguousLookupDecoderModel>,
+    models: Vec<Model>,
     decoder: DefaultAnsCoder,
     raw: &'a [u8],
     raw_at: usize,
@@ -534,7 +547,8 @@ impl<'a> Source<'a> {
                 p.push(x as u16);
             }
             p.push(((1u64 << PRECISION) - sum) as u16);
-            tables.push(SmallContiguousLookupDecoderModel::from_nonzero_fixed_point_probabilities(&p, false).map_err(|_| corrupt("probabilities"))?);
+            let search = SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(&p, false).map_err(|_| corrupt("probabilities"))?;
+            tables.push(Model { probabilities: p, search, lookup: None, used: 0 });
         }
         let words = input.varint()? as usize;
         if words > input.bytes.len() / 4 {
@@ -548,7 +562,16 @@ impl<'a> Source<'a> {
         Ok(Source { models: tables, decoder, raw, raw_at: 0 })
     }
     pub(crate) fn symbol(&mut self, model: usize) -> Result<usize, CodingError> {
-        self.decoder.decode_symbol(&self.models[model]).map_err(|_| CodingError::Corrupt("entropy coder".into()))
+        let m = &mut self.models[model];
+        m.used += 1;
+        if m.lookup.is_none() && m.used > SEARCHED {
+            m.lookup = SmallContiguousLookupDecoderModel::from_nonzero_fixed_point_probabilities(&m.probabilities, false).ok();
+        }
+        let decoded = match &m.lookup {
+            Some(table) => self.decoder.decode_symbol(table),
+            None => self.decoder.decode_symbol(&m.search),
+        };
+        decoded.map_err(|_| CodingError::Corrupt("entropy coder".into()))
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
         if bits == 0 {
