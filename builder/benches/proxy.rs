@@ -27,7 +27,8 @@
 //!    against the error of the mesh the viewer then shows (as in 1, against
 //!    the welded scene), the splits' bytes a triangle they bring back, the
 //!    whole 25 000-triangle level coded at once for comparison, and how fast
-//!    packets apply natively.
+//!    packets apply natively; drawn as curves (RMS error against kilobytes,
+//!    one a scene, the whole level as a dot) in `target/proxy-stream.svg`.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
@@ -146,6 +147,8 @@ fn main() {
     }
 
     println!("\n== progressive stream: base 2 500 + vertex splits to 25 000 (14-bit, geometry only; error as in 1, in % of the diagonal)");
+    // Per scene: (bytes received, RMS %) after the base and each packet, and the level sent whole.
+    let mut curves: Vec<(String, Vec<(f64, f64)>, (f64, f64))> = Vec::new();
     println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
     for (name, mesh, diagonal) in &streams {
         let detail = if mesh.triangles.len() > 25_000 { simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact() } else { mesh.clone() };
@@ -164,6 +167,7 @@ fn main() {
         let pct = |x: f32| 100.0 * x / diagonal;
         let mut refiner = splits::Refiner::new(decoded.clone()).expect("a valid base");
         let mut bytes = base.bytes.len();
+        let mut curve = Vec::new();
         for k in 0..=packets.len() {
             if k > 0 {
                 refiner.apply_packet(&packets[k - 1].bytes).expect("applies");
@@ -173,10 +177,13 @@ fn main() {
             let (h, r) = distances(&input_tree, &input_samples, &positions, &refiner.mesh.triangles);
             let label = if k == 0 { "base".to_string() } else { k.to_string() };
             println!("{name:<16} {label:>7} {:>9} {bytes:>10} {:>9.4} {:>8.4}", refiner.mesh.triangles.len(), pct(h), pct(r));
+            curve.push((bytes as f64, pct(r) as f64));
         }
         let split_bytes: usize = packets.iter().map(|p| p.bytes.len()).sum();
         let added = detail.triangles.len() - decoded.triangles.len();
         let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
+        let last_error = curve.last().map_or(0.0, |p| p.1);
+        curves.push((name.clone(), curve, (whole as f64, last_error)));
         let t = Instant::now();
         let mut runs = 0;
         while runs < 3 || t.elapsed().as_secs_f64() < 0.5 {
@@ -195,6 +202,12 @@ fn main() {
             base.bytes.len() + split_bytes,
             (base.bytes.len() + split_bytes) as f64 / whole as f64
         );
+    }
+    let svg = stream_chart(&curves);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/proxy-stream.svg");
+    match std::fs::write(&path, svg) {
+        Ok(()) => println!("curves: {}", path.display()),
+        Err(e) => println!("curves not written to {}: {e}", path.display()),
     }
 }
 
@@ -336,4 +349,39 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
     let out = Command::new("node").arg(root.join("benches/wasm_decode.js")).arg(module).arg(&file).output().map_err(|e| format!("node: {e}"))?;
     let text = String::from_utf8_lossy(&out.stdout);
     text.lines().find_map(|l| l.strip_prefix("decode ")).and_then(|r| r.trim().parse().ok()).ok_or_else(|| format!("node said: {text} {}", String::from_utf8_lossy(&out.stderr)))
+}
+
+/// Bytes received against RMS error (log scale), a polyline a scene and a
+/// dot for its level sent whole, as SVG with axes and a legend.
+fn stream_chart(curves: &[(String, Vec<(f64, f64)>, (f64, f64))]) -> String {
+    let (w, h, m) = (720.0, 440.0, 60.0);
+    let points = curves.iter().flat_map(|c| c.1.iter().chain(std::iter::once(&c.2)));
+    let max_x = points.clone().map(|p| p.0).fold(1.0, f64::max) / 1024.0;
+    let (lo, hi) = points.map(|p| p.1.max(1e-4).log10()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| (a.min(y), b.max(y)));
+    let (lo, hi) = (lo.floor(), hi.ceil().max(lo.floor() + 1.0));
+    let px = |kb: f64| m + kb / max_x * (w - 2.0 * m);
+    let py = |e: f64| h - m - (e.max(1e-4).log10() - lo) / (hi - lo) * (h - 1.5 * m);
+    let mut svg = format!(r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12"><rect width="100%" height="100%" fill="white"/>"##);
+    let mut decade = lo;
+    while decade <= hi {
+        let y = py(10f64.powf(decade));
+        svg += &format!(r##"<line x1="{m}" x2="{}" y1="{y}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">{}</text>"##, w - m / 2.0, m - 6.0, y + 4.0, 10f64.powf(decade));
+        decade += 1.0;
+    }
+    let step = [10.0, 20.0, 50.0, 100.0].into_iter().find(|s| max_x / s <= 8.0).unwrap_or(200.0);
+    let mut kb = 0.0;
+    while kb <= max_x {
+        svg += &format!(r##"<line x1="{0}" x2="{0}" y1="{1}" y2="{2}" stroke="#ddd"/><text x="{0}" y="{3}" text-anchor="middle">{kb}</text>"##, px(kb), m / 2.0, h - m, h - m + 16.0);
+        kb += step;
+    }
+    svg += &format!(r##"<text x="{}" y="{}" text-anchor="middle">kilobytes received (base, then each packet of splits)</text><text x="14" y="{}" transform="rotate(-90 14 {})" text-anchor="middle">RMS error, % of the diagonal</text>"##, w / 2.0, h - 12.0, h / 2.0, h / 2.0);
+    let colours = ["#1b7837", "#c51b7d", "#2166ac", "#e08214", "#542788"];
+    for (k, (name, curve, whole)) in curves.iter().enumerate() {
+        let c = colours[k % colours.len()];
+        let line: Vec<String> = curve.iter().map(|&(b, e)| format!("{:.1},{:.1}", px(b / 1024.0), py(e))).collect();
+        svg += &format!(r##"<polyline fill="none" stroke="{c}" stroke-width="2" points="{}"/><circle cx="{:.1}" cy="{:.1}" r="5" fill="{c}"/>"##, line.join(" "), px(whole.0 / 1024.0), py(whole.1));
+        svg += &format!(r##"<text x="{}" y="{}" fill="{c}">{name}</text>"##, w - 260.0, m + 16.0 * k as f64);
+    }
+    svg += &format!(r##"<text x="{}" y="{}">dots: the 25,000-triangle level sent whole</text>"##, w - 260.0, m + 16.0 * curves.len() as f64);
+    svg + "</svg>\n"
 }

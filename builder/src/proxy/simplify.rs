@@ -25,6 +25,7 @@ use super::Mesh;
 use glam::{DMat3, DVec3, Vec3};
 use std::cmp::Reverse;
 use dary_heap::OctonaryHeap as BinaryHeap;
+use rayon::prelude::*;
 
 /// Weight of boundary and group-border planes, relative to the area weights
 /// (times the edge's squared length, so it scales with the mesh).
@@ -234,11 +235,11 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
     // few more rounds over every edge pick those up.
     'rounds: for _ in 0..ROUNDS {
         let before = live;
-        for (a, b) in s.edges() {
-            if let Some(cost) = s.cost(a, b) {
-                queue.push(Entry::new(cost, Job::Edge(a, b, stamps(&s, a, b))));
-            }
-        }
+        // Every edge's cost (in parallel, in edge order), then one heapify.
+        let fresh: Vec<Reverse<Entry>> = s.edges().par_iter().filter_map(|&(a, b)| Some(Entry::new(s.cost(a, b)?, Job::Edge(a, b, stamps(&s, a, b))))).collect();
+        let mut all = std::mem::take(&mut queue).into_vec();
+        all.extend(fresh);
+        queue = BinaryHeap::from(all);
         while live > params.target_triangles {
             let Some(Reverse(entry)) = queue.pop() else { break };
             let (cost, job) = (entry.cost(), entry.job());
