@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(obj gltf ply graph mp4 request proxy pointtogo)
+[ ${#targets[@]} -gt 0 ] || targets=(obj gltf ply graph mp4 request proxy pointtogo splits)
 
 rustup toolchain list | grep -q nightly || rustup toolchain install nightly --profile minimal
 command -v cargo-fuzz >/dev/null || cargo +nightly install cargo-fuzz --locked

@@ -540,10 +540,11 @@ impl<'a> Source<'a> {
             let mut sum = 0u64;
             for _ in 0..n - 1 {
                 let x = input.varint()?;
-                sum += x;
-                if x == 0 || sum >= 1 << PRECISION {
+                // (x bounded before the sum, which a huge x would overflow.)
+                if x == 0 || x >= 1 << PRECISION || sum + x >= 1 << PRECISION {
                     return Err(corrupt("probabilities"));
                 }
+                sum += x;
                 p.push(x as u16);
             }
             p.push(((1u64 << PRECISION) - sum) as u16);
@@ -688,6 +689,16 @@ mod tests {
         check_round_trip(&soup, 14);
         let empty = MeshData::default();
         assert_eq!(decode(&encode(&empty, 14).unwrap().bytes).unwrap(), empty);
+    }
+
+    /// Found by the `splits` fuzz target: a model's probability as large as
+    /// a LEB128 number goes (2^64 − 1) overflowed the sum it was checked by.
+    #[test]
+    fn a_huge_probability_in_a_model_table_is_an_error_not_an_overflow() {
+        let mut bytes = vec![2u8];
+        bytes.extend([0xff; 9]);
+        bytes.push(0x01);
+        assert!(Source::new(&mut Reader { bytes: &bytes, at: 0 }, 1).is_err());
     }
 
     #[test]
