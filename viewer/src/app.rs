@@ -1058,6 +1058,14 @@ impl App {
         }
     }
 
+    /// While the finest proxy level is not yet on screen (and has not
+    /// failed): the fraction of its triangles that are.
+    fn proxy_loading(&self) -> Option<f32> {
+        let finest = self.nav.graph().proxy.as_ref()?.levels.first()?.triangles.max(1) as f32;
+        let shown = self.proxy.as_ref().map_or(Some(0), |m| (m.level > 0).then_some(m.triangles.len()))?;
+        (!self.proxy_failed).then(|| (shown as f32 / finest).min(1.0))
+    }
+
     /// The interface shapes for the current frame (also kept for taps).
     fn shapes(&mut self, camera: Option<&Camera>) -> Vec<Shape> {
         let cut = self.cut();
@@ -1080,6 +1088,7 @@ impl App {
             },
             floors: self.floors.heights.len(),
             floor: self.floor,
+            loading: self.proxy_loading(),
         });
         let screen = Screen {
             width: self.width,

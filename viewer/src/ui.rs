@@ -160,6 +160,9 @@ pub struct DollhouseScreen {
     /// Storeys, and the one shown (None: the whole scene, uncut).
     pub floors: usize,
     pub floor: Option<usize>,
+    /// While the proxy is still coming: how much of its finest level is on
+    /// screen (0 to 1), drawn as a thin bar along the top.
+    pub loading: Option<f32>,
 }
 
 /// Signed yaw of the path's departure relative to the view, (−π, π].
@@ -187,6 +190,13 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
             out.shapes.push(Shape::disc(x, y, r, colour));
             out.hits.push(Hit { x: x - r, y: y - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::TakePath(c.path) });
         }
+    }
+
+    // The proxy still refining: a bar along the top.
+    if let Some(f) = s.dollhouse.as_ref().and_then(|d| d.loading) {
+        let bar = 4.0 * k;
+        out.shapes.push(Shape::rect(0.0, 0.0, w, bar, PANEL));
+        out.shapes.push(Shape::rect(0.0, 0.0, w * f.clamp(0.0, 1.0), bar, HIGHLIGHT));
     }
 
     // Probes over the dollhouse.

@@ -256,6 +256,7 @@ fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
         let Some(mut app) = app_of(g, &mut script, 1 << 30, 360) else { return };
         app.resize(640, 360, 1.0);
         let mut shown = Vec::new();
+        assert_eq!(app.proxy_loading(), Some(0.0), "nothing in yet");
         for _ in 0..8 {
             app.update(0.016, &mut script);
             let now = app.proxy.as_ref().map(|m| (m.level, m.triangles.len()));
@@ -273,6 +274,7 @@ fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
             assert_eq!(script.proxy_requests, vec![1], "no level asked for whole");
             assert_eq!(shown, vec![Some((1, 4)), Some((1, 5)), Some((0, 6))], "base, a packet, the last packet");
             assert_eq!(app.proxy.as_ref().unwrap().seen, vec![3, 3, 1, 1, 3, 3]);
+            assert_eq!(app.proxy_loading(), None, "no loading bar once whole");
             assert!(script.messages.is_empty(), "{:?}", script.messages);
         }
     }

@@ -131,3 +131,15 @@ fn links_round_trip_and_name_bad_values() {
     assert_eq!(back.probe, Some(0));
     assert!((back.yaw_deg.unwrap() - 90.0).abs() < 1e-3);
 }
+
+/// While the proxy refines, a bar along the top shows how much of it is in;
+/// none once it is whole.
+#[test]
+fn a_bar_shows_the_proxy_refining() {
+    let nav = Navigator::new(graph(), Some(0), 1).unwrap();
+    let over = |loading| Screen { dollhouse: Some(DollhouseScreen { markers: Vec::new(), floors: 0, floor: None, loading }), ..screen(1000.0, 600.0, 1.0) };
+    let filled = |l: &Layout| l.shapes.iter().filter(|s| s.colour == HIGHLIGHT && s.a[1] < 5.0 && s.b[1] < 5.0).map(|s| s.b[0] - s.a[0]).next();
+    let half = layout(&nav, &over(Some(0.4)));
+    assert!(filled(&half).is_some_and(|len| (len - 400.0).abs() < 1.0), "{:?}", filled(&half));
+    assert_eq!(filled(&layout(&nav, &over(None))), None);
+}
