@@ -217,15 +217,15 @@ const PROXY_LIST: &str = "proxy/proxy.json";
 fn proxy_listed(dir: &Path) -> Option<exploremaps_format::Proxy> {
     let text = std::fs::read_to_string(dir.join(PROXY_LIST)).ok()?;
     let proxy: exploremaps_format::Proxy = serde_json::from_str(&text).ok()?;
-    let complete = proxy_files(&proxy).all(|f| dir.join(f).exists());
+    let complete = proxy_files(&proxy).iter().all(|f| dir.join(f).exists());
     complete.then_some(proxy)
 }
 
-fn proxy_files(proxy: &exploremaps_format::Proxy) -> impl Iterator<Item = &String> {
+fn proxy_files(proxy: &exploremaps_format::Proxy) -> Vec<String> {
     let chunks = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
+    let listed = proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks);
     // Packets share files: each file once.
-    let stream = proxy.stream.iter().flat_map(|s| s.packets.iter().map(|p| &p.file).enumerate().filter(|&(k, f)| k == 0 || s.packets[k - 1].file != *f).map(|(_, f)| f));
-    proxy.levels.iter().flat_map(|l| std::iter::once(&l.file).chain(&l.seen)).chain(&proxy.glb).chain(&proxy.depth_maps).chain(chunks).chain(stream)
+    listed.cloned().chain(proxy.stream.iter().flat_map(|s| s.files().into_iter().map(|(file, _)| file))).collect()
 }
 
 /// Storey floor heights the free-space stage found (its `walk.levels`), for
@@ -242,7 +242,7 @@ fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
 /// `proxy/<level>.seen`, the finest also as a GLB, then listed in
 /// `proxy/proxy.json`.
 fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::render::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
-    use exploremaps_format::{meshcode, seen, splits, Proxy, ProxyChunk, ProxyLevel, ProxyPacket, ProxyStream};
+    use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel, ProxyStream};
     let started = std::time::Instant::now();
     let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new(), stream: None };
     let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
@@ -266,7 +266,8 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         // A large level in spatial chunks (a viewer decodes one between two frames).
         let parts = crate::proxy::chunks(&level.mesh, CHUNK_TRIANGLES);
         let mut chunks = Vec::new();
-        let mut coded_last = None;
+        // A level in one part: its bytes and decoded order, for its stream.
+        let mut whole = None;
         for (c, triangles) in parts.iter().enumerate() {
             let name = if parts.len() == 1 { format!("proxy/{i}") } else { format!("proxy/{i}-{c}") };
             let (mesh, was) = level.mesh.subset(triangles);
@@ -278,9 +279,11 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
             let seen_file = format!("{name}.seen");
             write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[triangles[t as usize]]).collect::<Vec<u32>>()))?;
             chunks.push(ProxyChunk { file, seen: Some(seen_file), triangles: triangles.len() as u64, bytes: coded.bytes.len() as u64 });
-            // Decoded vertex and triangle k are the level's `vertices[k]` and `triangles[k]`.
-            let vertices = coded.order.vertices.iter().map(|&v| was[v as usize]).collect::<Vec<u32>>();
-            coded_last = Some((coded.bytes, vertices, coded.order.triangles.iter().map(|&t| triangles[t as usize] as u32).collect::<Vec<u32>>()));
+            if parts.len() == 1 {
+                // Decoded vertex and triangle k are the level's `vertices[k]` and `triangles[k]`.
+                let vertices = coded.order.vertices.iter().map(|&v| was[v as usize]).collect();
+                whole = Some(CodedWhole { bytes: coded.bytes, vertices, triangles: coded.order.triangles.iter().map(|&t| triangles[t as usize] as u32).collect() });
+            }
         }
         if i == 0 {
             write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
@@ -290,31 +293,10 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
         let (file, seen) = (chunks[0].file.clone(), chunks[0].seen.clone());
         let bytes = chunks.iter().map(|c| c.bytes).sum();
         let chunks = if chunks.len() > 1 { chunks } else { Vec::new() };
-        // A level coded whole that refines into the one before it: its
-        // vertex splits, numbered as the level decodes.
-        if let (Some(mut stream), Some((colours, finer_best)), Some((bytes, vertices, triangles)), true) = (level.refines, finer.take(), coded_last, chunks.is_empty()) {
-            let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), message: e.to_string() };
-            // Groups carry the point-to-go table, "none" as the probe count:
-            // the base's as in its table, then the finer level's.
-            let label = |p: u32| p.min(probes.len() as u32);
-            let mut base = meshcode::decode(&bytes).map_err(|e| fail(&file, e))?;
-            base.groups = triangles.iter().map(|&t| label(best[t as usize])).collect();
-            stream.renumber_base(&vertices, &triangles);
-            stream.colour(&colours);
-            stream.regroup(&finer_best.iter().map(|&p| label(p)).collect::<Vec<u32>>());
-            let packets = splits::encode(&base, &stream.refinements, params.bits, PACKET_TRIANGLES).map_err(|e| fail("proxy/splits-0.emvs", e))?;
-            // Small packets (a few ms each to apply), a file bringing back a chunk's worth of triangles.
-            let (mut listed, mut file_bytes, mut files, mut first) = (Vec::new(), Vec::new(), 0, base.triangles.len() as u64);
-            for (k, packet) in packets.iter().enumerate() {
-                let file = format!("proxy/splits-{files}.emvs");
-                listed.push(ProxyPacket { file: file.clone(), offset: file_bytes.len() as u64, bytes: packet.bytes.len() as u64, triangles: packet.triangles });
-                file_bytes.extend_from_slice(&packet.bytes);
-                if packet.triangles - first >= CHUNK_TRIANGLES as u64 || k + 1 == packets.len() {
-                    write(dir, &file, &std::mem::take(&mut file_bytes))?;
-                    (files, first) = (files + 1, packet.triangles);
-                }
-            }
-            proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets: listed });
+        // A level coded whole that refines into the one before it: its vertex splits.
+        if let (Some(stream), Some((finer_colours, finer_best)), Some(whole)) = (level.refines, finer.take(), whole) {
+            let packets = write_splits(dir, (&file, whole, &best), stream, (&finer_colours, &finer_best), probes.len() as u32, params.bits)?;
+            proxy.stream = Some(ProxyStream { from: i, to: i - 1, packets });
         }
         finer = Some((colours, best));
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });
@@ -322,6 +304,45 @@ fn render_proxy(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &explorema
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
     tracing::info!("proxy: {}; depth maps {} bytes a probe ({:.2} s)", sizes.join(", "), depth_bytes / probes.len().max(1), started.elapsed().as_secs_f64());
     write(dir, PROXY_LIST, serde_json::to_string_pretty(&proxy).expect("JSON of plain values").as_bytes())
+}
+
+/// A level coded in one part: its bytes, and per decoded vertex and
+/// triangle, the level's.
+struct CodedWhole {
+    bytes: Vec<u8>,
+    vertices: Vec<u32>,
+    triangles: Vec<u32>,
+}
+
+/// Writes the vertex splits that rebuild the finer level from `coarse` (its
+/// file, its coded bytes with their decoded vertex and triangle order, and
+/// its point-to-go table per level triangle) as `proxy/splits-<k>.emvs`:
+/// packets of `PACKET_TRIANGLES` (a few ms each to apply), a file bringing
+/// back a chunk's worth. Triangle groups carry the point-to-go entries
+/// (the probe count for none): the coarse level's, then `finer`'s (colours
+/// per vertex and table per triangle of the finer level).
+fn write_splits(dir: &Path, coarse: (&str, CodedWhole, &[u32]), mut stream: crate::proxy::progressive::Progressive, finer: (&[[u8; 3]], &[u32]), probes: u32, bits: u32) -> Result<Vec<exploremaps_format::ProxyPacket>, BundleError> {
+    use exploremaps_format::{meshcode, splits, ProxyPacket};
+    let (file, CodedWhole { bytes, vertices, triangles }, best) = coarse;
+    let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), message: e.to_string() };
+    // The coder predicts from the coarse level exactly as a viewer decodes it.
+    let mut base = meshcode::decode(&bytes).map_err(|e| fail(file, e))?;
+    base.groups = triangles.iter().map(|&t| best[t as usize].min(probes)).collect();
+    stream.renumber_base(&vertices, &triangles);
+    stream.colour(finer.0);
+    stream.regroup(&finer.1.iter().map(|&p| p.min(probes)).collect::<Vec<u32>>());
+    let packets = splits::encode(&base, &stream.refinements, bits, PACKET_TRIANGLES).map_err(|e| fail("proxy/splits-0.emvs", e))?;
+    let (mut listed, mut file_bytes, mut files, mut first) = (Vec::new(), Vec::new(), 0, base.triangles.len() as u64);
+    for (k, packet) in packets.iter().enumerate() {
+        let file = format!("proxy/splits-{files}.emvs");
+        listed.push(ProxyPacket { file: file.clone(), offset: file_bytes.len() as u64, bytes: packet.bytes.len() as u64, triangles: packet.triangles });
+        file_bytes.extend_from_slice(&packet.bytes);
+        if packet.triangles - first >= CHUNK_TRIANGLES as u64 || k + 1 == packets.len() {
+            write(dir, &file, &std::mem::take(&mut file_bytes))?;
+            (files, first) = (files + 1, packet.triangles);
+        }
+    }
+    Ok(listed)
 }
 
 fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
@@ -529,7 +550,7 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     }
     let proxy_job = probes + graph.paths.len();
     match proxy_listed(dir) {
-        Some(proxy) => expected.extend(proxy_files(&proxy).map(|f| (f.clone(), proxy_job))),
+        Some(proxy) => expected.extend(proxy_files(&proxy).into_iter().map(|f| (f, proxy_job))),
         None => expected.push((PROXY_LIST.to_string(), proxy_job)),
     }
     // A file that exists but does not decode goes, so its shard redoes it.

@@ -554,12 +554,10 @@ pub fn packets(bytes: &[u8]) -> Result<Vec<&[u8]>, CodingError> {
     Ok(out)
 }
 
-/// A coded packet, and the mesh's size once it is applied.
+/// A coded packet, and the mesh's triangle count once it is applied.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Packet {
     pub bytes: Vec<u8>,
-    pub refinements: u64,
-    pub vertices: u64,
     pub triangles: u64,
 }
 
@@ -634,7 +632,7 @@ pub fn encode(base: &MeshData, refinements: &[Refinement], bits: u32, packet_tri
         out.section(sink);
         let crc = crc32fast::hash(&out.bytes);
         out.bytes.extend_from_slice(&crc.to_le_bytes());
-        packets.push(Packet { bytes: out.bytes, refinements: taken as u64, vertices, triangles });
+        packets.push(Packet { bytes: out.bytes, triangles });
     }
     Ok(packets)
 }

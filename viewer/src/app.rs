@@ -83,7 +83,8 @@ pub trait Platform {
     /// Loads the vertex splits that refine the proxy level `base` (its file,
     /// decoded again) and applies their packets in order, off the main
     /// thread where the platform can, else one packet between two frames;
-    /// answers each with a [`Loaded::Refined`].
+    /// answers with the mesh as refined so far ([`Loaded::Refined`]), at
+    /// most once a poll (each is a whole mesh to upload).
     fn load_stream(&mut self, stream: &ProxyStream, base: &ProxyLevel, probes: u32);
     /// Loads and decodes a probe's depth map, checked against `probes`.
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
@@ -556,16 +557,7 @@ impl App {
     /// Advances time by `dt_s` seconds: takes in loads, moves, tours.
     pub fn update(&mut self, dt_s: f32, platform: &mut dyn Platform) {
         self.frame += 1;
-        let mut batch = platform.poll(&self.gpu, &self.overlay);
-        // Of the proxy's refinements in one batch, the last holds them all.
-        if let Some(last) = batch.iter().rposition(|l| matches!(l, Loaded::Refined { .. })) {
-            let mut k = 0;
-            batch.retain(|l| {
-                k += 1;
-                !matches!(l, Loaded::Refined { .. }) || k - 1 == last
-            });
-        }
-        for loaded in batch {
+        for loaded in platform.poll(&self.gpu, &self.overlay) {
             match loaded {
                 Loaded::Pano { probe, pano } => {
                     if self.panos.get(&probe).is_none_or(|l| l.pano.size() < pano.size()) {

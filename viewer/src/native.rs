@@ -316,7 +316,9 @@ impl Platform for NativePlatform {
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });
         }
-        out
+        // One refined proxy a poll: the latest holds the others.
+        let latest = out.iter().rposition(|l| matches!(l, Loaded::Refined { .. }));
+        out.into_iter().enumerate().filter(|(i, l)| Some(*i) == latest || !matches!(l, Loaded::Refined { .. })).map(|(_, l)| l).collect()
     }
 
     fn play_video(&mut self, file: &str, reversed: bool) {

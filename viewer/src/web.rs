@@ -60,6 +60,11 @@ async fn bitmap(url: String, resize: Option<(u32, u32)>) -> Result<web_sys::Imag
     Ok(JsFuture::from(promise).await.map_err(|e| format!("is not a readable image ({})", js_error(e)))?.unchecked_into())
 }
 
+/// Milliseconds since the page's start (0 without a performance clock).
+fn page_ms() -> f64 {
+    window().performance().map_or(0.0, |p| p.now())
+}
+
 /// Fetches a file's bytes: the request leaves at once (so several go out
 /// together), the future resolves them.
 fn fetch_bytes(url: &str) -> impl std::future::Future<Output = Result<Vec<u8>, String>> {
@@ -135,7 +140,6 @@ struct WebPlatform {
 impl WebPlatform {
     /// Turns what was fetched into what the app takes in (None: nothing yet).
     fn take(&mut self, f: Fetched, gpu: &Gpu, overlay: &OverlayPass) -> Option<Loaded> {
-        let now_ms = || window().performance().map_or(0.0, |p| p.now());
         Some(match f {
             Fetched::Cube { probe, size, faces } => {
                 if !self.faces_marked {
@@ -163,10 +167,10 @@ impl WebPlatform {
                 Loaded::Thumbnail { probe }
             }
             Fetched::ProxyBytes { level, part, file, bytes, seen, probes } => {
-                let started = now_ms();
+                let started = page_ms();
                 let decoded = crate::dollhouse::decode_level(&file, &bytes, seen.as_ref().map(|(f, b)| (f.as_str(), b.as_slice())), probes);
                 // The longest the main thread was held by one part's decoding, for the benchmark.
-                let ms = now_ms() - started;
+                let ms = page_ms() - started;
                 self.decode_ms[level.min(1)] = self.decode_ms[level.min(1)].max(ms);
                 set_status(&format!("proxy_decode_ms_{}", level.min(1)), &self.decode_ms[level.min(1)].into());
                 match decoded {
@@ -184,10 +188,10 @@ impl WebPlatform {
                 }
             }
             Fetched::Packet { level, file, bytes } => {
-                let started = now_ms();
+                let started = page_ms();
                 let applied = self.refining.as_mut()?.apply(&file, &bytes);
                 // The longest the main thread was held by one packet, for the benchmark.
-                self.decode_ms[0] = self.decode_ms[0].max(now_ms() - started);
+                self.decode_ms[0] = self.decode_ms[0].max(page_ms() - started);
                 set_status("proxy_decode_ms_0", &self.decode_ms[0].into());
                 match applied {
                     // The mesh is handed over once, after this frame's packets.
@@ -340,20 +344,19 @@ impl Platform for WebPlatform {
         // Proxy parts and packets are decoded, in the order they came, until
         // a few milliseconds of this frame are spent (at least one a frame);
         // the others wait for the next.
-        let now_ms = || window().performance().map_or(0.0, |p| p.now());
-        let started = now_ms();
+        let started = page_ms();
         let heavy = |f: &Fetched| matches!(f, Fetched::ProxyBytes { .. } | Fetched::StreamStart { .. } | Fetched::Packet { .. });
         // The next one is started when the last one's time still fits.
         let (mut last_ms, mut later, mut out) = (None, Vec::new(), Vec::new());
         for f in fetched {
             if heavy(&f) {
-                if !later.is_empty() || last_ms.is_some_and(|ms| now_ms() - started + ms > DECODE_BUDGET_MS) {
+                if !later.is_empty() || last_ms.is_some_and(|ms| page_ms() - started + ms > DECODE_BUDGET_MS) {
                     later.push(f);
                     continue;
                 }
-                let t = now_ms();
+                let t = page_ms();
                 out.extend(self.take(f, gpu, overlay));
-                last_ms = Some(now_ms() - t);
+                last_ms = Some(page_ms() - t);
                 continue;
             }
             out.extend(self.take(f, gpu, overlay));
@@ -476,7 +479,7 @@ impl State {
         queue.present(frame);
         if self.app.shown_panorama && !self.first_frame_logged {
             self.first_frame_logged = true;
-            let ms = window().performance().map_or(0.0, |p| p.now());
+            let ms = page_ms();
             web_sys::console::info_1(&format!("first panorama: {ms:.0} ms after navigation start").into());
             set_status("first_panorama_ms", &ms.into());
         }
@@ -502,7 +505,7 @@ impl State {
 /// Records when a start-up step ended (ms since navigation) in
 /// `window.exploremaps.timeline`, for the benchmark.
 fn mark(step: &str) {
-    let ms = window().performance().map_or(0.0, |p| p.now());
+    let ms = page_ms();
     set_status(&format!("t_{step}"), &ms.into());
 }
 
