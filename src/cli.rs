@@ -229,7 +229,9 @@ pub struct RenderArgs {
     /// final: 2 samples a pixel, every light sampled, global illumination from the
     /// baked radiance cache, cube faces 512/1024/2048 and 1024-wide videos (about 7 s a
     /// probe and 90 ms a video frame on the Crytek Sponza, 2 cores); preview: one sample
-    /// through each pixel centre, 512 faces, 512-wide videos (a few times faster).
+    /// through each pixel centre, 512 faces, 512-wide videos (a few times faster);
+    /// tour: final with 4096 faces (512-pixel tiles up to 8 × 8 a face), the size
+    /// tour sites publish, at about four times final's time a probe.
     #[arg(long, value_enum, default_value_t = QualityArg::Final)]
     pub quality: QualityArg,
     /// Largest cube face in pixels (levels halve down to 512); default by quality.
@@ -260,6 +262,7 @@ pub struct RenderArgs {
 pub enum QualityArg {
     Preview,
     Final,
+    Tour,
 }
 
 /// `--shard`: given, or to be read from the scheduler's environment.

@@ -265,6 +265,7 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
     let quality = match args.quality {
         QualityArg::Preview => Quality::Preview,
         QualityArg::Final => Quality::Final,
+        QualityArg::Tour => Quality::Tour,
     };
     let mut settings = Settings::new(quality, seed);
     if let Some(face) = args.face {

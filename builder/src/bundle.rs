@@ -187,13 +187,36 @@ pub struct RenderReport {
 const THUMBNAIL_STREAMS: u64 = 1 << 48;
 const VIDEO_STREAMS: u64 = 2 << 48;
 
-/// File names of a probe's assets: cube faces per level, equirect, thumbnail.
-fn probe_files(id: usize, levels: &[u32]) -> (Vec<exploremaps_format::CubeLevel>, String, String) {
-    let cube = levels
-        .iter()
-        .map(|&size| exploremaps_format::CubeLevel { size, faces: exploremaps_format::CUBE_FACES.map(|f| format!("probes/{id}/{size}_{f}.jpg")) })
-        .collect();
-    (cube, format!("probes/{id}/pano.jpg"), format!("thumbs/{id}.jpg"))
+/// File names of a probe's assets.
+struct ProbeFiles {
+    /// Cube faces per level.
+    cube: Vec<exploremaps_format::CubeLevel>,
+    tiles: exploremaps_format::Tiles,
+    pano: String,
+    thumb: String,
+}
+
+/// Tour tiles are 512 pixels, as tour viewers' are; the preview strip's
+/// faces 256 (or the face, if smaller).
+const TILE: u32 = 512;
+const TILE_PREVIEW: u32 = 256;
+
+impl ProbeFiles {
+    fn new(id: usize, levels: &[u32]) -> ProbeFiles {
+        let cube = levels
+            .iter()
+            .map(|&size| exploremaps_format::CubeLevel { size, faces: exploremaps_format::CUBE_FACES.map(|f| format!("probes/{id}/{size}_{f}.jpg")) })
+            .collect();
+        let face = levels.last().copied().unwrap_or(TILE);
+        let tiles = exploremaps_format::Tiles::new(format!("probes/{id}/tiles"), face, TILE, TILE_PREVIEW.min(face));
+        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg") }
+    }
+
+    /// Every file, each level's faces, the tiles and their preview.
+    fn all(&self) -> Vec<String> {
+        let faces = self.cube.iter().flat_map(|l| l.faces.iter().cloned());
+        faces.chain(self.tiles.files()).chain([self.tiles.preview.clone(), self.pano.clone(), self.thumb.clone()]).collect()
+    }
 }
 
 fn path_files(id: usize) -> (String, String) {
@@ -345,6 +368,9 @@ fn write_splits(dir: &Path, coarse: (&str, CodedWhole, &[u32]), mut stream: crat
     Ok(listed)
 }
 
+/// JPEG quality of tiles: as the whole faces'.
+const TILE_QUALITY: u8 = 90;
+
 fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
     let mut bytes = Vec::new();
     image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality).encode_image(image).expect("JPEG encoding to memory");
@@ -374,10 +400,7 @@ pub fn render_missing(
     let levels = settings.face_levels();
     let pano_width = settings.face.max(1024);
     let exists = |name: &String| dir.join(name).exists();
-    let probe_done = |id: usize| {
-        let (cube, pano, thumb) = probe_files(id, &levels);
-        cube.iter().flat_map(|l| l.faces.iter()).all(exists) && exists(&pano) && exists(&thumb)
-    };
+    let probe_done = |id: usize| ProbeFiles::new(id, &levels).all().iter().all(exists);
     let path_done = |id: usize| {
         let (video, poster) = path_files(id);
         exists(&video) && exists(&poster)
@@ -415,7 +438,7 @@ pub fn render_missing(
             } else if k < probes {
                 let probe = &graph.probes[k];
                 let eye = Vec3::from(probe.position);
-                let (cube, pano, thumb) = probe_files(k, &levels);
+                let ProbeFiles { cube, tiles, pano, thumb } = ProbeFiles::new(k, &levels);
                 let denoised = |mut f: crate::render::Frame| -> Result<Vec<Vec3>, BundleError> {
                     if settings.denoise {
                         crate::render::denoise(&mut f).map_err(|message| BundleError::Denoise { path: dir.join(&pano).display().to_string(), message })?;
@@ -424,16 +447,20 @@ pub fn render_missing(
                 };
                 let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, k as u64).into_iter().map(denoised).collect::<Result<_, _>>()?;
                 let full = faces.clone();
+                let mut images = Vec::with_capacity(cube.len());
                 for level in cube.iter().rev() {
                     if faces.len() == 6 && level.size < settings.face {
                         faces = faces.iter().map(|f| downsample(level.size * 2, f)).collect();
                     }
-                    for (face, name) in faces.iter().zip(&level.faces) {
+                    let level_images: Vec<image::RgbImage> = faces.iter().map(|face| renderer.to_image(level.size, level.size, face)).collect();
+                    for (image, name) in level_images.iter().zip(&level.faces) {
                         if !exists(name) {
-                            write(dir, name, &jpeg(&renderer.to_image(level.size, level.size, face), 90))?;
+                            write(dir, name, &jpeg(image, 90))?;
                         }
                     }
+                    images.push((level.size, level_images));
                 }
+                crate::tiles::cut(&tiles, &images, |name, tile| if dir.join(name).exists() { Ok(()) } else { write(dir, name, &jpeg(tile, TILE_QUALITY)) })?;
                 let equirect = equirect_from_cube(&full, settings.face, pano_width);
                 write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), 90))?;
                 let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
@@ -493,8 +520,11 @@ pub fn render_missing(
 fn list_assets(dir: &Path, graph: &mut exploremaps_format::Graph, levels: &[u32]) {
     let exists = |name: &String| dir.join(name).exists();
     for (id, probe) in graph.probes.iter_mut().enumerate() {
-        let (cube, pano, thumb) = probe_files(id, levels);
+        let files = ProbeFiles::new(id, levels);
+        let tiled = files.tiles.files().iter().chain([&files.tiles.preview]).all(exists);
+        let ProbeFiles { cube, tiles, pano, thumb } = files;
         probe.assets.cube_levels = cube.into_iter().filter(|l| l.faces.iter().all(exists)).collect();
+        probe.assets.tiles = tiled.then_some(tiles);
         probe.assets.equirect = exists(&pano).then_some(pano);
         probe.assets.thumbnail = exists(&thumb).then_some(thumb);
     }
@@ -541,8 +571,7 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     let probes = graph.probes.len();
     let mut expected: Vec<(String, usize)> = Vec::new();
     for id in 0..probes {
-        let (cube, pano, thumb) = probe_files(id, &levels);
-        expected.extend(cube.into_iter().flat_map(|l| l.faces).chain([pano, thumb]).map(|f| (f, id)));
+        expected.extend(ProbeFiles::new(id, &levels).all().into_iter().map(|f| (f, id)));
     }
     for id in 0..graph.paths.len() {
         let (video, poster) = path_files(id);

@@ -3,9 +3,10 @@
 //! Stages, in pipeline order (DESIGN.md section 2), one module each:
 //! `load` (scene files into a `Scene`) → `raycast` (Embree; the only module
 //! that talks to it) → `freespace` → `explore` → `coverage`; `report` draws the
-//! pictures, `pipeline` wires the stages, `bundle` writes the result, `export`
-//! and `files` are utilities. `proxy` builds the light 3D stand-in of the
-//! scene (simplification and progressive meshes; not yet in the pipeline).
+//! pictures, `pipeline` wires the stages, `bundle` writes the result (with
+//! `render`, `tiles`, `video` and `proxy`, the light 3D stand-in of the
+//! scene), `tour` exports a bundle to other tour viewers; `export` (scenes
+//! out as OBJ/GLB) and `files` are utilities.
 
 pub mod bundle;
 pub mod cluster;
@@ -24,6 +25,8 @@ pub mod raycast;
 pub mod render;
 pub mod report;
 pub mod smooth;
+pub mod tiles;
+pub mod tour;
 pub mod video;
 pub mod walk;
 #[cfg(test)]

@@ -243,6 +243,90 @@ pub struct ProbeAssets {
     pub equirect: Option<String>,
     #[serde(default)]
     pub thumbnail: Option<String>,
+    /// The cube as a pyramid of 512-pixel tiles (absent in bundles written
+    /// before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tiles: Option<Tiles>,
+}
+
+/// A probe's cube faces cut into square tiles, level by level, in the
+/// orientation tour viewers use (Pannellum, Marzipano, krpano, Photo Sphere
+/// Viewer): each face as seen from the cube's centre, upright for the four
+/// side faces; the top face's upper edge toward the back (+Z), the bottom
+/// face's toward the front (−Z). Faces are named `f` (−Z, yaw 0), `r` (+X),
+/// `b` (+Z), `l` (−X), `u` (+Y), `d` (−Y). Level 1 is the smallest (one tile
+/// a face when the largest face is a power of two times the tile); each level
+/// doubles, the last is `size`. Tile (x, y), x to the right and y down, is
+/// `<path>/<level>/<face>/<y>/<x>.jpg`; tiles on a face's right and bottom
+/// edges are cut short when the level's size is not a multiple of the tile.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tiles {
+    /// The largest level's face edge, pixels.
+    pub size: u32,
+    /// Tile edge, pixels.
+    pub tile: u32,
+    /// How many levels.
+    pub levels: u32,
+    /// Folder of the tiles.
+    pub path: String,
+    /// The six faces at `preview_size`, stacked top to bottom in the order
+    /// `b d f l r u` (Marzipano's preview strip).
+    pub preview: String,
+    pub preview_size: u32,
+}
+
+/// Tour-viewer face names of the bundle's cube faces, in [`CUBE_FACES`]
+/// order: +X is `r`, −X `l`, +Y `u`, −Y `d`, +Z `b`, −Z `f`.
+pub const TILE_FACES: [char; 6] = ['r', 'l', 'u', 'd', 'b', 'f'];
+/// The order of faces in a [`Tiles`] preview strip.
+pub const PREVIEW_ORDER: [char; 6] = ['b', 'd', 'f', 'l', 'r', 'u'];
+
+impl Tiles {
+    /// The pyramid for faces up to `size`: levels halve from `size` until one
+    /// tile covers a face.
+    pub fn new(path: String, size: u32, tile: u32, preview_size: u32) -> Tiles {
+        let mut levels = 1;
+        while size.div_ceil(1 << (levels - 1)) > tile {
+            levels += 1;
+        }
+        let preview = format!("{path}/preview.jpg");
+        Tiles { size, tile, levels, path, preview, preview_size }
+    }
+
+    /// Face edge of `level` (1..=levels), pixels.
+    pub fn level_size(&self, level: u32) -> u32 {
+        self.size.div_ceil(1 << (self.levels - level.clamp(1, self.levels)))
+    }
+
+    /// Tiles across a face at `level`.
+    pub fn across(&self, level: u32) -> u32 {
+        self.level_size(level).div_ceil(self.tile)
+    }
+
+    pub fn file(&self, level: u32, face: char, x: u32, y: u32) -> String {
+        format!("{}/{level}/{face}/{y}/{x}.jpg", self.path)
+    }
+
+    /// Every tile file, smallest level first.
+    pub fn files(&self) -> Vec<String> {
+        let mut files = Vec::new();
+        for level in 1..=self.levels {
+            let n = self.across(level);
+            for face in TILE_FACES {
+                for y in 0..n {
+                    files.extend((0..n).map(|x| self.file(level, face, x, y)));
+                }
+            }
+        }
+        files
+    }
+
+    /// Pixel (s, t) of bundle cube face `face` ([`CUBE_FACES`] order), both
+    /// in [0, 1], lies at (s', t') of tour face `TILE_FACES[face]`: the side
+    /// faces are mirrored left to right, top and bottom upside down.
+    pub fn face_coordinates(face: usize, s: f32, t: f32) -> (f32, f32) {
+        if face == 2 || face == 3 { (s, 1.0 - t) } else { (1.0 - s, t) }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -333,7 +417,37 @@ pub enum FormatError {
     Invalid(String),
 }
 
+impl Path {
+    /// The direction of travel, (yaw, pitch), at the start of the path
+    /// (`at_end == false`) or at its end, travelled forward or `reversed`:
+    /// toward the first point a tenth of the path away from that end, so a
+    /// kink at the probe does not set it.
+    pub fn travel_direction(&self, reversed: bool, at_end: bool) -> (f32, f32) {
+        let n = self.polyline.len();
+        // Points in the order of travel.
+        let point = |i: usize| self.polyline[if reversed { n - 1 - i } else { i }];
+        let order: Vec<usize> = if at_end { (0..n).rev().collect() } else { (0..n).collect() };
+        let reach = self.length * 0.1;
+        let dist = |a: [f32; 3], b: [f32; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        let a = point(order[0]);
+        let b = order[1..].iter().map(|&i| point(i)).find(|b| dist(a, *b) >= reach).unwrap_or(point(order[n - 1]));
+        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        yaw_pitch(if at_end { [-d[0], -d[1], -d[2]] } else { d })
+    }
+}
+
 impl Graph {
+    /// The direction to face on arriving by `path` (forward or `reversed`):
+    /// the destination's best preferred direction, else the direction of
+    /// travel at the end.
+    pub fn arrival_direction(&self, path: &Path, reversed: bool) -> (f32, f32) {
+        let to = if reversed { path.from } else { path.to };
+        match self.probes.get(to as usize).and_then(|p| p.preferred_directions.first()) {
+            Some(d) => (d.yaw, d.pitch),
+            None => path.travel_direction(reversed, true),
+        }
+    }
+
     /// An empty graph for a scene, to be filled by the stages.
     pub fn new(scene: SceneInfo) -> Graph {
         Graph {
@@ -398,7 +512,13 @@ impl Graph {
                 return bad(format!("probe {i} names cluster {}, but there are {}", p.cluster.unwrap(), self.clusters.len()));
             }
             let a = &p.assets;
-            let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail);
+            if let Some(t) = &a.tiles {
+                if !(16..=16384).contains(&t.size) || !(16..=4096).contains(&t.tile) || t.levels != Tiles::new(String::new(), t.size, t.tile, 0).levels || t.preview_size > 4096 {
+                    return bad(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
+                }
+            }
+            let tiles = a.tiles.iter().flat_map(|t| [&t.path, &t.preview]);
+            let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail).chain(tiles);
             for name in names {
                 check_asset_name(name).map_err(|m| FormatError::Invalid(format!("probe {i}: {m}")))?;
             }
@@ -554,6 +674,46 @@ mod tests {
                 assert!((s - s2).abs() < 1e-6 && (t - t2).abs() < 1e-6, "face {face}: ({s}, {t}) -> ({s2}, {t2})");
             }
         }
+    }
+
+    #[test]
+    fn tour_faces_are_seen_from_inside_with_the_top_toward_the_back() {
+        // The tour convention written out on its own: a viewer at the centre
+        // facing a side face has +Y up; looking up from yaw 0, the top of
+        // the view points to +Z.
+        let tour = |face: char, s: f32, t: f32| {
+            let (a, b) = (2.0 * s - 1.0, 2.0 * t - 1.0);
+            match face {
+                'f' => [a, -b, -1.0],
+                'r' => [1.0, -b, a],
+                'b' => [-a, -b, 1.0],
+                'l' => [-1.0, -b, -a],
+                'u' => [a, 1.0, -b],
+                _ => [a, -1.0, b],
+            }
+        };
+        for face in 0..6 {
+            for (s, t) in [(0.1, 0.2), (0.9, 0.7), (0.3, 0.95)] {
+                let (s2, t2) = Tiles::face_coordinates(face, s, t);
+                assert_eq!(tour(TILE_FACES[face], s2, t2), cube_direction(face, s, t), "face {}", CUBE_FACES[face]);
+            }
+        }
+        // Yaw 0 looks at the middle of f, yaw π/2 at the middle of r.
+        assert_eq!(tour('f', 0.5, 0.5), [0.0, 0.0, -1.0]);
+        let d = direction(std::f32::consts::FRAC_PI_2, 0.0);
+        assert!((d[0] - 1.0).abs() < 1e-6 && tour('r', 0.5, 0.5) == [1.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn tile_levels_halve_down_to_one_tile() {
+        let t = Tiles::new("probes/0/tiles".into(), 4096, 512, 256);
+        assert_eq!(t.levels, 4);
+        assert_eq!((1..=4).map(|l| (t.level_size(l), t.across(l))).collect::<Vec<_>>(), [(512, 1), (1024, 2), (2048, 4), (4096, 8)]);
+        assert_eq!(t.files().len(), 6 * (1 + 4 + 16 + 64));
+        assert_eq!(t.file(2, 'u', 1, 0), "probes/0/tiles/2/u/0/1.jpg");
+        let odd = Tiles::new("t".into(), 1000, 512, 64);
+        assert_eq!((odd.levels, odd.level_size(1), odd.level_size(2), odd.across(2)), (2, 500, 1000, 2));
+        assert_eq!(Tiles::new("t".into(), 300, 512, 64).levels, 1);
     }
 
     fn sample() -> Graph {

@@ -7,7 +7,7 @@
 //! travelled either way. Angles: yaw 0 looks toward −Z and π/2 toward +X;
 //! pitch is positive upward.
 
-use exploremaps_format::{Graph, Path};
+use exploremaps_format::Graph;
 use std::f32::consts::{PI, TAU};
 
 /// Seconds a jump between unconnected probes takes.
@@ -114,32 +114,15 @@ impl Navigator {
         if reversed { (p.to, p.from) } else { (p.from, p.to) }
     }
 
-    /// Direction of travel at the start (`at_end == false`) or end of a path.
-    fn travel_direction(path: &Path, reversed: bool, at_end: bool) -> (f32, f32) {
-        let n = path.polyline.len();
-        // Points in the order of travel.
-        let point = |i: usize| path.polyline[if reversed { n - 1 - i } else { i }];
-        // From the endpoint, walk inward to the first point a tenth of the path away.
-        let order: Vec<usize> = if at_end { (0..n).rev().collect() } else { (0..n).collect() };
-        let reach = path.length * 0.1;
-        let a = point(order[0]);
-        let b = order[1..].iter().map(|&i| point(i)).find(|b| dist(a, *b) >= reach).unwrap_or(point(order[n - 1]));
-        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        yaw_pitch(if at_end { [-d[0], -d[1], -d[2]] } else { d })
-    }
-
     /// The direction to face on arriving at `probe`: its best preferred direction,
     /// else the direction of travel.
     fn arrival_direction(&self, probe: u32, via: Option<(u32, bool)>) -> (f32, f32) {
         if let Some(f) = self.facing {
             return f;
         }
-        if let Some(d) = self.graph.probes[probe as usize].preferred_directions.first() {
-            return (d.yaw, d.pitch);
-        }
         match via {
-            Some((path, reversed)) => Self::travel_direction(&self.graph.paths[path as usize], reversed, true),
-            None => (self.view.yaw, self.view.pitch),
+            Some((path, reversed)) => self.graph.arrival_direction(&self.graph.paths[path as usize], reversed),
+            None => self.graph.probes[probe as usize].preferred_directions.first().map_or((self.view.yaw, self.view.pitch), |d| (d.yaw, d.pitch)),
         }
     }
 
@@ -154,7 +137,7 @@ impl Navigator {
 
     /// The direction a path leaves its start in (travelled either way).
     pub fn departure(&self, path: u32, reversed: bool) -> (f32, f32) {
-        Self::travel_direction(&self.graph.paths[path as usize], reversed, false)
+        self.graph.paths[path as usize].travel_direction(reversed, false)
     }
 
     /// Paths leaving the current probe, best aligned with the view first.
@@ -167,7 +150,7 @@ impl Navigator {
             .filter(|p| p.from == here || p.to == here)
             .map(|p| {
                 let reversed = p.to == here;
-                let departure = Self::travel_direction(p, reversed, false);
+                let departure = p.travel_direction(reversed, false);
                 PathChoice { path: p.id, to: if reversed { p.from } else { p.to }, reversed, angle: angle_between((self.view.yaw, self.view.pitch), departure) }
             })
             .collect();

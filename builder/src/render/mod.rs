@@ -57,6 +57,9 @@ pub enum Quality {
     /// Deliverable: final-gathered indirect light, antialiased panoramas,
     /// 512/1024/2048 faces, 1024-wide videos.
     Final,
+    /// As final with 4096 faces, the size tour sites publish (four times the
+    /// render time of final's panoramas).
+    Tour,
 }
 
 impl Quality {
@@ -64,6 +67,7 @@ impl Quality {
         match self {
             Quality::Preview => "preview",
             Quality::Final => "final",
+            Quality::Tour => "tour",
         }
     }
 }
@@ -112,6 +116,7 @@ impl Settings {
                 proxy: crate::proxy::ProxyParams { bake_samples: 4, ..Default::default() },
                 seed,
             },
+            Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
                 panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 8, passes: 3 }), seed },
