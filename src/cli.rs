@@ -99,6 +99,22 @@ pub enum Command {
         #[arg(long, default_value = "127.0.0.1:8080")]
         address: String,
     },
+    /// Export a rendered bundle as a tour for Pannellum, Marzipano and Photo Sphere
+    /// Viewer (one set of 512-pixel tiles, links along the paths playing their
+    /// transition videos): a folder for any static host.
+    Export {
+        bundle: PathBuf,
+        /// Folder to write (default: <BUNDLE>-tour beside the bundle); replaced if
+        /// an earlier export wrote it.
+        output: Option<PathBuf>,
+        /// Viewers, comma-separated: pannellum, marzipano, psv, or all.
+        #[arg(long, default_value = "all", value_delimiter = ',')]
+        to: Vec<String>,
+        /// A node_modules folder with the viewers' npm packages to copy into the
+        /// tour; without it, pages load them from the jsDelivr CDN.
+        #[arg(long)]
+        library: Option<PathBuf>,
+    },
     /// List the built-in scenes, or write one out as OBJ or GLB.
     Scenes {
         /// A built-in scene to write, e.g. `gallery` or `maze:12`.

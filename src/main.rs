@@ -117,8 +117,43 @@ fn run(cli: &Cli) -> Result<()> {
                 e => anyhow::Error::from(e),
             })
         }
+        Command::Export { bundle, output, to, library } => export_tour(bundle, output.as_deref(), to, library.as_deref()),
         Command::Serve { bundle, address } => serve::serve(bundle, address, web_dir().as_deref()),
     }
+}
+
+fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Option<&Path>) -> Result<()> {
+    use exploremaps_builder::tour::{self, Viewer};
+    let mut viewers = Vec::new();
+    for name in to {
+        let chosen: Vec<Viewer> = if name == "all" { Viewer::ALL.to_vec() } else { vec![name.parse().map_err(|e| BadInput(format!("--to {e}")))?] };
+        for v in chosen {
+            if !viewers.contains(&v) {
+                viewers.push(v);
+            }
+        }
+    }
+    let graph = read_graph(bundle)?;
+    let out = output.map_or_else(|| tour::default_folder(bundle), Path::to_path_buf);
+    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
+    let started = Instant::now();
+    let report = tour::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64)).map_err(|e| match e {
+        tour::TourError::Io { .. } => anyhow::Error::from(e),
+        e => BadInput(e.to_string()).into(),
+    })?;
+    bar.finish_and_clear();
+    let names: Vec<&str> = viewers.iter().map(|v| v.folder()).collect();
+    println!(
+        "wrote {}: {} views, {} links, {} tiles, {:.1} MB, for {} in {:.1} s; serve the folder and open index.html",
+        out.display(),
+        report.probes,
+        report.links,
+        report.tiles,
+        report.bytes as f64 / 1e6,
+        names.join(", "),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 /// A file if one exists at that path, else a built-in scene by name; with the

@@ -258,14 +258,17 @@ fn answer(stream: std::net::TcpStream, method: &str, response: &Response) -> std
 /// Serves `bundle` on `address` until interrupted.
 pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     let root = bundle.canonicalize().with_context(|| format!("{}: no such bundle folder", bundle.display()))?;
+    // A tour `export` wrote is served as it is, without our viewer.
+    let tour = root.join(exploremaps_builder::tour::MARKER).is_file();
+    let web = if tour { None } else { web };
     // A folder without graph.json is not a bundle; a graph the viewer cannot
     // read is still served, so the viewer shows the reason in the page.
-    if !root.join(exploremaps_format::GRAPH_FILE).is_file() {
-        anyhow::bail!("{}: no graph.json here; is this a bundle folder written by `exploremaps build`?", root.display());
+    if !tour && !root.join(exploremaps_format::GRAPH_FILE).is_file() {
+        anyhow::bail!("{}: no graph.json here; is this a bundle folder written by `exploremaps build` (or a tour written by `exploremaps export`)?", root.display());
     }
     let graph_file = root.join(exploremaps_format::GRAPH_FILE);
     let graph = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
-    if let Err(e) = graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| e.to_string())) {
+    if let (false, Err(e)) = (tour, graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| e.to_string()))) {
         tracing::warn!("{}: {e}", graph_file.display());
     }
     let listener = std::net::TcpListener::bind(address).map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;

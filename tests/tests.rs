@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod tour;
 mod viewer;
 
 fn exploremaps(args: &[&str]) -> Output {

@@ -78,7 +78,7 @@ pub fn synthetic_bundle(dir: &Path) {
             cluster: None,
             preferred_directions: vec![ViewDirection { yaw: facing[p], pitch: 0.0, goodness: 1.0 }],
             user_placed: false,
-            assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail) },
+            assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail), tiles: None },
         });
     }
     let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb(VIDEO))).collect();
@@ -167,9 +167,9 @@ fn served(change: impl FnOnce(&Path)) -> (tempfile::TempDir, Server) {
 }
 
 /// A running `exploremaps serve`, stopped on drop.
-struct Server {
+pub(super) struct Server {
     child: Child,
-    url: String,
+    pub(super) url: String,
 }
 
 impl Drop for Server {
@@ -179,7 +179,7 @@ impl Drop for Server {
     }
 }
 
-fn serve(bundle: &Path) -> Server {
+pub(super) fn serve(bundle: &Path) -> Server {
     let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps"))
         .args(["serve", bundle.to_str().unwrap(), "--address", "127.0.0.1:0"])
         .env("RUST_LOG", "warn")
@@ -194,7 +194,7 @@ fn serve(bundle: &Path) -> Server {
     Server { child, url }
 }
 
-fn skip(var: &str, what: &str) -> bool {
+pub(super) fn skip(var: &str, what: &str) -> bool {
     let skip = std::env::var(var).is_ok_and(|v| v == "1");
     if skip {
         eprintln!("SKIPPED: {var}=1 ({what})");

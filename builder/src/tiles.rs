@@ -86,9 +86,10 @@ mod tests {
 
     #[test]
     fn tiles_reassemble_into_the_faces_within_jpeg_error() {
-        // 1000 is not a multiple of the tile: the edge tiles are cut short.
-        let tiles = Tiles::new("probes/0/tiles".into(), 1000, 256, 64);
-        let levels = vec![(1000, (0..6).map(|f| face(1000, f)).collect::<Vec<_>>())];
+        // 999 halves unevenly: the edge tiles are cut short.
+        let tiles = Tiles::new("probes/0/tiles".into(), 999, 256, 64);
+        assert_eq!(tiles.tile, 256);
+        let levels = vec![(999, (0..6).map(|f| face(999, f)).collect::<Vec<_>>())];
         let mut written: HashMap<String, RgbImage> = HashMap::new();
         cut(&tiles, &levels, |file, tile| {
             assert!(file == tiles.preview || (tile.width() <= 256 && tile.height() <= 256));

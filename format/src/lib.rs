@@ -283,12 +283,17 @@ pub const PREVIEW_ORDER: [char; 6] = ['b', 'd', 'f', 'l', 'r', 'u'];
 
 impl Tiles {
     /// The pyramid for faces up to `size`: levels halve from `size` until one
-    /// tile covers a face.
-    pub fn new(path: String, size: u32, tile: u32, preview_size: u32) -> Tiles {
+    /// tile covers a face. The tile is at most `max_tile`, and the smallest
+    /// level's size when halving is exact, so each level is a whole number of
+    /// tiles (viewers that scale tiles to a grid need that); otherwise it is
+    /// `max_tile` and the edge tiles are cut short.
+    pub fn new(path: String, size: u32, max_tile: u32, preview_size: u32) -> Tiles {
         let mut levels = 1;
-        while size.div_ceil(1 << (levels - 1)) > tile {
+        while size.div_ceil(1 << (levels - 1)) > max_tile {
             levels += 1;
         }
+        let halves = 1 << (levels - 1);
+        let tile = if size % halves == 0 { size / halves } else { max_tile };
         let preview = format!("{path}/preview.jpg");
         Tiles { size, tile, levels, path, preview, preview_size }
     }
@@ -513,7 +518,7 @@ impl Graph {
             }
             let a = &p.assets;
             if let Some(t) = &a.tiles {
-                if !(16..=16384).contains(&t.size) || !(16..=4096).contains(&t.tile) || t.levels != Tiles::new(String::new(), t.size, t.tile, 0).levels || t.preview_size > 4096 {
+                if !(16..=16384).contains(&t.size) || !(1..=4096).contains(&t.tile) || !(1..=15).contains(&t.levels) || t.size.div_ceil(1 << (t.levels - 1)) > t.tile || t.preview_size > 4096 {
                     return bad(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
                 }
             }
@@ -711,8 +716,10 @@ mod tests {
         assert_eq!((1..=4).map(|l| (t.level_size(l), t.across(l))).collect::<Vec<_>>(), [(512, 1), (1024, 2), (2048, 4), (4096, 8)]);
         assert_eq!(t.files().len(), 6 * (1 + 4 + 16 + 64));
         assert_eq!(t.file(2, 'u', 1, 0), "probes/0/tiles/2/u/0/1.jpg");
-        let odd = Tiles::new("t".into(), 1000, 512, 64);
-        assert_eq!((odd.levels, odd.level_size(1), odd.level_size(2), odd.across(2)), (2, 500, 1000, 2));
+        let even = Tiles::new("t".into(), 1000, 512, 64);
+        assert_eq!((even.levels, even.tile, even.level_size(1), even.level_size(2), even.across(2)), (2, 500, 500, 1000, 2), "whole tiles when halving is exact");
+        let odd = Tiles::new("t".into(), 999, 512, 64);
+        assert_eq!((odd.levels, odd.tile, odd.level_size(1), odd.across(2)), (2, 512, 500, 2), "cut-short edge tiles otherwise");
         assert_eq!(Tiles::new("t".into(), 300, 512, 64).levels, 1);
     }
 
