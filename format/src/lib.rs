@@ -700,7 +700,8 @@ mod tests {
         for face in 0..6 {
             for (s, t) in [(0.1, 0.2), (0.9, 0.7), (0.3, 0.95)] {
                 let (s2, t2) = Tiles::face_coordinates(face, s, t);
-                assert_eq!(tour(TILE_FACES[face], s2, t2), cube_direction(face, s, t), "face {}", CUBE_FACES[face]);
+                let (a, b) = (tour(TILE_FACES[face], s2, t2), cube_direction(face, s, t));
+                assert!((0..3).all(|i| (a[i] - b[i]).abs() < 1e-5), "face {}: {a:?} {b:?}", CUBE_FACES[face]);
             }
         }
         // Yaw 0 looks at the middle of f, yaw π/2 at the middle of r.

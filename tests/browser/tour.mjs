@@ -4,6 +4,9 @@
 // each of VIEWS in radians (ExploreMaps' convention), screenshot
 // OUT_DIR/VIEWER-0-K.png; with FOLLOW=1 follow the link to TO (default: the first link), wait for the
 // transition to end, screenshot OUT_DIR/VIEWER-1.png.
+// BENCH=1 (scripts/bench-tour.sh): each viewer in a 1280×720 page, cold, at its first view
+// and then zoomed to FOV (radians): the bytes fetched and the time until the last tile the
+// view needs has arrived ("sharp"); THROTTLE=1 limits the network to 10 Mbit/s (20 ms latency).
 // Prints one JSON object per line: {"step": ..., ...}.
 const { chromium } = await import(process.env.PLAYWRIGHT_CORE);
 const [url, out, ...viewers] = process.argv.slice(2);
@@ -27,8 +30,40 @@ const settle = async (page, pending, quiet = 1500, limit = 30000) => {
     await sleep(100);
   }
 };
+const bench = async (viewer) => {
+  const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });
+  page.on('pageerror', (e) => report('pageerror', { viewer, error: e.message }));
+  if (process.env.THROTTLE === '1') {
+    const cdp = await page.context().newCDPSession(page);
+    await cdp.send('Network.enable');
+    await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 20, downloadThroughput: 10e6 / 8, uploadThroughput: 10e6 / 8 });
+  }
+  const pending = new Set();
+  let bytes = 0, tiles = 0, last = 0, tileBytes = 0;
+  page.on('request', (r) => pending.add(r));
+  page.on('requestfinished', async (r) => {
+    pending.delete(r);
+    last = Date.now();
+    const size = (await r.sizes().catch(() => ({ responseBodySize: 0 }))).responseBodySize;
+    bytes += size;
+    if (r.url().includes('/tiles/')) { tiles += 1; tileBytes += size; }
+  });
+  page.on('requestfailed', (r) => pending.delete(r));
+  const t0 = Date.now();
+  await page.goto(`${url}/${viewer}/index.html`);
+  await page.waitForFunction(() => window.exploremapsTour && window.exploremapsTour.view() && window.exploremapsTour.view().scene, null, { timeout: 60000 });
+  await settle(page, pending, 2000, 120000);
+  report('sharp', { viewer, view: 'first', ms: last - t0, bytes, tiles, tile_bytes: tileBytes });
+  const fov = Number(process.env.FOV || 0.35);
+  const t1 = Date.now();
+  const before = { bytes, tiles, tileBytes };
+  await page.evaluate((fov) => { const v = window.exploremapsTour.view(); window.exploremapsTour.look(v.yaw, v.pitch, fov); }, fov);
+  await settle(page, pending, 2000, 120000);
+  report('sharp', { viewer, view: `zoomed to ${fov} rad`, ms: Math.max(0, last - t1), bytes: bytes - before.bytes, tiles: tiles - before.tiles, tile_bytes: tileBytes - before.tileBytes, fov: (await page.evaluate(() => window.exploremapsTour.view())).fov });
+  await page.close();
+};
 try {
-  for (const viewer of viewers) {
+  for (const viewer of process.env.BENCH === '1' ? [] : viewers) {
     const page = await browser.newPage({ viewport: { width: Number(process.env.WIDTH || 800), height: Number(process.env.HEIGHT || 600) } });
     page.on('pageerror', (e) => report('pageerror', { viewer, error: e.message }));
     const pending = new Set();
@@ -62,6 +97,7 @@ try {
     }
     await page.close();
   }
+  if (process.env.BENCH === '1') for (const viewer of viewers) await bench(viewer);
 } catch (e) {
   report('error', { error: String(e && e.stack || e) });
   process.exitCode = 1;

@@ -7,7 +7,7 @@
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
 use crate::navigation::{direction, smoothstep, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
-use crate::panorama::{Cube, PanoramaPass, Source, VideoTexture};
+use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
 use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
 use glam::Vec3;
@@ -44,9 +44,10 @@ impl Pano {
         }
     }
 
-    fn source(&self) -> Source<'_> {
+    /// Drawn with the tiles of a sharper level that have arrived, if any.
+    fn source<'a>(&'a self, tiles: Option<&'a Tiled>) -> Source<'a> {
         match self {
-            Pano::Cube(c) => Source::Cube(c),
+            Pano::Cube(c) => Source::Cube(c, tiles),
             Pano::Equirect(t) => Source::Video(t),
         }
     }
@@ -55,6 +56,9 @@ impl Pano {
 /// What a platform hands back from loading.
 pub enum Loaded {
     Pano { probe: u32, pano: Pano },
+    /// A tile of the level of face `size` of a probe's tile pyramid, for
+    /// cube slot `slot` ([`TILE_SLOTS`]) at (x, y).
+    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, pixels: TilePixels },
     /// The thumbnail is in the overlay's layer `probe`.
     Thumbnail { probe: u32 },
     /// A part (chunk) of a proxy level decoded, with its point-to-go table
@@ -74,6 +78,8 @@ pub enum Loaded {
 /// through `poll`.
 pub trait Platform {
     fn load_cube(&mut self, probe: u32, size: u32, faces: &[String; 6]);
+    /// Loads one tile (a failure names no probe: the whole cube stays).
+    fn load_tile(&mut self, probe: u32, size: u32, slot: usize, x: u32, y: u32, file: &str);
     fn load_equirect(&mut self, probe: u32, file: &str);
     fn load_thumbnail(&mut self, probe: u32, file: &str);
     /// Loads and decodes a part of a proxy level (off the main thread where
@@ -219,6 +225,10 @@ pub struct App {
     /// Probes a load failed for (a cross-fade to them does not wait).
     failed: HashSet<u32>,
     requested: HashSet<(u32, u32)>,
+    /// The current probe's sharper level, tile by tile, and the tiles asked
+    /// for (probe, size, slot, x, y).
+    tiled: HashMap<u32, Tiled>,
+    tile_requests: HashSet<(u32, u32, usize, u32, u32)>,
     /// Bytes of panorama textures kept at most (current and target excepted).
     budget: u64,
     /// The largest cube face used by choice (memory), and the largest the device takes.
@@ -303,6 +313,8 @@ impl App {
             panos: HashMap::new(),
             failed: HashSet::new(),
             requested: HashSet::new(),
+            tiled: HashMap::new(),
+            tile_requests: HashSet::new(),
             budget: options.budget_bytes,
             max_face: options.max_face.min(device_face),
             device_face,
@@ -420,6 +432,42 @@ impl App {
         self.message(&format!("probe {probe} cannot be shown: {why}"), platform);
     }
 
+    /// The current probe's tiles the view needs, nearest its centre first,
+    /// from the level the screen wants, once the probe's whole lowest level
+    /// is in and when the bundle has a tile pyramid sharper than it. The
+    /// level stays within the memory budget: its cube at most 3/5 of it.
+    fn request_tiles(&mut self, platform: &mut dyn Platform) {
+        if self.mode == Mode::Dollhouse || !matches!(self.nav.state, State::AtProbe { .. }) {
+            return;
+        }
+        let p = self.nav.probe();
+        let Some(base) = self.panos.get(&p).map(|l| l.pano.size()) else { return };
+        let Some(tiles) = self.nav.graph().probes[p as usize].assets.tiles.clone() else { return };
+        let fits = |s: u32| s <= self.max_face && 24 * u64::from(s) * u64::from(s) <= self.budget / 5 * 3;
+        let sizes: Vec<u32> = (1..=tiles.levels).map(|l| tiles.level_size(l)).filter(|&s| fits(s)).collect();
+        let wanted = self.wanted_face();
+        let Some(&size) = sizes.iter().find(|&&s| s as f32 >= wanted).or(sizes.last()) else { return };
+        if size <= base {
+            return;
+        }
+        if self.tiled.get(&p).is_none_or(|t| t.cube.size < size) {
+            self.tiled.insert(p, Tiled::new(&self.gpu.device, size, tiles.tile));
+            self.tile_requests.retain(|r| r.0 != p);
+        }
+        let t = &self.tiled[&p];
+        let Some(level) = (1..=tiles.levels).find(|&l| tiles.level_size(l) == t.cube.size) else { return };
+        for (slot, x, y) in visible_tiles(&self.nav.view, self.width / self.height, t.cube.size, t.tile) {
+            if !t.has(slot, x, y) && self.tile_requests.insert((p, t.cube.size, slot, x, y)) {
+                platform.load_tile(p, t.cube.size, slot, x, y, &tiles.file(level, TILE_SLOTS[slot], x, y));
+            }
+        }
+    }
+
+    /// Tiles asked for and tiles in, for the benchmark and tests.
+    pub fn tile_counts(&self) -> (usize, usize) {
+        (self.tile_requests.len(), self.tiled.values().map(Tiled::count).sum())
+    }
+
     /// The face size that shows a pixel per screen pixel at the current zoom.
     fn wanted_face(&self) -> f32 {
         self.height / (2.0 * (0.5 * self.nav.view.fov_y).tan())
@@ -443,16 +491,19 @@ impl App {
         let wanted = self.wanted_face();
         for &p in &sharp {
             let levels = self.levels(p);
+            // With a tile pyramid, sharper levels come as the view's tiles.
+            let tiled = self.nav.graph().probes[p as usize].assets.tiles.is_some();
             match (levels.first(), levels.iter().find(|&&s| s as f32 >= wanted).or(levels.last())) {
                 (Some(&low), Some(&high)) => {
                     self.request(p, low, platform);
-                    if self.panos.contains_key(&p) {
+                    if self.panos.contains_key(&p) && !tiled {
                         self.request(p, high, platform);
                     }
                 }
                 _ => self.request(p, 0, platform),
             }
         }
+        self.request_tiles(platform);
         // Thumbnails and neighbours once the first panorama is in, so they do not delay it.
         // (In the dollhouse, once its proxy is whole: it shows the probe bar too.)
         let proxy_whole = self.mode == Mode::Dollhouse && self.proxy.as_ref().is_some_and(|m| m.level == 0);
@@ -537,8 +588,11 @@ impl App {
     }
 
     fn evict(&mut self, keep: &[u32]) {
+        // Tiles of probes left behind go first.
+        self.tiled.retain(|p, _| keep.contains(p));
+        self.tile_requests.retain(|r| keep.contains(&r.0));
         loop {
-            let total: u64 = self.panos.values().map(|l| l.pano.bytes()).sum();
+            let total: u64 = self.panos.values().map(|l| l.pano.bytes()).chain(self.tiled.values().map(Tiled::bytes)).sum();
             if total <= self.budget {
                 return;
             }
@@ -562,6 +616,14 @@ impl App {
                 Loaded::Pano { probe, pano } => {
                     if self.panos.get(&probe).is_none_or(|l| l.pano.size() < pano.size()) {
                         self.panos.insert(probe, Resident { pano, last_used: self.frame });
+                    }
+                }
+                Loaded::Tile { probe, size, slot, x, y, pixels } => {
+                    let gpu = self.gpu.clone();
+                    if let Some(t) = self.tiled.get_mut(&probe).filter(|t| t.cube.size == size) {
+                        if let Err(e) = t.put(&gpu, slot, x, y, pixels) {
+                            self.message(&format!("a tile of probe {probe} ({} {x},{y} at {size}): {e}", TILE_SLOTS[slot]), platform);
+                        }
                     }
                 }
                 Loaded::Thumbnail { .. } => self.thumbs += 1,
@@ -1135,19 +1197,20 @@ impl App {
             Some(Err(e)) => (None, Some(e)),
             None => (None, None),
         };
-        let here = self.panos.get(&self.nav.probe()).map(|l| &l.pano);
+        let source_of = |p: u32| self.panos.get(&p).map(|l| l.pano.source(self.tiled.get(&p)));
+        let here = source_of(self.nav.probe());
         let source = match (self.nav.state, video) {
             (State::Travelling { .. }, Some(v)) => Some(Source::Video(v)),
-            (State::CrossFading { from, to, .. }, _) => match (self.panos.get(&from).map(|l| &l.pano), self.panos.get(&to).map(|l| &l.pano)) {
-                (Some(Pano::Cube(a)), Some(Pano::Cube(b))) => Some(Source::Fade(a, b, crate::navigation::smoothstep(progress))),
-                (_, Some(b)) if progress >= 0.5 => Some(b.source()),
-                (a, _) => a.map(Pano::source),
+            (State::CrossFading { from, to, .. }, _) => match (source_of(from), source_of(to)) {
+                (Some(Source::Cube(a, ta)), Some(Source::Cube(b, tb))) => Some(Source::Fade((a, ta), (b, tb), crate::navigation::smoothstep(progress))),
+                (_, Some(b)) if progress >= 0.5 => Some(b),
+                (a, _) => a,
             },
             (State::Travelling { .. }, None) => {
-                let there = self.nav.destination().and_then(|p| self.panos.get(&p)).map(|l| &l.pano);
-                if progress >= 0.5 { there.or(here) } else { here }.map(Pano::source)
+                let there = self.nav.destination().and_then(source_of);
+                if progress >= 0.5 { there.or(here) } else { here }
             }
-            (State::AtProbe { .. }, _) => here.map(Pano::source),
+            (State::AtProbe { .. }, _) => here,
         };
         self.shown_panorama |= source.is_some() && opacity > 0.0;
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });

@@ -57,6 +57,7 @@ pub struct ViewOptions {
 
 enum Job {
     Cube { probe: u32, size: u32, files: [String; 6] },
+    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, file: String },
     Equirect { probe: u32, file: String },
     Thumbnail { probe: u32, file: String },
     Proxy { level: usize, part: usize, mesh: String, seen: Option<String>, probes: u32 },
@@ -66,6 +67,7 @@ enum Job {
 
 enum Decoded {
     Cube { probe: u32, size: u32, faces: Vec<Vec<u8>> },
+    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, image: image::RgbaImage },
     Equirect { probe: u32, width: u32, height: u32, rgba: Vec<u8> },
     Thumbnail { probe: u32, rgba: Vec<u8> },
     Proxy { level: usize, part: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
@@ -97,6 +99,10 @@ fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
     let failed = |what: &str, error: String, probe| Decoded::Failed { what: what.to_string(), error, probe };
     let decoded = match job {
         Job::Cube { probe, size, files } => cube(root, probe, size, &files),
+        Job::Tile { probe, size, slot, x, y, file } => match decode(root, &file) {
+            Ok(image) => Decoded::Tile { probe, size, slot, x, y, image },
+            Err(e) => failed(&file, e, None),
+        },
         Job::Equirect { probe, file } => match decode(root, &file) {
             Ok(img) => {
                 // Within every GPU's texture limit.
@@ -270,6 +276,10 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::Cube { probe, size, files: faces.clone() });
     }
 
+    fn load_tile(&mut self, probe: u32, size: u32, slot: usize, x: u32, y: u32, file: &str) {
+        let _ = self.jobs.send(Job::Tile { probe, size, slot, x, y, file: file.to_string() });
+    }
+
     fn load_equirect(&mut self, probe: u32, file: &str) {
         let _ = self.jobs.send(Job::Equirect { probe, file: file.to_string() });
     }
@@ -300,6 +310,10 @@ impl Platform for NativePlatform {
                         cube.write_face(&gpu.queue, f, px);
                     }
                     Loaded::Pano { probe, pano: Pano::Cube(cube) }
+                }
+                Decoded::Tile { probe, size, slot, x, y, image } => {
+                    let pixels = crate::panorama::TilePixels::Rgba { width: image.width(), height: image.height(), rgba: image.into_raw() };
+                    Loaded::Tile { probe, size, slot, x, y, pixels }
                 }
                 Decoded::Equirect { probe, width, height, rgba } => {
                     let t = VideoTexture::new(&gpu.device, width, height);

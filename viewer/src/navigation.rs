@@ -311,7 +311,7 @@ impl Navigator {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use exploremaps_format::{PathAssets, Probe, SceneInfo, ViewDirection};
+    use exploremaps_format::{Path, PathAssets, Probe, SceneInfo, ViewDirection};
 
     /// Probe 0 at the origin with paths to probes 1 (+X), 2 (−Z) and 3 (+Z, bent);
     /// probe 4 unconnected. Probe 2 prefers to look toward +X.

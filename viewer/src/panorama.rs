@@ -15,6 +15,11 @@ struct U { forward: vec4f, right: vec4f, up: vec4f, params: vec4f };
 @group(0) @binding(2) var cube_b: texture_cube<f32>;
 @group(0) @binding(3) var video: texture_2d<f32>;
 @group(0) @binding(4) var samp: sampler;
+@group(0) @binding(5) var tiles_a: texture_cube<f32>;
+@group(0) @binding(6) var mask_a: texture_cube<f32>;
+@group(0) @binding(7) var tiles_b: texture_cube<f32>;
+@group(0) @binding(8) var mask_b: texture_cube<f32>;
+@group(0) @binding(9) var nearest: sampler;
 
 struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 
@@ -29,8 +34,11 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 @fragment fn fs(v: VOut) -> @location(0) vec4f {
     // params: tan(fov_y / 2), aspect, fade toward cube_b, 1 for video.
     let d = normalize(u.forward.xyz + u.right.xyz * (v.ndc.x * u.params.x * u.params.y) + u.up.xyz * (v.ndc.y * u.params.x));
-    let a = textureSampleLevel(cube_a, samp, d, 0.0).rgb;
-    let b = textureSampleLevel(cube_b, samp, d, 0.0).rgb;
+    // Tiles hold tour-oriented faces, read with z negated (see Tiled); where
+    // the mask says a tile has not arrived, the whole cube shows.
+    let t = vec3f(d.x, d.y, -d.z);
+    let a = mix(textureSampleLevel(cube_a, samp, d, 0.0).rgb, textureSampleLevel(tiles_a, samp, t, 0.0).rgb, textureSampleLevel(mask_a, nearest, t, 0.0).r);
+    let b = mix(textureSampleLevel(cube_b, samp, d, 0.0).rgb, textureSampleLevel(tiles_b, samp, t, 0.0).rgb, textureSampleLevel(mask_b, nearest, t, 0.0).r);
     // Equirectangular: s = yaw / 2π with yaw 0 toward −Z, t = 0 straight up.
     let yaw = atan2(d.x, -d.z);
     let st = vec2f(fract(yaw / 6.2831853), acos(clamp(d.y, -1.0, 1.0)) / 3.14159265);
@@ -139,6 +147,165 @@ impl Cube {
     }
 }
 
+/// The tour viewers' face in each cube slot (+X, −X, +Y, −Y, +Z, −Z) of a
+/// [`Tiled`] cube: tour faces are the GPU faces of the mirror image in z
+/// (`exploremaps_format::Tiles::face_coordinates`), so they go in as they
+/// are, each tile at its own place, and are read with z negated.
+pub const TILE_SLOTS: [char; 6] = ['r', 'l', 'u', 'd', 'f', 'b'];
+
+/// A sharper level of a probe's cube filled tile by tile from its tile
+/// pyramid: the tiles (tour orientation, [`TILE_SLOTS`]) and a mask cube of
+/// a texel a tile saying which have arrived.
+pub struct Tiled {
+    pub cube: Cube,
+    mask: wgpu::Texture,
+    mask_view: wgpu::TextureView,
+    /// Tile edge and tiles across a face.
+    pub tile: u32,
+    pub across: u32,
+    arrived: Vec<bool>,
+}
+
+impl Tiled {
+    pub fn new(device: &wgpu::Device, size: u32, tile: u32) -> Tiled {
+        let across = size.div_ceil(tile);
+        let mask = mask_texture(device, across);
+        let mask_view = mask.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
+        Tiled { cube: Cube::new(device, size), mask, mask_view, tile, across, arrived: vec![false; (6 * across * across) as usize] }
+    }
+
+    fn index(&self, slot: usize, x: u32, y: u32) -> usize {
+        (slot as u32 * self.across * self.across + y * self.across + x) as usize
+    }
+
+    pub fn has(&self, slot: usize, x: u32, y: u32) -> bool {
+        self.arrived[self.index(slot, x, y)]
+    }
+
+    pub fn count(&self) -> usize {
+        self.arrived.iter().filter(|a| **a).count()
+    }
+
+    /// Marks tile (x, y) of slot `slot` as in (its pixels written at
+    /// (x, y) × tile of layer `slot` of `cube`).
+    pub fn arrived(&mut self, queue: &wgpu::Queue, slot: usize, x: u32, y: u32) {
+        let i = self.index(slot, x, y);
+        self.arrived[i] = true;
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture: &self.mask, mip_level: 0, origin: wgpu::Origin3d { x, y, z: slot as u32 }, aspect: wgpu::TextureAspect::All },
+            &[255],
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(1), rows_per_image: Some(1) },
+            wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+        );
+    }
+
+    /// Writes RGBA8 pixels of a tile, `width` × `height`, at its place.
+    pub fn write_tile(&mut self, queue: &wgpu::Queue, slot: usize, x: u32, y: u32, width: u32, height: u32, rgba: &[u8]) {
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture: &self.cube.texture, mip_level: 0, origin: wgpu::Origin3d { x: x * self.tile, y: y * self.tile, z: slot as u32 }, aspect: wgpu::TextureAspect::All },
+            rgba,
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * width), rows_per_image: Some(height) },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        self.arrived(queue, slot, x, y);
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.cube.bytes()
+    }
+
+    /// Puts a tile in: checks its size (edge tiles may be cut short) and
+    /// writes it at its place.
+    pub fn put(&mut self, gpu: &crate::app::Gpu, slot: usize, x: u32, y: u32, pixels: TilePixels) -> Result<(), String> {
+        let want = ((self.cube.size - x * self.tile).min(self.tile), (self.cube.size - y * self.tile).min(self.tile));
+        match pixels {
+            TilePixels::Rgba { width, height, rgba } => {
+                if (width, height) != want {
+                    return Err(format!("is {width}×{height}, but the tile pyramid says {}×{}", want.0, want.1));
+                }
+                self.write_tile(&gpu.queue, slot, x, y, width, height, &rgba);
+            }
+            #[cfg(target_arch = "wasm32")]
+            TilePixels::Bitmap(image) => {
+                if (image.width(), image.height()) != want {
+                    return Err(format!("is {}×{}, but the tile pyramid says {}×{}", image.width(), image.height(), want.0, want.1));
+                }
+                gpu.queue.copy_external_image_to_texture(
+                    &wgpu::CopyExternalImageSourceInfo { source: wgpu::ExternalImageSource::ImageBitmap(image), origin: wgpu::Origin2d::ZERO, flip_y: false },
+                    wgpu::CopyExternalImageDestInfo {
+                        texture: &self.cube.texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d { x: x * self.tile, y: y * self.tile, z: slot as u32 },
+                        aspect: wgpu::TextureAspect::All,
+                        color_space: wgpu::PredefinedColorSpace::Srgb,
+                        premultiplied_alpha: false,
+                    },
+                    wgpu::Extent3d { width: want.0, height: want.1, depth_or_array_layers: 1 },
+                );
+                self.arrived(&gpu.queue, slot, x, y);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A tile as a platform decoded it.
+pub enum TilePixels {
+    Rgba { width: u32, height: u32, rgba: Vec<u8> },
+    /// Decoded by the browser, copied in by the GPU.
+    #[cfg(target_arch = "wasm32")]
+    Bitmap(web_sys::ImageBitmap),
+}
+
+/// The tiles of a `size` cube cut `tile` square that the view (`view` on a
+/// target of ratio `aspect`) may show, as (slot, x, y), nearest its centre
+/// first. A tile counts when the cone round it (centre to farthest corner)
+/// meets the cone round the view (centre to corner of the screen): a few
+/// more than the exact set, never fewer.
+pub fn visible_tiles(view: &View, aspect: f32, size: u32, tile: u32) -> Vec<(usize, u32, u32)> {
+    use glam::Vec3;
+    let forward = Vec3::from(direction(view.yaw, view.pitch));
+    let half = (0.5 * view.fov_y).tan();
+    let reach = (half * (1.0 + aspect * aspect).sqrt()).atan();
+    let across = size.div_ceil(tile);
+    // Tour faces are read with z negated: a tile's world direction is the
+    // slot's GPU direction mirrored in z.
+    let at = |slot: usize, px: u32, py: u32| {
+        let d = exploremaps_format::cube_direction(slot, px.min(size) as f32 / size as f32, py.min(size) as f32 / size as f32);
+        Vec3::new(d[0], d[1], -d[2]).normalize()
+    };
+    let mut out = Vec::new();
+    for slot in 0..6 {
+        for y in 0..across {
+            for x in 0..across {
+                let (x0, y0, x1, y1) = (x * tile, y * tile, (x + 1) * tile, (y + 1) * tile);
+                let centre = at(slot, (x0 + x1.min(size)) / 2, (y0 + y1.min(size)) / 2);
+                let radius = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].iter().map(|&(a, b)| centre.angle_between(at(slot, a, b))).fold(0.0, f32::max);
+                let off = forward.angle_between(centre);
+                if off <= radius + reach {
+                    out.push((off, slot, x, y));
+                }
+            }
+        }
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out.into_iter().map(|(_, slot, x, y)| (slot, x, y)).collect()
+}
+
+/// A cube of `across`² single-byte texels a face, zero (no tile yet).
+fn mask_texture(device: &wgpu::Device, across: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("tile mask"),
+        size: wgpu::Extent3d { width: across, height: across, depth_or_array_layers: 6 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R8Unorm,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}
+
 /// The texture a path's video frames are copied into.
 pub struct VideoTexture {
     pub texture: wgpu::Texture,
@@ -163,9 +330,10 @@ impl VideoTexture {
 /// What to draw.
 #[derive(Clone, Copy)]
 pub enum Source<'a> {
-    Cube(&'a Cube),
+    /// A whole cube, with the tiles of a sharper level that have arrived.
+    Cube(&'a Cube, Option<&'a Tiled>),
     /// From the first cube to the second, by the fraction given.
-    Fade(&'a Cube, &'a Cube, f32),
+    Fade((&'a Cube, Option<&'a Tiled>), (&'a Cube, Option<&'a Tiled>), f32),
     Video(&'a VideoTexture),
 }
 
@@ -175,9 +343,11 @@ pub struct PanoramaPass {
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     uniforms: wgpu::Buffer,
+    nearest: wgpu::Sampler,
     /// Bound where a source leaves a slot unused.
     blank_cube: Cube,
     blank_video: VideoTexture,
+    blank_mask: wgpu::TextureView,
 }
 
 impl PanoramaPass {
@@ -193,6 +363,11 @@ impl PanoramaPass {
                 entry(2, texture(wgpu::TextureViewDimension::Cube)),
                 entry(3, texture(wgpu::TextureViewDimension::D2)),
                 entry(4, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+                entry(5, texture(wgpu::TextureViewDimension::Cube)),
+                entry(6, texture(wgpu::TextureViewDimension::Cube)),
+                entry(7, texture(wgpu::TextureViewDimension::Cube)),
+                entry(8, texture(wgpu::TextureViewDimension::Cube)),
+                entry(9, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("panorama"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
@@ -228,18 +403,24 @@ impl PanoramaPass {
             ..Default::default()
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor { label: Some("panorama view"), size: 64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-        PanoramaPass { pipeline, layout, sampler, uniforms, blank_cube: Cube::new(device, 1), blank_video: VideoTexture::new(device, 1, 1) }
+        let nearest = device.create_sampler(&wgpu::SamplerDescriptor { label: Some("tile mask"), ..Default::default() });
+        let blank_mask = mask_texture(device, 1).create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
+        PanoramaPass { pipeline, layout, sampler, uniforms, nearest, blank_cube: Cube::new(device, 1), blank_video: VideoTexture::new(device, 1, 1), blank_mask }
     }
 
     /// Draws `source` as seen in `view` into a pass over a target of aspect
     /// ratio `aspect`, over what is there with `opacity` (1: replaces it).
     #[allow(clippy::too_many_arguments)]
     pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, source: Source<'_>, opacity: f32) {
+        let blank = (&self.blank_cube, None);
         let (a, b, video, fade) = match source {
-            Source::Cube(c) => (c, &self.blank_cube, &self.blank_video, 0.0),
+            Source::Cube(c, t) => ((c, t), blank, &self.blank_video, 0.0),
             Source::Fade(a, b, t) => (a, b, &self.blank_video, t.clamp(0.0, 1.0)),
-            Source::Video(v) => (&self.blank_cube, &self.blank_cube, v, 0.0),
+            Source::Video(v) => (blank, blank, v, 0.0),
         };
+        let views = |t: Option<&Tiled>| t.map(|t| (t.cube.view.clone(), t.mask_view.clone())).unwrap_or_else(|| (self.blank_cube.view.clone(), self.blank_mask.clone()));
+        let ((tiles_a, mask_a), (tiles_b, mask_b)) = (views(a.1), views(b.1));
+        let (a, b) = (a.0, b.0);
         let u = uniforms(view, aspect, fade, matches!(source, Source::Video(_)));
         let bytes: Vec<u8> = u.iter().flat_map(|x| x.to_le_bytes()).collect();
         queue.write_buffer(&self.uniforms, 0, &bytes);
@@ -252,6 +433,11 @@ impl PanoramaPass {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&b.view) },
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&video.view) },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&tiles_a) },
+                wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(&mask_a) },
+                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(&tiles_b) },
+                wgpu::BindGroupEntry { binding: 8, resource: wgpu::BindingResource::TextureView(&mask_b) },
+                wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::Sampler(&self.nearest) },
             ],
         });
         pass.set_pipeline(&self.pipeline);

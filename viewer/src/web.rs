@@ -89,6 +89,7 @@ enum Fetched {
     Packet { level: usize, file: String, bytes: Vec<u8> },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
     Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
+    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, image: web_sys::ImageBitmap },
     Equirect { probe: u32, image: web_sys::ImageBitmap },
     Thumbnail { probe: u32, image: web_sys::ImageBitmap },
     Failed { what: String, error: String, probe: Option<u32> },
@@ -153,6 +154,7 @@ impl WebPlatform {
                 }
                 Loaded::Pano { probe, pano: Pano::Cube(cube) }
             }
+            Fetched::Tile { probe, size, slot, x, y, image } => Loaded::Tile { probe, size, slot, x, y, pixels: crate::panorama::TilePixels::Bitmap(image) },
             Fetched::Equirect { probe, image } => {
                 let limit = gpu.device.limits().max_texture_dimension_2d;
                 let (w, h) = (image.width().min(limit), image.height().min(limit));
@@ -250,6 +252,16 @@ impl Platform for WebPlatform {
                 }
             });
         }
+    }
+
+    fn load_tile(&mut self, probe: u32, size: u32, slot: usize, x: u32, y: u32, file: &str) {
+        let (file, url) = (file.to_string(), self.url(file));
+        self.spawn(async move {
+            match bitmap(url, None).await {
+                Ok(image) => Fetched::Tile { probe, size, slot, x, y, image },
+                Err(error) => Fetched::Failed { what: file, error, probe: None },
+            }
+        });
     }
 
     fn load_equirect(&mut self, probe: u32, file: &str) {

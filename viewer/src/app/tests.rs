@@ -25,6 +25,9 @@ struct Script {
     broken_stream: bool,
     depth_requests: Vec<u32>,
     depth_pending: Vec<u32>,
+    /// Tiles asked for: (probe, size, slot, x, y), and those to answer.
+    tiles: Vec<(u32, u32, usize, u32, u32)>,
+    tiles_pending: Vec<(u32, u32, usize, u32, u32)>,
 }
 
 /// Every probe's depth map: everything 2 units away; what lies toward −Z is
@@ -47,6 +50,10 @@ impl Platform for Script {
     fn load_cube(&mut self, probe: u32, size: u32, _faces: &[String; 6]) {
         self.requests.push((probe, size));
         self.pending.push((probe, size));
+    }
+    fn load_tile(&mut self, probe: u32, size: u32, slot: usize, x: u32, y: u32, _file: &str) {
+        self.tiles.push((probe, size, slot, x, y));
+        self.tiles_pending.push((probe, size, slot, x, y));
     }
     fn load_equirect(&mut self, _probe: u32, _file: &str) {}
     fn load_thumbnail(&mut self, probe: u32, _file: &str) {
@@ -87,6 +94,12 @@ impl Platform for Script {
             })
             .collect();
         let maps: Vec<Loaded> = self.depth_pending.drain(..).map(|probe| Loaded::DepthMap { probe, map: depth_map(probe) }).collect();
+        // Tiles are 16 pixels, white.
+        let tiles: Vec<Loaded> = std::mem::take(&mut self.tiles_pending)
+            .into_iter()
+            .map(|(probe, size, slot, x, y)| Loaded::Tile { probe, size, slot, x, y, pixels: crate::panorama::TilePixels::Rgba { width: 16, height: 16, rgba: vec![255; 4 * 16 * 16] } })
+            .collect();
+        let maps: Vec<Loaded> = maps.into_iter().chain(tiles).collect();
         proxies.into_iter().chain(refined).chain(maps).chain(self.pending
             .drain(..)
             .map(|(probe, size)| {
@@ -166,6 +179,39 @@ fn the_low_resolution_level_comes_first_then_the_sharp_one_and_neighbours_are_pr
     all.sort_unstable();
     all.dedup();
     assert_eq!(all.len(), script.requests.len(), "{:?}", script.requests);
+}
+
+#[test]
+fn with_a_tile_pyramid_only_the_tiles_in_view_come_after_the_low_level() {
+    let mut graph = bundle_graph();
+    for p in &mut graph.probes {
+        p.assets.tiles = Some(exploremaps_format::Tiles::new(format!("probes/{}/tiles", p.id), 32, 16, 8));
+    }
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
+    app.update(0.016, &mut script);
+    app.update(0.016, &mut script);
+    // The whole lowest level, then tiles of the 32 level (2 × 2 a face):
+    // not the whole 32 cube, and not the tiles behind the view (it looks
+    // toward −Z: slot 4, the tour's front face, is ahead; slot 5 behind).
+    assert!(script.requests.contains(&(0, 8)) && !script.requests.contains(&(0, 32)), "{:?}", script.requests);
+    let asked: Vec<_> = script.tiles.iter().filter(|t| t.0 == 0).copied().collect();
+    assert!(asked.iter().all(|t| t.1 == 32), "{asked:?}");
+    assert!(asked.len() >= 4 && asked.len() < 24, "{} of 24 tiles: {asked:?}", asked.len());
+    assert!((0..2).all(|x| (0..2).all(|y| asked.contains(&(0, 32, 4, x, y)))), "the four tiles ahead: {asked:?}");
+    assert!(!asked.iter().any(|t| t.2 == 5), "none behind: {asked:?}");
+    assert_eq!(asked[0].2, 4, "the tiles ahead come first");
+    app.update(0.016, &mut script);
+    assert_eq!(app.tile_counts(), (asked.len(), asked.len()), "each came in once");
+    // Turning round asks for the tiles now in view, once each.
+    app.nav.look(std::f32::consts::PI, 0.0);
+    app.update(0.016, &mut script);
+    app.update(0.016, &mut script);
+    assert!(script.tiles.iter().any(|t| t.2 == 5), "the back face's tiles: {:?}", script.tiles);
+    let mut all = script.tiles.clone();
+    all.sort_unstable();
+    all.dedup();
+    assert_eq!(all.len(), script.tiles.len(), "no tile asked twice");
 }
 
 #[test]

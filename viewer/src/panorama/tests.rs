@@ -38,7 +38,7 @@ fn cube(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_size
 /// Renders `view` of a cube whose faces are `faces` into SIZE² RGBA8 pixels.
 fn render(device: &wgpu::Device, queue: &wgpu::Queue, faces: [&[u8]; 6], face_size: u32, view: View) -> Vec<u8> {
     let c = cube(device, queue, faces, face_size);
-    render_source(device, queue, Source::Cube(&c), view)
+    render_source(device, queue, Source::Cube(&c, None), view)
 }
 
 fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>, view: View) -> Vec<u8> {
@@ -150,7 +150,7 @@ fn a_cross_fade_mixes_the_two_cubes() {
     let a = cube(&device, &queue, [&red[..]; 6], 4);
     let b = cube(&device, &queue, [&blue[..]; 6], 4);
     let view = View { yaw: 0.4, pitch: 0.1, fov_y: 1.0 };
-    let at = |t: f32| pixel(&render_source(&device, &queue, Source::Fade(&a, &b, t), view), SIZE / 2, SIZE / 2);
+    let at = |t: f32| pixel(&render_source(&device, &queue, Source::Fade((&a, None), (&b, None), t), view), SIZE / 2, SIZE / 2);
     assert!(close(at(0.0), [255, 0, 0]) && close(at(1.0), [0, 0, 255]), "{:?} {:?}", at(0.0), at(1.0));
     // Halfway in linear light is 0.5, which sRGB encodes as 188.
     assert!(close(at(0.5), [188, 0, 188]), "halfway: {:?}", at(0.5));
@@ -171,4 +171,57 @@ fn video_frames_are_sampled_as_world_aligned_equirectangular_images() {
         let p = pixel(&render_source(&device, &queue, Source::Video(&video), View { yaw, pitch: 0.0, fov_y: 0.3 }), SIZE / 2, SIZE / 2);
         assert!(close(p, *band), "yaw {yaw}: {p:?}");
     }
+}
+
+#[test]
+fn tile_slots_hold_tour_faces_read_with_z_negated() {
+    use exploremaps_format::{cube_direction, Tiles, TILE_FACES};
+    for (slot, &face) in TILE_SLOTS.iter().enumerate() {
+        let j = TILE_FACES.iter().position(|&f| f == face).unwrap();
+        for (s, t) in [(0.1, 0.2), (0.8, 0.6)] {
+            let d = cube_direction(slot, s, t);
+            let (sj, tj) = Tiles::face_coordinates(j, s, t);
+            let e = cube_direction(j, sj, tj);
+            assert!((0..3).all(|i| (e[i] - [d[0], d[1], -d[2]][i]).abs() < 1e-5), "slot {slot} holds {face}: {d:?} {e:?}");
+        }
+    }
+}
+
+#[test]
+fn visible_tiles_are_those_ahead_nearest_first() {
+    let view = View { yaw: 0.0, pitch: 0.0, fov_y: 0.6 };
+    let tiles = visible_tiles(&view, 1.0, 4096, 512);
+    // Looking toward −Z: the front face (slot 4) and its middle tiles first.
+    assert!(tiles.len() < 6 * 64 / 4, "{} tiles", tiles.len());
+    assert_eq!(tiles[0].0, 4);
+    assert!([(3, 3), (3, 4), (4, 3), (4, 4)].contains(&(tiles[0].1, tiles[0].2)), "{:?}", tiles[0]);
+    assert!(!tiles.iter().any(|t| t.0 == 5), "nothing behind");
+    // Straight up: the top face.
+    let up = visible_tiles(&View { yaw: 0.0, pitch: 1.5, fov_y: 0.6 }, 1.0, 4096, 512);
+    assert_eq!(up[0].0, 2);
+}
+
+#[test]
+fn tiles_show_over_the_whole_cube_where_they_have_arrived() {
+    let Some((device, queue)) = gpu() else { return };
+    let grey = vec![100u8; 4 * 8 * 8];
+    let base = cube(&device, &queue, [&grey; 6], 8);
+    let mut tiled = Tiled::new(&device, 64, 32);
+    let red: Vec<u8> = (0..32 * 32).flat_map(|_| [220, 30, 30, 255]).collect();
+    // The tour's front face (slot 4), its top-right tile: right of and above
+    // the view toward −Z. The top face (slot 2), its top-left tile: toward
+    // −X and +Z (the top edge of the tour's up face faces +Z).
+    tiled.write_tile(&queue, 4, 1, 0, 32, 32, &red);
+    tiled.write_tile(&queue, 2, 0, 0, 32, 32, &red);
+    let look = |d: [f32; 3]| {
+        let (yaw, pitch) = exploremaps_format::yaw_pitch(d);
+        pixel(&render_source(&device, &queue, Source::Cube(&base, Some(&tiled)), View { yaw, pitch, fov_y: 0.2 }), SIZE / 2, SIZE / 2)
+    };
+    let is_red = |p: [u8; 3]| p[0] > 180 && p[1] < 80;
+    assert!(is_red(look([0.5, 0.5, -1.0])), "front, top right: {:?}", look([0.5, 0.5, -1.0]));
+    assert!(!is_red(look([-0.5, 0.5, -1.0])), "front, top left is the whole cube's");
+    assert!(!is_red(look([0.5, -0.5, -1.0])), "front, bottom right too");
+    assert!(is_red(look([-0.5, 1.0, 0.5])), "up, toward −X and +Z: {:?}", look([-0.5, 1.0, 0.5]));
+    assert!(!is_red(look([0.5, 1.0, 0.5])) && !is_red(look([-0.5, 1.0, -0.5])), "the rest of the top is the whole cube's");
+    assert_eq!(tiled.count(), 2);
 }
