@@ -3,6 +3,7 @@
 // MODE tour: load, drag, take the path and back, screenshot each step; then a deep link
 // to a probe with a corrupt face, and on to the next probe.
 // MODE message: load and report the message the page shows.
+// MODE tiles: on a phone-sized page, the tiles of the first view: asked for, in, fetched.
 // MODE bench: time to first panorama and frame times in a probe and along a path.
 // MODE dollhouse: open in the dollhouse (#dollhouse=1), screenshot it; then click at
 // (TAP_X, TAP_Y) and report where the flight lands; then the floor cut (KeyF).
@@ -78,6 +79,19 @@ try {
     await bad.page.waitForTimeout(300);
     await bad.page.screenshot({ path: `${out}/recovered.png` });
     report('recovered', await status(bad.page));
+  } else if (mode === 'tiles') {
+    // A phone screen (as in 'phone'): how many tiles the first view asks for and gets.
+    const context = await browser.newContext({ viewport: { width: 360, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
+    const page = await context.newPage();
+    page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    const fetched = [];
+    page.on('request', (r) => { if (r.url().includes('/tiles/')) fetched.push(new URL(r.url()).pathname); });
+    await page.goto(url);
+    await page.waitForFunction(() => window.exploremaps && window.exploremaps.tiles_requested > 0
+      && window.exploremaps.tiles_in === window.exploremaps.tiles_requested, null, { timeout: 30000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/tiles.png` });
+    report('tiles', { ...(await status(page)), fetched });
   } else if (mode === 'phone') {
     // A 360x740 portrait phone screen at 2 device pixels a CSS pixel, touch only.
     const context = await browser.newContext({ viewport: { width: 360, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });

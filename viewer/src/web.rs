@@ -496,6 +496,9 @@ impl State {
             set_status("first_panorama_ms", &ms.into());
         }
         set_status("probe", &self.app.nav.probe().into());
+        let (asked, arrived) = self.app.tile_counts();
+        set_status("tiles_requested", &(asked as u32).into());
+        set_status("tiles_in", &(arrived as u32).into());
         set_status("moving", &self.app.nav.progress().is_some().into());
         let dollhouse = self.app.mode == Mode::Dollhouse;
         set_status("dollhouse", &dollhouse.into());
