@@ -92,6 +92,33 @@ try {
     await page.waitForTimeout(300);
     await page.screenshot({ path: `${out}/tiles.png` });
     report('tiles', { ...(await status(page)), fetched });
+  } else if (mode === 'tiles_bench') {
+    // scripts/bench-tour.sh: a 1280x720 page, cold, at the first view and opened
+    // zoomed (deep link fov=FOV_DEG): bytes fetched and the time until the last tile
+    // the view asked for is in; THROTTLE=1: 10 Mbit/s, 20 ms latency.
+    for (const hash of ['', `#probe=0&fov=${process.env.FOV_DEG || 20}`]) {
+      const page = await browser.newPage({ viewport: { width: 1280, height: 720 } });
+      page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+      if (process.env.THROTTLE === '1') {
+        const cdp = await page.context().newCDPSession(page);
+        await cdp.send('Network.enable');
+        await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 20, downloadThroughput: 10e6 / 8, uploadThroughput: 10e6 / 8 });
+      }
+      let bytes = 0, tileBytes = 0, tiles = 0;
+      page.on('requestfinished', async (r) => {
+        const size = (await r.sizes().catch(() => ({ responseBodySize: 0 }))).responseBodySize;
+        bytes += size;
+        if (r.url().includes('/tiles/')) { tiles += 1; tileBytes += size; }
+      });
+      const t0 = Date.now();
+      await page.goto(url + hash);
+      await page.waitForFunction(() => window.exploremaps && window.exploremaps.first_panorama_ms, null, { timeout: 60000 });
+      await page.waitForFunction(() => window.exploremaps.tiles_requested > 0 && window.exploremaps.tiles_in === window.exploremaps.tiles_requested, null, { timeout: 120000, polling: 10 });
+      const ms = Date.now() - t0;
+      await page.waitForTimeout(1000);
+      report('sharp', { view: hash ? `zoomed (${hash})` : 'first', ms, bytes, tiles, tile_bytes: tileBytes, ...(await status(page)) });
+      await page.close();
+    }
   } else if (mode === 'phone') {
     // A 360x740 portrait phone screen at 2 device pixels a CSS pixel, touch only.
     const context = await browser.newContext({ viewport: { width: 360, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
