@@ -6,9 +6,9 @@
 //! face the right way round. Needs what tests/viewer.rs needs, unless
 //! EXPLOREMAPS_SKIP_BROWSER=1.
 
-use super::viewer::{serve, skip};
+use super::viewer::{serve, skip, synthetic_scene, writer};
 use super::{exploremaps, stderr};
-use exploremaps_format::{cube_direction, direction, CameraKey, CubeLevel, Graph, Path as GraphPath, PathAssets, Probe, ProbeAssets, SceneInfo, Tiles, ViewDirection, CUBE_FACES};
+use exploremaps_format::{cube_direction, direction, CameraKey, CubeLevel, Graph, Path as GraphPath, PathAssets, Probe, ProbeAssets, Tiles, ViewDirection, CUBE_FACES};
 use std::path::Path;
 use std::process::Command;
 
@@ -45,25 +45,8 @@ fn faces(p: usize) -> Vec<image::RgbImage> {
 /// (as `render` writes them), probe 1 has only whole faces (an older bundle:
 /// the export cuts them).
 fn bundle(dir: &Path) {
-    let scene = SceneInfo {
-        name: "tour test".into(),
-        source: "test".into(),
-        triangles: 12,
-        bounds_min: [-5.0, -1.0, -5.0],
-        bounds_max: [9.0, 3.0, 9.0],
-        metres_per_unit: 1.0,
-        scale_source: "file".into(),
-        space: None,
-        near_distance: None,
-        eye_height_m: None,
-        credits: vec![],
-    };
-    let mut graph = Graph::new(scene);
-    let write = |name: &str, bytes: &[u8]| {
-        let path = dir.join(name);
-        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        std::fs::write(path, bytes).unwrap();
-    };
+    let mut graph = Graph::new(synthetic_scene("tour test"));
+    let write = writer(dir);
     let positions = [[0.0, 1.5, 0.0], [4.0, 1.5, 0.0]];
     for (p, position) in positions.iter().enumerate() {
         let images = faces(p);

@@ -33,11 +33,10 @@ fn jpeg(img: &image::RgbImage) -> Vec<u8> {
     bytes
 }
 
-/// Probe 0 at the origin facing −Z, probe 1 4 m along +X (a 2 s path between
-/// them; it arrives facing +Z), probe 2 unconnected with a corrupt face.
-pub fn synthetic_bundle(dir: &Path) {
-    let scene = SceneInfo {
-        name: "synthetic".into(),
+/// The scene of the synthetic bundles: 14 × 4 × 14 m.
+pub(super) fn synthetic_scene(name: &str) -> SceneInfo {
+    SceneInfo {
+        name: name.into(),
         source: "test".into(),
         triangles: 12,
         bounds_min: [-5.0, -1.0, -5.0],
@@ -48,13 +47,23 @@ pub fn synthetic_bundle(dir: &Path) {
         near_distance: None,
         eye_height_m: None,
         credits: vec![],
-    };
-    let mut graph = Graph::new(scene);
-    let write = |name: &str, bytes: &[u8]| {
+    }
+}
+
+/// Writes a file of a bundle in `dir`, making its folders.
+pub(super) fn writer(dir: &Path) -> impl Fn(&str, &[u8]) + '_ {
+    move |name, bytes| {
         let path = dir.join(name);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(path, bytes).unwrap();
-    };
+    }
+}
+
+/// Probe 0 at the origin facing −Z, probe 1 4 m along +X (a 2 s path between
+/// them; it arrives facing +Z), probe 2 unconnected with a corrupt face.
+pub fn synthetic_bundle(dir: &Path) {
+    let mut graph = Graph::new(synthetic_scene("synthetic"));
+    let write = writer(dir);
     let positions = [[0.0, 1.5, 0.0], [4.0, 1.5, 0.0], [0.0, 1.5, 8.0]];
     let facing = [0.0, std::f32::consts::PI, 0.0];
     for (p, position) in positions.iter().enumerate() {
@@ -349,7 +358,7 @@ fn on_a_phone_the_web_viewer_fetches_only_the_tiles_in_view() {
     eprintln!("phone: {asked} of 96 tiles asked for, {arrived} in, {} fetched", fetched.len());
     // The screen (720 × 1480 pixels) wants more than the 32 faces: the top
     // level, 64; of its 96 tiles, only those about the view toward −Z.
-    assert!(asked >= 4 && asked < 48, "{asked} tiles: {tiles}");
+    assert!((4..48).contains(&asked), "{asked} tiles: {tiles}");
     assert_eq!((arrived, fetched.len() as u64), (asked, asked), "each fetched once: {fetched:?}");
     assert!(fetched.iter().all(|f| f.contains("/probes/0/tiles/3/")), "{fetched:?}");
     assert!(fetched.iter().any(|f| f.contains("/3/f/")) && !fetched.iter().any(|f| f.contains("/3/b/")), "ahead, not behind: {fetched:?}");

@@ -293,7 +293,7 @@ impl Tiles {
             levels += 1;
         }
         let halves = 1 << (levels - 1);
-        let tile = if size % halves == 0 { size / halves } else { max_tile };
+        let tile = if size.is_multiple_of(halves) { size / halves } else { max_tile };
         let preview = format!("{path}/preview.jpg");
         Tiles { size, tile, levels, path, preview, preview_size }
     }

@@ -200,7 +200,7 @@ impl Tiled {
     }
 
     /// Writes RGBA8 pixels of a tile, `width` × `height`, at its place.
-    pub fn write_tile(&mut self, queue: &wgpu::Queue, slot: usize, x: u32, y: u32, width: u32, height: u32, rgba: &[u8]) {
+    pub fn write_tile(&mut self, queue: &wgpu::Queue, slot: usize, (x, y): (u32, u32), (width, height): (u32, u32), rgba: &[u8]) {
         queue.write_texture(
             wgpu::TexelCopyTextureInfo { texture: &self.cube.texture, mip_level: 0, origin: wgpu::Origin3d { x: x * self.tile, y: y * self.tile, z: slot as u32 }, aspect: wgpu::TextureAspect::All },
             rgba,
@@ -223,7 +223,7 @@ impl Tiled {
                 if (width, height) != want {
                     return Err(format!("is {width}×{height}, but the tile pyramid says {}×{}", want.0, want.1));
                 }
-                self.write_tile(&gpu.queue, slot, x, y, width, height, &rgba);
+                self.write_tile(&gpu.queue, slot, (x, y), (width, height), &rgba);
             }
             #[cfg(target_arch = "wasm32")]
             TilePixels::Bitmap(image) => {

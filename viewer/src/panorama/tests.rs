@@ -211,8 +211,8 @@ fn tiles_show_over_the_whole_cube_where_they_have_arrived() {
     // The tour's front face (slot 4), its top-right tile: right of and above
     // the view toward −Z. The top face (slot 2), its top-left tile: toward
     // −X and +Z (the top edge of the tour's up face faces +Z).
-    tiled.write_tile(&queue, 4, 1, 0, 32, 32, &red);
-    tiled.write_tile(&queue, 2, 0, 0, 32, 32, &red);
+    tiled.write_tile(&queue, 4, (1, 0), (32, 32), &red);
+    tiled.write_tile(&queue, 2, (0, 0), (32, 32), &red);
     let look = |d: [f32; 3]| {
         let (yaw, pitch) = exploremaps_format::yaw_pitch(d);
         pixel(&render_source(&device, &queue, Source::Cube(&base, Some(&tiled)), View { yaw, pitch, fov_y: 0.2 }), SIZE / 2, SIZE / 2)
