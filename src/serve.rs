@@ -103,8 +103,17 @@ fn locate(root: &Path, web: Option<&Path>, rel: &Path) -> Result<PathBuf, u16> {
     }
 }
 
+/// Whether a type is worth compressing (JPEG, PNG and MP4 are compressed already).
+fn compressible(content_type: &str) -> bool {
+    ["text/", "application/wasm", "application/json"].iter().any(|t| content_type.starts_with(t))
+}
+
 /// The answer to a parsed request; `root` is the canonical bundle folder.
-pub fn respond(root: &Path, web: Option<&Path>, method: &str, url: &str, range: Option<&str>) -> Response {
+/// Text and wasm go gzipped to a client that accepts it (as static hosts send
+/// them: the web viewer's module is a third of its size), unless a range
+/// was asked for.
+pub fn respond(root: &Path, web: Option<&Path>, request: &Request) -> Response {
+    let (method, url, range) = (request.method.as_str(), request.url.as_str(), request.range.as_deref());
     if method != "GET" && method != "HEAD" {
         return text(405, "only GET and HEAD are served");
     }
@@ -129,6 +138,18 @@ pub fn respond(root: &Path, web: Option<&Path>, method: &str, url: &str, range: 
             let mut r = text(416, "unsatisfiable range");
             r.headers.push(format!("Content-Range: bytes */{len}"));
             return r;
+        }
+        None if request.gzip && compressible(content_type(&file)) => {
+            use std::io::Write;
+            let mut encoder = flate2::write::GzEncoder::new(Vec::with_capacity(bytes.len() / 3), flate2::Compression::default());
+            let compressed = encoder.write_all(&bytes).and_then(|()| encoder.finish());
+            match compressed {
+                Ok(body) => {
+                    headers.extend(["Content-Encoding: gzip".to_string(), "Vary: Accept-Encoding".to_string()]);
+                    (200, body)
+                }
+                Err(_) => (200, bytes),
+            }
         }
         None => (200, bytes),
     };
@@ -158,11 +179,12 @@ const MAX_HEADER_BYTES: usize = 64 * 1024;
 const REQUEST_TIME: std::time::Duration = std::time::Duration::from_secs(10);
 const MAX_CONNECTIONS: usize = 64;
 
-/// A request's method, URL and `Range` header, or the status refusing it.
+/// A request's method, URL, `Range` header and whether it accepts gzip.
 pub struct Request {
     pub method: String,
     pub url: String,
     pub range: Option<String>,
+    pub gzip: bool,
 }
 
 /// Reads the request line and headers from a connection within the limits
@@ -198,7 +220,7 @@ pub fn read_head(reader: &mut impl std::io::BufRead, mut before_line: impl FnMut
     if url.is_empty() {
         return Err(400);
     }
-    let (mut range, mut bytes) = (None, 0);
+    let (mut range, mut bytes, mut gzip) = (None, 0, false);
     for count in 0.. {
         let header = next_line(431)?;
         if header.trim().is_empty() {
@@ -211,10 +233,12 @@ pub fn read_head(reader: &mut impl std::io::BufRead, mut before_line: impl FnMut
         if let Some((name, value)) = header.split_once(':') {
             if name.trim().eq_ignore_ascii_case("range") {
                 range = Some(value.trim().to_string());
+            } else if name.trim().eq_ignore_ascii_case("accept-encoding") {
+                gzip = value.split(',').any(|e| e.split(';').next().is_some_and(|c| c.trim().eq_ignore_ascii_case("gzip")));
             }
         }
     }
-    Ok(Request { method, url, range })
+    Ok(Request { method, url, range, gzip })
 }
 
 /// Reads one request from a connection, answers it and closes the connection.
@@ -223,7 +247,7 @@ pub fn read_head(reader: &mut impl std::io::BufRead, mut before_line: impl FnMut
 fn handle(stream: std::net::TcpStream, root: &Path, web: Option<&Path>) -> std::io::Result<()> {
     let (method, response) = match read_request(&stream) {
         Ok(r) => {
-            let response = respond(root, web, &r.method, &r.url, r.range.as_deref());
+            let response = respond(root, web, &r);
             tracing::debug!("{} {} -> {}", r.method, r.url, response.status);
             (r.method, response)
         }
@@ -312,6 +336,26 @@ mod tests {
         for bad in ["/../x", "/a/../../x", "/%2e%2e/x", "/a/%2E%2E/%2E%2E/x", "/..%2fx", "/a\\..\\x", "/%zz", "/./x"] {
             assert!(relative_path(bad).is_none(), "{bad}");
         }
+    }
+
+    #[test]
+    fn text_and_wasm_go_gzipped_to_clients_that_take_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let script = "let x = 1;\n".repeat(1000);
+        std::fs::write(dir.path().join("a.js"), &script).unwrap();
+        std::fs::write(dir.path().join("b.jpg"), [0xffu8, 0xd8, 1, 2, 3]).unwrap();
+        let root = dir.path().canonicalize().unwrap();
+        let get = |url: &str, range: Option<&str>, gzip: bool| respond(&root, None, &Request { method: "GET".into(), url: url.into(), range: range.map(str::to_string), gzip });
+        let zipped = get("/a.js", None, true);
+        assert!(zipped.headers.iter().any(|h| h == "Content-Encoding: gzip") && zipped.body.len() < script.len() / 10);
+        let mut back = String::new();
+        std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(zipped.body.as_slice()), &mut back).unwrap();
+        assert_eq!(back, script);
+        for (url, range, gzip) in [("/a.js", None, false), ("/a.js", Some("bytes=0-9"), true), ("/b.jpg", None, true)] {
+            let plain = get(url, range, gzip);
+            assert!(!plain.headers.iter().any(|h| h.starts_with("Content-Encoding")), "{url} {range:?} {gzip}");
+        }
+        assert_eq!(get("/a.js", Some("bytes=0-9"), true).body, b"let x = 1;");
     }
 
     #[test]
