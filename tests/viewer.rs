@@ -326,15 +326,15 @@ fn link_value(hash: &str, key: &str) -> f32 {
     hash.trim_start_matches('#').split('&').find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no {key} in {hash}"))
 }
 
-/// Gives probe 0 a tile pyramid of 64-pixel faces in 16-pixel tiles (4 × 4
+/// Gives probe 0 a tile pyramid of 256-pixel faces in 64-pixel tiles (4 × 4
 /// a face at the top level), its colours lighter than the whole faces' so
 /// a screenshot tells the two apart.
 fn add_tiles(bundle: &Path) {
     use exploremaps_format::Tiles;
     let lighter = |c: [u8; 3]| c.map(|v| ((u16::from(v) + 255) / 2) as u8);
-    let faces: Vec<image::RgbImage> = (0..6).map(|f| image::RgbImage::from_pixel(64, 64, image::Rgb(lighter(FACES[0][f])))).collect();
-    let tiles = Tiles::new("probes/0/tiles".into(), 64, 16, 16);
-    exploremaps_builder::tiles::cut(&tiles, &[(64, faces)], |name, tile| {
+    let faces: Vec<image::RgbImage> = (0..6).map(|f| image::RgbImage::from_pixel(256, 256, image::Rgb(lighter(FACES[0][f])))).collect();
+    let tiles = Tiles::new("probes/0/tiles".into(), 256, 64, 64);
+    exploremaps_builder::tiles::cut(&tiles, &[(256, faces)], |name, tile| {
         let path = bundle.join(name);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(path, jpeg(tile)).map_err(|_| ())
@@ -357,7 +357,7 @@ fn on_a_phone_the_web_viewer_fetches_only_the_tiles_in_view() {
     let fetched: Vec<&str> = tiles["fetched"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
     eprintln!("phone: {asked} of 96 tiles asked for, {arrived} in, {} fetched", fetched.len());
     // The screen (720 × 1480 pixels) wants more than the 32 faces: the top
-    // level, 64; of its 96 tiles, only those about the view toward −Z.
+    // level, 256; of its 96 tiles, only those about the view toward −Z.
     assert!((4..48).contains(&asked), "{asked} tiles: {tiles}");
     assert_eq!((arrived, fetched.len() as u64), (asked, asked), "each fetched once: {fetched:?}");
     assert!(fetched.iter().all(|f| f.contains("/probes/0/tiles/3/")), "{fetched:?}");

@@ -518,7 +518,9 @@ impl Graph {
             }
             let a = &p.assets;
             if let Some(t) = &a.tiles {
-                if !(16..=16384).contains(&t.size) || !(1..=4096).contains(&t.tile) || !(1..=15).contains(&t.levels) || t.size.div_ceil(1 << (t.levels - 1)) > t.tile || t.preview_size > 4096 {
+                // Tiles of at least 64 pixels (or the whole face) bound the
+                // count a hostile graph can make readers walk.
+                if !(16..=16384).contains(&t.size) || !(64.min(t.size)..=4096).contains(&t.tile) || !(1..=15).contains(&t.levels) || t.size.div_ceil(1 << (t.levels - 1)) > t.tile || t.preview_size > 4096 {
                     return bad(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
                 }
             }
@@ -722,6 +724,14 @@ mod tests {
         let odd = Tiles::new("t".into(), 999, 512, 64);
         assert_eq!((odd.levels, odd.tile, odd.level_size(1), odd.across(2)), (2, 512, 500, 2), "cut-short edge tiles otherwise");
         assert_eq!(Tiles::new("t".into(), 300, 512, 64).levels, 1);
+        // A graph may not ask for millions of tiny tiles.
+        let mut g = sample();
+        g.probes[0].assets.tiles = Some(Tiles::new("t".into(), 16384, 1, 64));
+        assert!(g.validate().is_err());
+        g.probes[0].assets.tiles = Some(Tiles::new("t".into(), 16384, 512, 64));
+        assert!(g.validate().is_ok());
+        g.probes[0].assets.tiles = Some(Tiles::new("t".into(), 32, 512, 16));
+        assert!(g.validate().is_ok(), "a face smaller than 64 is one tile");
     }
 
     fn sample() -> Graph {
