@@ -506,9 +506,15 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     child.wait().unwrap();
     // Whatever is there under its own name is whole.
     let mut whole = 0;
-    for sub in ["probes/0", "probes/1", "probes/2", "thumbs", "paths"] {
-        for entry in std::fs::read_dir(b.join(sub)).into_iter().flatten().flatten() {
+    let mut folders: Vec<PathBuf> = ["probes/0", "probes/1", "probes/2", "thumbs", "paths"].iter().map(|s| b.join(s)).collect();
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
             let name = entry.file_name().to_string_lossy().into_owned();
+            if entry.file_type().unwrap().is_dir() {
+                // A probe's tiles.
+                folders.push(entry.path());
+                continue;
+            }
             if name.starts_with('.') {
                 continue;
             }
@@ -525,7 +531,7 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(!stdout(&run).contains(" 0 already there"), "finished probes are not redone: {}", stdout(&run));
     let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(b.join("graph.json")).unwrap()).unwrap();
-    assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some() && p.assets.cube_levels.len() == 1));
+    assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some() && p.assets.cube_levels.len() == 1 && p.assets.tiles.as_ref().is_some_and(|t| (t.size, t.levels) == (256, 1))));
     assert!(graph.paths.iter().all(|p| p.assets.video.is_some()));
 }
 
