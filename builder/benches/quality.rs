@@ -122,7 +122,18 @@ fn main() {
         );
         let eye = viewpoints[0];
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let settings = Settings::new(Quality::Final, 1);
+        let mut settings = Settings::new(Quality::Final, 1);
+        // VIDEO_KEYS=n tries another key-frame interval.
+        if let Some(n) = std::env::var("VIDEO_KEYS").ok().and_then(|v| v.parse().ok()) {
+            settings.video_keys = n;
+        }
+        // VIDEO_GATHER=rays,step[,passes] tries another gather for video frames.
+        if let Ok(v) = std::env::var("VIDEO_GATHER") {
+            let n: Vec<u32> = v.split(',').filter_map(|x| x.parse().ok()).collect();
+            if let (Some(g), &[rays, step, ..]) = (settings.video.gather.as_mut(), &n[..]) {
+                (g.rays, g.step, g.passes) = (rays, step, n.get(2).copied().unwrap_or(g.passes));
+            }
+        }
         let t = Instant::now();
         let mut renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
         if !keep("sky") {
@@ -193,6 +204,13 @@ fn main() {
                 "video, cache at first hit (before)",
                 TraceParams {
                     gather: None,
+                    ..settings.video
+                },
+            ),
+            (
+                "video, centres only (no antialiasing)",
+                TraceParams {
+                    antialias: false,
                     ..settings.video
                 },
             ),
@@ -394,7 +412,7 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, seed: 0xF00D + done as u64 };
+        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 0xF00D + done as u64 };
         for (f, s) in sum.iter_mut().enumerate() {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
             s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);

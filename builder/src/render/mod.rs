@@ -104,8 +104,8 @@ impl Settings {
         match quality {
             Quality::Preview => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed },
                 cell_m: 0.3,
                 gather_rays: 32,
                 max_cells: 300_000,
@@ -119,14 +119,14 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 8, passes: 3 }), seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 4, passes: 3 }), seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 8, passes: 3 }), antialias: false, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3 }), antialias: true, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
                 face: 2048,
                 video_width: 1024,
-                video_keys: 8,
+                video_keys: 16,
                 denoise: false,
                 proxy: crate::proxy::ProxyParams::default(),
                 seed,
@@ -185,7 +185,7 @@ impl<'a> Renderer<'a> {
     /// pushes the 98th percentile past the tone curve's shoulder (a median
     /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
-        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, seed: self.settings.seed };
+        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed: self.settings.seed };
         let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
         if seen.is_empty() {
             return 1.0;

@@ -27,9 +27,9 @@ fn furnace_matches_the_analytic_radiance() {
     let expected = 1.0 / (1.0 - 0.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
     let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, seed: 1 }, eye, 32, 16, 0, equirect_direction);
-    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, seed: 1 }, eye, 32, 0);
-    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, seed: 1 }, eye, 32, 0);
+    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 0);
+    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 0);
     let gathered = renderer.equirect(&renderer.settings.panorama, eye, 32, 0);
     for (name, frame) in [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce), ("final gather", &gathered)] {
         let m = mean(&frame.color);
@@ -47,7 +47,7 @@ fn renders_do_not_depend_on_the_thread_count() {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
             let rays = ray_scene(&scene);
             let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 3));
-            let params = TraceParams { samples: 4, bounces: 1, baked_points: false, gather: None, seed: 3 };
+            let params = TraceParams { samples: 4, bounces: 1, baked_points: false, gather: None, antialias: false, seed: 3 };
             let gather = Settings::new(Quality::Final, 3).panorama;
             let video = Settings::new(Quality::Final, 3).video;
             let walk: Vec<Vec3> = (0..5).map(|i| eyes[0].lerp(eyes[1], i as f32 / 4.0)).collect();
@@ -114,7 +114,7 @@ fn cutout_holes_let_light_and_sight_through() {
     scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new((p.x + 2.0) / 4.0 * 0.999, 0.5)).collect();
     let rays = ray_scene(&scene);
     let tracer = Tracer::path_traced(&scene, &rays, Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), &[Vec3::ZERO]);
-    let params = TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, seed: 0 };
+    let params = TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 0 };
     let looking = |x: f32| tracer.render(&params, Vec3::new(x, 0.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Z).color[0];
     assert!(looking(-1.0).x > 0.99, "through the hole the glowing wall shows: {}", looking(-1.0));
     assert!(looking(1.0).x < 0.01, "the opaque half hides it: {}", looking(1.0));
@@ -217,7 +217,7 @@ fn denoising_brings_a_noisy_path_traced_image_closer_to_the_converged_one() {
     let eye = Vec3::new(3.0, 1.6, 2.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, seed }, eye, 96, 64, 0, |s, t| {
+    let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, antialias: false, seed }, eye, 96, 64, 0, |s, t| {
         let d = Vec3::new(2.0 * s - 1.0, (1.0 - 2.0 * t) * 0.66, -1.0);
         d.normalize()
     });
@@ -273,7 +273,7 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     // Straight up, 90° across: all ceiling.
     let up = |params: &TraceParams, tracer: &Tracer| tracer.render(params, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize());
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, seed: 5 }, &pure);
+    let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 5 }, &pure);
     let ours = up(&renderer.settings.panorama, &renderer.tracer);
     let before = up(&TraceParams { gather: None, ..renderer.settings.panorama }, &renderer.tracer);
     let energy = |f: &Frame| band_energy(size as usize, &f.color, 1.5, 8.0);
@@ -363,7 +363,7 @@ fn sampling_the_lights_changes_the_noise_not_the_answer() {
         let guided = Tracer::path_traced(scene, &rays, lighting, &[eye]);
         let plain = Tracer { guide: None, ..Tracer::path_traced(scene, &rays, guided.lighting.clone(), &[eye]) };
         let size = 16;
-        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
+        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
         let truth = up(&plain, 8192, 1);
         let quarter_means = |img: &[Vec3]| -> Vec<f32> {
             (0..4).map(|q| img.iter().enumerate().filter(|(i, _)| (i % 16 / 8) + 2 * (i / 16 / 8) == q).map(|(_, c)| luminance(*c)).sum::<f32>() / 64.0).collect()
@@ -377,4 +377,26 @@ fn sampling_the_lights_changes_the_noise_not_the_answer() {
         println!("{}: relative noise at 64 samples: {noise_guided:.3} with light sampling, {noise_plain:.3} without", scene.name);
         assert!(noise_guided < 0.6 * noise_plain, "{}: light sampling should cut the noise: {noise_guided:.3} against {noise_plain:.3}", scene.name);
     }
+}
+
+#[test]
+fn antialiasing_brings_one_sample_frames_close_to_many_samples() {
+    // The sunroom seen from a corner: the block's silhouette, its shadow, the
+    // window's frame and the sun patch are the edges a pixel centre jags.
+    let scene = exploremaps_scenes::BuiltIn::Sunroom.generate(1);
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(1.2, 1.6, 4.2);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 1));
+    let video = renderer.settings.video;
+    assert!(video.antialias, "final video frames are antialiased");
+    let width = 256;
+    let frame = |params: TraceParams| renderer.to_image(width, width / 2, &renderer.equirect(&params, eye, width, 0).color);
+    let centres = renderer.equirect(&TraceParams { antialias: false, ..video }, eye, width, 0);
+    let refined = trace::contrast_edges(&centres).len() as f32 / centres.color.len() as f32;
+    let (plain, smooth, many) = (renderer.to_image(width, width / 2, &centres.color), frame(video), frame(TraceParams { samples: 32, antialias: false, ..video }));
+    let error = |a: &RgbImage| a.as_raw().iter().zip(many.as_raw()).map(|(&x, &y)| f32::from(x.abs_diff(y))).sum::<f32>() / a.as_raw().len() as f32;
+    let (e_plain, e_smooth) = (error(&plain), error(&smooth));
+    println!("against 32 samples a pixel: centres {e_plain:.3} levels, antialiased {e_smooth:.3}; {:.1} % of pixels refined", 100.0 * refined);
+    assert!(e_smooth < 0.6 * e_plain, "antialiased {e_smooth:.3} levels off 32 samples, centres only {e_plain:.3}");
+    assert!(refined > 0.005 && refined < 0.3, "{:.1} % of pixels refined", 100.0 * refined);
 }
