@@ -23,7 +23,8 @@
 //! `preview` looks the cache up at the first hit (one sample through each
 //! pixel centre): cheap, but its cells show as soft blotches on plain walls.
 //! `final` gathers instead (no blotches; the sunroom ceiling test), antialiases
-//! panoramas with 2 samples and samples point lights exactly. A real bounce
+//! panoramas with 2 samples and video frames adaptively, and samples point
+//! lights exactly. A real bounce
 //! at every pixel (`TraceParams::bounces`) cost 173 s for a 6×2048² cube at
 //! 16 samples on the Crytek Sponza. Without a cache the tracer is a plain
 //! path tracer (the furnace test and the benches' references).
