@@ -28,7 +28,9 @@
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
 //! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
-//! those lights (to check each kind against Cycles).
+//! those lights (to check each kind against Cycles); VIDEO_GATHER and
+//! PANORAMA_GATHER=rays,step[,passes], VIDEO_KEYS=n and VIDEO_ANTIALIAS=0 try
+//! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
@@ -127,10 +129,12 @@ fn main() {
         if let Some(n) = std::env::var("VIDEO_KEYS").ok().and_then(|v| v.parse().ok()) {
             settings.video_keys = n;
         }
-        // VIDEO_GATHER=rays,step[,passes] tries another gather for video frames.
-        if let Ok(v) = std::env::var("VIDEO_GATHER") {
-            let n: Vec<u32> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-            if let (Some(g), &[rays, step, ..]) = (settings.video.gather.as_mut(), &n[..]) {
+        // VIDEO_ANTIALIAS=0 turns the video frames' adaptive antialiasing off.
+        settings.video.antialias &= std::env::var("VIDEO_ANTIALIAS").map_or(true, |v| v != "0");
+        // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes] try another gather.
+        for (var, params) in [("VIDEO_GATHER", &mut settings.video), ("PANORAMA_GATHER", &mut settings.panorama)] {
+            let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
+            if let (Some(g), &[rays, step, ..]) = (params.gather.as_mut(), &n[..]) {
                 (g.rays, g.step, g.passes) = (rays, step, n.get(2).copied().unwrap_or(g.passes));
             }
         }

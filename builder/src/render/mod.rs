@@ -23,8 +23,7 @@
 //! `preview` looks the cache up at the first hit (one sample through each
 //! pixel centre): cheap, but its cells show as soft blotches on plain walls.
 //! `final` gathers instead (no blotches; the sunroom ceiling test), antialiases
-//! panoramas with 2 samples and video frames adaptively, and samples point
-//! lights exactly. A real bounce
+//! panoramas with 2 samples and samples point lights exactly. A real bounce
 //! at every pixel (`TraceParams::bounces`) cost 173 s for a 6×2048² cube at
 //! 16 samples on the Crytek Sponza. Without a cache the tracer is a plain
 //! path tracer (the furnace test and the benches' references).
@@ -121,7 +120,7 @@ impl Settings {
             Quality::Final => Settings {
                 quality,
                 panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 64, step: 8, passes: 3 }), antialias: false, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3 }), antialias: true, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3 }), antialias: false, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
