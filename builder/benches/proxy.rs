@@ -29,6 +29,8 @@
 //!    whole 25 000-triangle level coded at once for comparison, and how fast
 //!    packets apply natively; drawn as curves (RMS error against kilobytes,
 //!    one a scene, the whole level as a dot) in `target/proxy-stream.svg`.
+//!
+//! `PROXY_BENCH=simplify` stops after section 1.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
@@ -109,6 +111,9 @@ fn main() {
         }
     }
 
+    if std::env::var("PROXY_BENCH").as_deref() == Ok("simplify") {
+        return; // only section 1, for quick comparisons
+    }
     let wasm = wasm_module().map_err(|e| println!("wasm decode skipped: {e}")).ok();
     println!("\n== coding each level whole: meshcode (Edgebreaker, 14-bit parallelogram) | meshoptimizer codecs (16-bit) + gzip -9");
     println!("{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} {:>9} | {:>9} {:>8} | {:>9} {:>8} {:>10}", "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "wasm M/s", "meshopt B", "B/tri", "Draco B", "B/tri", "wasm M/s");
