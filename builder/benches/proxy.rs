@@ -30,12 +30,17 @@
 //!    packets apply natively; drawn as curves (RMS error against kilobytes,
 //!    one a scene, the whole level as a dot) in `target/proxy-stream.svg`.
 //!
-//! `PROXY_BENCH=simplify` stops after section 1.
+//! 1b. Colour-aware simplification, the bundle's setting (`COLOUR_WEIGHT=`
+//!    a share of the diagonal to try another) against geometry alone, at 10 and 2 %: time, the distances of 1, and the RMS difference
+//!    of the vertices' surface colours (as the simplifier sees them) between
+//!    input points and the nearest points of the simplified mesh.
+//!
+//! `PROXY_BENCH=simplify` stops after sections 1 and 1b.
 
 use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
+use exploremaps_builder::proxy::simplify::{simplify, simplify_with_colours, Colours, SimplifyParams, Simplified};
 use exploremaps_builder::proxy::weld::weld_scene;
-use exploremaps_builder::proxy::Mesh;
+use exploremaps_builder::proxy::{vertex_albedo, Mesh, COLOUR_WEIGHT};
 use exploremaps_builder::proxy::progressive::Progressive;
 use exploremaps_format::{meshcode, splits};
 use exploremaps_scenes::{BuiltIn, Scene};
@@ -108,6 +113,44 @@ fn main() {
             if ratio == 0.1 || ratio == 0.01 {
                 coding.push((format!("{name} {:.0}%", ratio * 100.0), ours));
             }
+        }
+    }
+
+    let colour_weight = std::env::var("COLOUR_WEIGHT").ok().and_then(|w| w.parse().ok()).unwrap_or(COLOUR_WEIGHT);
+    println!("\n== colour-aware simplification (a full colour step counts as {} % of the diagonal): geometry only | with colour", 100.0 * colour_weight);
+    println!("   colours: each vertex's mean surface colour (display-encoded, 0-255), compared at {SAMPLES} input points with the simplified mesh's nearest point");
+    println!("{:<16} {:>5} | {:>7} {:>9} {:>8} {:>9} | {:>7} {:>9} {:>8} {:>9}", "scene", "ratio", "seconds", "Hausdorff", "RMS", "colour", "seconds", "Hausdorff", "RMS", "colour");
+    for (name, scene) in &scenes {
+        let diagonal = scene.bounds().diagonal();
+        let (mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
+        let colours = vertex_albedo(scene, &mesh, &stats.sources);
+        let used: Vec<Vec3> = mesh.triangles.iter().flatten().map(|&v| colours[v as usize]).collect();
+        if used.iter().all(|c| c.abs_diff_eq(used[0], 1e-4)) {
+            println!("{name:<16} one colour throughout: skipped");
+            continue;
+        }
+        let input_tree = tree(&mesh.positions, &mesh.triangles);
+        let input_samples = sample(&mesh.positions, &mesh.triangles);
+        for ratio in [0.1, 0.02] {
+            let params = SimplifyParams { target_triangles: (mesh.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY };
+            let pct = |x: f32| 100.0 * x / diagonal;
+            let mut row = format!("{name:<16} {:>4.0}%", ratio * 100.0);
+            for with in [false, true] {
+                let t = Instant::now();
+                let s = simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params);
+                let seconds = t.elapsed().as_secs_f64();
+                let (out, out_colours) = if with {
+                    s.compact_with_colours()
+                } else {
+                    // Geometry only: the surviving vertices keep their colours.
+                    let colourful = Simplified { colours: colours.clone(), ..s };
+                    colourful.compact_with_colours()
+                };
+                let (h, r) = distances(&input_tree, &input_samples, &out.positions, &out.triangles);
+                let c = colour_rms(&mesh, &colours, &out, &out_colours);
+                row += &format!(" | {seconds:>7.3} {:>9.4} {:>8.4} {:>9.2}", pct(h), pct(r), 255.0 * c);
+            }
+            println!("{row}");
         }
     }
 
@@ -223,6 +266,17 @@ fn tree(positions: &[Vec3], triangles: &[[u32; 3]]) -> TriMesh {
 /// Points spread uniformly over the surface (a fixed sequence: same points
 /// every run).
 fn sample(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    sample_places(positions, triangles)
+        .into_iter()
+        .map(|(k, u, v)| {
+            let [a, b, c] = triangles[k].map(|i| positions[i as usize]);
+            a + u * (b - a) + v * (c - a)
+        })
+        .collect()
+}
+
+/// [`sample`]'s points as (triangle, barycentric u, v).
+fn sample_places(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(usize, f32, f32)> {
     let areas: Vec<f64> = triangles.iter().map(|t| 0.5 * (positions[t[1] as usize] - positions[t[0] as usize]).cross(positions[t[2] as usize] - positions[t[0] as usize]).length() as f64).collect();
     let mut cumulative = Vec::with_capacity(areas.len());
     let mut total = 0.0;
@@ -242,10 +296,35 @@ fn sample(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
             if u + v > 1.0 {
                 (u, v) = (1.0 - u, 1.0 - v);
             }
-            let [a, b, c] = triangles[k].map(|i| positions[i as usize]);
-            a + u * (b - a) + v * (c - a)
+            (k, u, v)
         })
         .collect()
+}
+
+/// RMS difference between the colour interpolated over the input's
+/// triangles at its sample points and the colour interpolated over the
+/// simplified mesh at the nearest point on it.
+fn colour_rms(input: &Mesh, input_colours: &[Vec3], out: &Mesh, out_colours: &[Vec3]) -> f32 {
+    let other = tree(&out.positions, &out.triangles);
+    let lerp = |c: &[Vec3], t: [u32; 3], u: f32, v: f32| c[t[0] as usize] * (1.0 - u - v) + c[t[1] as usize] * u + c[t[2] as usize] * v;
+    let mut sum = 0.0f64;
+    for (k, u, v) in sample_places(&input.positions, &input.triangles) {
+        let t = input.triangles[k];
+        let [a, b, c] = t.map(|i| input.positions[i as usize]);
+        let p = a + u * (b - a) + v * (c - a);
+        let (projection, feature) = other.project_local_point_and_get_feature(&Point::new(p.x, p.y, p.z));
+        let parry3d::shape::FeatureId::Face(f) = feature else { continue };
+        let o = out.triangles[f as usize % out.triangles.len()];
+        let q = Vec3::new(projection.point.x, projection.point.y, projection.point.z);
+        let [oa, ob, oc] = o.map(|i| out.positions[i as usize]);
+        let (e1, e2, d) = (ob - oa, oc - oa, q - oa);
+        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let det = (d11 * d22 - d12 * d12).max(1e-30);
+        let (ou, ov) = ((d22 * d.dot(e1) - d12 * d.dot(e2)) / det, (d11 * d.dot(e2) - d12 * d.dot(e1)) / det);
+        let difference = lerp(input_colours, t, u, v) - lerp(out_colours, o, ou.clamp(0.0, 1.0), ov.clamp(0.0, 1.0 - ou.clamp(0.0, 1.0)));
+        sum += difference.length_squared() as f64 / 3.0;
+    }
+    (sum / SAMPLES as f64).sqrt() as f32
 }
 
 /// Symmetric (Hausdorff, RMS) distance between the input (its tree and

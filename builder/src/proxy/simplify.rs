@@ -15,6 +15,16 @@
 //! end, the square root of its quadric over the weight it was built from, the
 //! larger of the two ends (so neither end's surface is left far away).
 //!
+//! Colour (optional, one RGB value a vertex) counts too, as in Garland and
+//! Heckbert's 1998 extension for attributes in Hoppe's compact form ("New
+//! quadric metric for simplifying meshes with appearance attributes", 1999):
+//! each triangle's colour, as a linear function over its plane, adds the
+//! squared difference between that function and the vertex's colour
+//! (weighted, so a unit of colour counts as a given distance). The colour of
+//! the new vertex is the one minimising it, which leaves a 3 × 3 quadric in
+//! position, so placement is solved as before. The error reported stays
+//! geometric.
+//!
 //! A collapse is refused when it would flip or nearly flatten a triangle
 //! around it (or turn it past 90° from its input normal), or when the edge's ends share neighbours other than the
 //! triangles on the edge (the link condition: collapsing would pinch the
@@ -68,6 +78,14 @@ pub enum Step {
     Prune(Vec<(u32, [u32; 3])>),
 }
 
+/// Per-vertex colours for a colour-aware simplification: `weight` is the
+/// distance (scene units) a colour difference of 1 counts as.
+#[derive(Clone, Copy, Debug)]
+pub struct Colours<'a> {
+    pub values: &'a [Vec3],
+    pub weight: f32,
+}
+
 /// The result: the simplified mesh (its triangles keep their input order; its
 /// vertices are the input's, unused ones left in place), the collapses that
 /// made it, and the largest error of any collapse taken.
@@ -77,6 +95,8 @@ pub struct Simplified {
     pub alive: Vec<bool>,
     pub steps: Vec<Step>,
     pub error: f32,
+    /// Per vertex of `mesh`, with [`simplify_with_colours`]: its colour now.
+    pub colours: Vec<Vec3>,
 }
 
 impl Simplified {
@@ -87,8 +107,15 @@ impl Simplified {
 
     /// The simplified mesh compacted: used vertices only, surviving triangles.
     pub fn compact(&self) -> Mesh {
+        self.compact_with_colours().0
+    }
+
+    /// [`Self::compact`] and its vertices' colours (empty without colours).
+    pub fn compact_with_colours(&self) -> (Mesh, Vec<Vec3>) {
         let alive: Vec<usize> = (0..self.mesh.triangles.len()).filter(|&t| self.alive[t]).collect();
-        self.mesh.subset(&alive).0
+        let (mesh, was) = self.mesh.subset(&alive);
+        let colours = if self.colours.is_empty() { Vec::new() } else { was.iter().map(|&v| self.colours[v as usize]).collect() };
+        (mesh, colours)
     }
 }
 
@@ -139,6 +166,88 @@ impl Quadric {
     }
 }
 
+/// The colour part of a vertex's quadric over (position p, colour s):
+/// Σ w (gⱼ·p + dⱼ − sⱼ)² over its triangles and the channels j, kept as its
+/// position-only terms (`a`, `b`, `c`), the cross terms hⱼ = −Σ w gⱼ, the
+/// colour's linear terms `bs` = −Σ w dⱼ, and `w` = Σ w (each channel's
+/// squared term).
+#[derive(Clone, Copy, Debug, Default)]
+struct ColourQuadric {
+    a: [f64; 6],
+    b: DVec3,
+    c: f64,
+    h: [DVec3; 3],
+    bs: DVec3,
+    w: f64,
+}
+
+impl ColourQuadric {
+    /// A triangle's: corners `p`, their colours `s` (already weighted),
+    /// plane normal `n` (unit), weight `w`. None for a degenerate triangle.
+    fn triangle(p: [DVec3; 3], s: [DVec3; 3], n: DVec3, w: f64) -> Option<ColourQuadric> {
+        // Per channel the gradient g in the plane with g·(pᵢ − p₀) = sᵢ − s₀.
+        let rows = DMat3::from_cols(p[1] - p[0], p[2] - p[0], n).transpose();
+        if rows.determinant().abs() <= 1e-30 {
+            return None;
+        }
+        let inverse = rows.inverse();
+        // Per channel: the gradient g and offset d, colour = g·p + d.
+        let channels: [(DVec3, f64); 3] = std::array::from_fn(|j| {
+            let g = inverse * DVec3::new(s[1][j] - s[0][j], s[2][j] - s[0][j], 0.0);
+            (g, s[0][j] - g.dot(p[0]))
+        });
+        let mut q = ColourQuadric { h: channels.map(|(g, _)| -w * g), bs: DVec3::from(channels.map(|(_, d)| -w * d)), w, ..Default::default() };
+        for (g, d) in channels {
+            let plane = Quadric::plane(g, d, w);
+            for (x, y) in q.a.iter_mut().zip(plane.a) {
+                *x += y;
+            }
+            q.b += plane.b;
+            q.c += plane.c;
+        }
+        Some(q)
+    }
+
+    fn add(&mut self, o: &ColourQuadric) {
+        for (x, y) in self.a.iter_mut().zip(o.a) {
+            *x += y;
+        }
+        self.b += o.b;
+        self.c += o.c;
+        for j in 0..3 {
+            self.h[j] += o.h[j];
+        }
+        self.bs += o.bs;
+        self.w += o.w;
+    }
+
+    /// The best colour at position p.
+    fn colour(&self, p: DVec3) -> DVec3 {
+        if self.w <= 0.0 {
+            return DVec3::ZERO;
+        }
+        -DVec3::new(self.h[0].dot(p) + self.bs.x, self.h[1].dot(p) + self.bs.y, self.h[2].dot(p) + self.bs.z) / self.w
+    }
+
+    /// The error with the best colour at each position, as a position-only
+    /// quadric of no weight (the Schur complement of the colour block).
+    fn reduced(&self) -> Quadric {
+        let mut q = Quadric { a: self.a, b: self.b, c: self.c, weight: 0.0 };
+        if self.w > 0.0 {
+            for j in 0..3 {
+                let h = self.h[j];
+                let outer = [h.x * h.x, h.x * h.y, h.x * h.z, h.y * h.y, h.y * h.z, h.z * h.z];
+                for (x, y) in q.a.iter_mut().zip(outer) {
+                    *x -= y / self.w;
+                }
+                q.b -= h * self.bs[j] / self.w;
+                q.c -= self.bs[j] * self.bs[j] / self.w;
+            }
+        }
+        q
+    }
+}
+
 fn normal(p: [Vec3; 3]) -> Vec3 {
     (p[1] - p[0]).cross(p[2] - p[0])
 }
@@ -151,6 +260,10 @@ struct State<'a> {
     /// Per vertex: its triangles (some may be dead).
     around: Vec<Vec<u32>>,
     quadrics: Vec<Quadric>,
+    /// Per vertex, with colours: the colour part of its quadric, and its colour
+    /// (weighted, as the quadric sees it).
+    colour_quadrics: Vec<ColourQuadric>,
+    colours: Vec<DVec3>,
     /// Bumped whenever a vertex's neighbourhood changes; queue entries carry it.
     stamp: Vec<u32>,
     dead_vertex: Vec<bool>,
@@ -194,7 +307,13 @@ impl Entry {
 
 /// Simplifies `mesh` (welded: neighbouring triangles share vertex indices).
 pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
+    simplify_with_colours(mesh, None, params)
+}
+
+/// [`simplify`], keeping colour too when `colours` are given (one a vertex).
+pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &SimplifyParams) -> Simplified {
     let n = mesh.positions.len();
+    let colours = colours.filter(|c| c.values.len() == n && c.weight > 0.0);
     let mut s = State {
         positions: mesh.positions.clone(),
         triangles: mesh.triangles.clone(),
@@ -202,6 +321,8 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
         alive: vec![true; mesh.triangles.len()],
         around: vec![Vec::new(); n],
         quadrics: vec![Quadric::default(); n],
+        colour_quadrics: vec![ColourQuadric::default(); if colours.is_some() { n } else { 0 }],
+        colours: colours.map(|c| c.values.iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default(),
         stamp: vec![0; n],
         dead_vertex: vec![false; n],
         part: vec![u32::MAX; n],
@@ -219,6 +340,13 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
             let q = Quadric::plane(u, -u.dot(p[0].as_dvec3()), area.sqrt());
             for &v in tri {
                 s.quadrics[v as usize].add(&q);
+            }
+            if !s.colours.is_empty() {
+                if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), tri.map(|v| s.colours[v as usize]), u, area.sqrt()) {
+                    for &v in tri {
+                        s.colour_quadrics[v as usize].add(&c);
+                    }
+                }
             }
         }
     }
@@ -260,10 +388,11 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
                     if !s.can_collapse(kept, removed, target) {
                         continue;
                     }
+                    // The error reported is geometric (cost may include colour).
+                    error = error.max(s.cost_at(kept, removed, target, false));
                     let c = s.collapse(kept, removed, target);
                     live -= c.deleted.len();
                     steps.push(Step::Collapse(c));
-                    error = error.max(cost);
                     for w in s.neighbours(kept) {
                         if let Some(cost) = s.cost(kept, w) {
                             let (x, y) = (kept.min(w), kept.max(w));
@@ -293,7 +422,8 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
         }
         queue.retain(|Reverse(entry)| matches!(entry.job(), Job::Part(_)));
     }
-    Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps, error }
+    let colours = colours.map(|c| s.colours.iter().map(|v| (*v / c.weight as f64).as_vec3()).collect()).unwrap_or_default();
+    Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps, error, colours }
 }
 
 impl State<'_> {
@@ -389,10 +519,24 @@ impl State<'_> {
         parts
     }
 
+    /// Vertex v's quadric in position alone (with colour at its best there).
+    fn quadric(&self, v: u32) -> Quadric {
+        let mut q = self.quadrics[v as usize];
+        if !self.colour_quadrics.is_empty() {
+            q.add(&self.colour_quadrics[v as usize].reduced());
+        }
+        q
+    }
+
     /// Where edge (a, b) collapses to.
     fn placement(&self, a: u32, b: u32) -> Option<DVec3> {
         let mut q = self.quadrics[a as usize];
         q.add(&self.quadrics[b as usize]);
+        if !self.colour_quadrics.is_empty() {
+            let mut c = self.colour_quadrics[a as usize];
+            c.add(&self.colour_quadrics[b as usize]);
+            q.add(&c.reduced());
+        }
         let (pa, pb) = (self.positions[a as usize].as_dvec3(), self.positions[b as usize].as_dvec3());
         let best = [pa, pb, 0.5 * (pa + pb)].into_iter().min_by(|x, y| q.error(*x).total_cmp(&q.error(*y)))?;
         // The optimum only if it beats the candidates and stays near the edge
@@ -403,17 +547,20 @@ impl State<'_> {
         }
     }
 
-    /// The collapse's error as a distance.
+    /// The collapse's error as a distance (colour included).
     fn cost(&self, a: u32, b: u32) -> Option<f32> {
-        let p = self.placement(a, b)?;
-        // Each end's own surface must stay near the new point: the larger of
-        // the two (a sum's average would let a large flat neighbour hide a
-        // small feature being flattened).
+        Some(self.cost_at(a, b, self.placement(a, b)?, true))
+    }
+
+    /// The error of moving a and b to p, with or without colour. Each end's
+    /// own surface must stay near p: the larger of the two (a sum's average
+    /// would let a large flat neighbour hide a small feature being flattened).
+    fn cost_at(&self, a: u32, b: u32, p: DVec3, colour: bool) -> f32 {
         let own = |v: u32| {
-            let q = &self.quadrics[v as usize];
-            q.error(p) / q.weight.max(1e-30)
+            let q = if colour { self.quadric(v) } else { self.quadrics[v as usize] };
+            q.error(p) / self.quadrics[v as usize].weight.max(1e-30)
         };
-        Some(own(a).max(own(b)).sqrt() as f32)
+        own(a).max(own(b)).sqrt() as f32
     }
 
     fn can_collapse(&self, kept: u32, removed: u32, target: DVec3) -> bool {
@@ -482,6 +629,11 @@ impl State<'_> {
         self.positions[kept as usize] = c.kept_now;
         let q = self.quadrics[removed as usize];
         self.quadrics[kept as usize].add(&q);
+        if !self.colour_quadrics.is_empty() {
+            let c = self.colour_quadrics[removed as usize];
+            self.colour_quadrics[kept as usize].add(&c);
+            self.colours[kept as usize] = self.colour_quadrics[kept as usize].colour(target);
+        }
         self.dead_vertex[removed as usize] = true;
         // Only edges at `kept` change cost (their validity is checked when taken).
         self.stamp[kept as usize] += 1;
@@ -582,6 +734,38 @@ pub(crate) mod tests {
         let s = simplify(&m, &SimplifyParams { target_triangles: 10, max_error: 0.05 });
         assert!(!s.alive[m.triangles.len() - 1], "the loose triangle is pruned: {} left, error {}, {} steps", s.triangles().len(), s.error, s.steps.len());
         assert_eq!(s.steps.iter().filter(|s| matches!(s, Step::Prune(_))).count(), 1);
+    }
+
+    #[test]
+    fn colour_keeps_the_vertices_where_colour_changes_and_geometry_alone_does_not() {
+        // A flat 16 × 16 plane, black up to x = 7 and white from x = 8: three
+        // strips represent it exactly, with no geometric error at all.
+        let m = plane(16);
+        let colours: Vec<Vec3> = m.positions.iter().map(|p| Vec3::splat(if p.x >= 8.0 { 1.0 } else { 0.0 })).collect();
+        // Colour at each input vertex as the simplified plane interpolates it.
+        let colour_error = |s: &Simplified| {
+            let (out, c) = s.compact_with_colours();
+            let mut sum = 0.0;
+            for (p, want) in m.positions.iter().zip(&colours) {
+                let found = out.triangles.iter().find_map(|t| {
+                    let [a, b, d] = t.map(|v| out.positions[v as usize].truncate());
+                    let area = (b - a).perp_dot(d - a);
+                    let (u, v) = ((p.truncate() - a).perp_dot(d - a) / area, (b - a).perp_dot(p.truncate() - a) / area);
+                    (u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4).then(|| c[t[0] as usize] * (1.0 - u - v) + c[t[1] as usize] * u + c[t[2] as usize] * v)
+                });
+                sum += (found.expect("the plane still covers every input vertex") - *want).length_squared();
+            }
+            (sum / m.positions.len() as f32).sqrt()
+        };
+        let params = SimplifyParams { target_triangles: 6, max_error: f32::INFINITY };
+        let with = simplify_with_colours(&m, Some(Colours { values: &colours, weight: 1.0 }), &params);
+        assert_eq!(with.triangles().len(), 6);
+        assert!(with.error < 1e-4, "geometric error {}", with.error);
+        assert!(colour_error(&with) < 1e-3, "with colour: RMS colour error {}", colour_error(&with));
+        // Geometry alone has no reason to keep the step: two triangles, grey blur.
+        let s = simplify(&m, &SimplifyParams { target_triangles: 2, ..params });
+        let without = Simplified { colours: colours.clone(), ..s };
+        assert!(colour_error(&without) > 0.2, "without colour: RMS colour error {}", colour_error(&without));
     }
 
     #[test]

@@ -21,6 +21,8 @@ pub struct WeldStats {
     pub vertices_after: usize,
     pub degenerate: usize,
     pub duplicates: usize,
+    /// Per welded triangle: the input triangle it came from.
+    pub sources: Vec<u32>,
 }
 
 /// The scene's triangles welded at `tolerance` (scene units), groups from materials.
@@ -78,6 +80,7 @@ pub fn weld(positions: &[Vec3], triangles: &[[u32; 3]], groups: &[u32], toleranc
         }
         out.triangles.push(v);
         out.groups.push(groups.get(t).copied().unwrap_or(0));
+        stats.sources.push(t as u32);
     }
     (out, stats)
 }
@@ -105,5 +108,6 @@ mod tests {
         assert_eq!(mesh.positions.len(), 4);
         assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!((stats.degenerate, stats.duplicates), (1, 1), "{stats:?}");
+        assert_eq!(stats.sources, vec![0, 1]);
     }
 }

@@ -100,22 +100,31 @@ impl<'a> Materials<'a> {
         Materials { scene, has_cutouts }
     }
 
-    fn uv(&self, hit: &Hit) -> Option<Vec2> {
+    fn uv(&self, triangle: u32, u: f32, v: f32) -> Option<Vec2> {
         let s = self.scene;
         if s.uvs.is_empty() {
             return None;
         }
-        let [a, b, c] = s.triangles[hit.triangle as usize].map(|i| s.uvs[i as usize]);
-        Some(a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v)
+        let [a, b, c] = s.triangles[triangle as usize].map(|i| s.uvs[i as usize]);
+        Some(a * (1.0 - u - v) + b * u + c * v)
     }
 
     /// Base colour and alpha at a hit (texture times factor).
     fn base(&self, hit: &Hit) -> (Vec3, f32) {
+        self.base_at(hit.triangle, hit.u, hit.v)
+    }
+
+    /// Linear base colour (texture times factor) at barycentric (u, v) of a triangle.
+    pub fn albedo(&self, triangle: u32, u: f32, v: f32) -> Vec3 {
+        self.base_at(triangle, u, v).0
+    }
+
+    fn base_at(&self, triangle: u32, u: f32, v: f32) -> (Vec3, f32) {
         let s = self.scene;
-        let m = self.of(hit.triangle);
+        let m = self.of(triangle);
         let [r, g, b, a] = m.base_color;
         let factor = Vec3::new(r, g, b);
-        match (m.base_color_texture, self.uv(hit)) {
+        match (m.base_color_texture, self.uv(triangle, u, v)) {
             (Some(t), Some(uv)) => {
                 let (rgb, alpha) = bilinear(&s.textures[t].image, uv);
                 (factor * rgb, a * alpha)
