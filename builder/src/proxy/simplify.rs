@@ -538,11 +538,11 @@ impl State<'_> {
             q.add(&c.reduced());
         }
         let (pa, pb) = (self.positions[a as usize].as_dvec3(), self.positions[b as usize].as_dvec3());
-        let best = [pa, pb, 0.5 * (pa + pb)].into_iter().min_by(|x, y| q.error(*x).total_cmp(&q.error(*y)))?;
+        let (best, least) = [pa, pb, 0.5 * (pa + pb)].into_iter().map(|p| (p, q.error(p))).min_by(|x, y| x.1.total_cmp(&y.1))?;
         // The optimum only if it beats the candidates and stays near the edge
         // (a nearly singular system can put it far away).
         match q.optimum() {
-            Some(p) if q.error(p) <= q.error(best) && p.distance(0.5 * (pa + pb)) <= 2.0 * pa.distance(pb) => Some(p),
+            Some(p) if q.error(p) <= least && p.distance(0.5 * (pa + pb)) <= 2.0 * pa.distance(pb) => Some(p),
             _ => Some(best),
         }
     }
