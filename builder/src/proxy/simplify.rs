@@ -50,7 +50,8 @@ const MIN_NORMAL_COSINE: f32 = 0.2;
 const ROUNDS: usize = 8;
 
 /// When simplification stops: at `target_triangles`, or before the first
-/// collapse whose error exceeds `max_error` (scene units), whichever is first.
+/// collapse whose error exceeds `max_error` (scene units, colour's share
+/// included when colour counts), whichever is first.
 #[derive(Clone, Copy, Debug)]
 pub struct SimplifyParams {
     pub target_triangles: usize,
