@@ -196,7 +196,7 @@ fn main() {
 
     println!("\n== progressive stream: base 2 500 + vertex splits to 25 000 (14-bit, geometry only; error as in 1, in % of the diagonal)");
     // Per scene: (bytes received, RMS %) after the base and each packet, and the level sent whole.
-    let mut curves: Vec<(String, Vec<(f64, f64)>, (f64, f64))> = Vec::new();
+    let mut curves: Vec<Curve> = Vec::new();
     println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
     for (name, mesh, diagonal) in &streams {
         let detail = if mesh.triangles.len() > 25_000 { simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact() } else { mesh.clone() };
@@ -437,7 +437,10 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
 
 /// Bytes received against RMS error (log scale), a polyline a scene and a
 /// dot for its level sent whole, as SVG with axes and a legend.
-fn stream_chart(curves: &[(String, Vec<(f64, f64)>, (f64, f64))]) -> String {
+/// A scene's stream: its name, (kilobytes, RMS error) per packet, and the whole level's point.
+type Curve = (String, Vec<(f64, f64)>, (f64, f64));
+
+fn stream_chart(curves: &[Curve]) -> String {
     let (w, h, m) = (720.0, 440.0, 60.0);
     let points = curves.iter().flat_map(|c| c.1.iter().chain(std::iter::once(&c.2)));
     let max_x = points.clone().map(|p| p.0).fold(1.0, f64::max) / 1024.0;
