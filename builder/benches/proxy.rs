@@ -437,7 +437,8 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
 
 /// Bytes received against RMS error (log scale), a polyline a scene and a
 /// dot for its level sent whole, as SVG with axes and a legend.
-/// A scene's stream: its name, (kilobytes, RMS error) per packet, and the whole level's point.
+/// A scene's stream: its name, (bytes received, RMS error in % of the diagonal) per
+/// packet, and the whole level's (bytes, error).
 type Curve = (String, Vec<(f64, f64)>, (f64, f64));
 
 fn stream_chart(curves: &[Curve]) -> String {
