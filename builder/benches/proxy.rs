@@ -435,12 +435,12 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
     text.lines().find_map(|l| l.strip_prefix("decode ")).and_then(|r| r.trim().parse().ok()).ok_or_else(|| format!("node said: {text} {}", String::from_utf8_lossy(&out.stderr)))
 }
 
-/// Bytes received against RMS error (log scale), a polyline a scene and a
-/// dot for its level sent whole, as SVG with axes and a legend.
 /// A scene's stream: its name, (bytes received, RMS error in % of the diagonal) per
 /// packet, and the whole level's (bytes, error).
 type Curve = (String, Vec<(f64, f64)>, (f64, f64));
 
+/// Bytes received against RMS error (log scale), a polyline a scene and a
+/// dot for its level sent whole, as SVG with axes and a legend.
 fn stream_chart(curves: &[Curve]) -> String {
     let (w, h, m) = (720.0, 440.0, 60.0);
     let points = curves.iter().flat_map(|c| c.1.iter().chain(std::iter::once(&c.2)));
