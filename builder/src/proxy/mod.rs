@@ -32,7 +32,7 @@ use simplify::{simplify_with_colours, Colours, SimplifyParams};
 /// The distance, as a share of the scene's diagonal, that a full step of
 /// colour (black to white) counts as when simplifying. The proxy bench's
 /// sweep: at 0.25 % the Crytek Sponza at 10 % of its triangles has 41 % less
-/// colour error for 11 % more RMS distance; at 1 %, 70 % more distance.
+/// colour error for 10 % more RMS distance; at 1 %, 70 % more distance.
 pub const COLOUR_WEIGHT: f32 = 0.0025;
 
 /// How the bundle's proxy is made.
@@ -93,7 +93,7 @@ pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
 
 /// Per vertex of `mesh` (welded from `scene`, `sources` its triangles'
 /// input triangles): the mean surface colour (base colour with textures,
-/// display-encoded so differences count as the eye sees them) of its
+/// sRGB-encoded so differences count as the eye sees them) of its
 /// triangles, each sampled at three points and weighted by area. What the
 /// simplifier keeps; the proxy's shown colours are baked later, with light.
 pub fn vertex_albedo(scene: &Scene, mesh: &Mesh, sources: &[u32]) -> Vec<Vec3> {
@@ -109,7 +109,8 @@ pub fn vertex_albedo(scene: &Scene, mesh: &Mesh, sources: &[u32]) -> Vec<Vec3> {
             weight[v as usize] += area;
         }
     }
-    sum.iter().zip(&weight).map(|(s, &w)| if w > 0.0 { (*s / w).powf(1.0 / 2.2) } else { Vec3::ZERO }).collect()
+    let display = |c: Vec3| Vec3::from(c.to_array().map(|x| crate::render::linear_to_srgb(x) as f32 / 255.0));
+    sum.iter().zip(&weight).map(|(s, &w)| if w > 0.0 { display(*s / w) } else { Vec3::ZERO }).collect()
 }
 
 /// Splits `mesh`'s triangles into spatial chunks of at most `max` triangles

@@ -169,14 +169,13 @@ impl Quadric {
 
 /// The colour part of a vertex's quadric over (position p, colour s):
 /// Σ w (gⱼ·p + dⱼ − sⱼ)² over its triangles and the channels j, kept as its
-/// position-only terms (`a`, `b`, `c`), the cross terms hⱼ = −Σ w gⱼ, the
+/// position-only terms, the cross terms hⱼ = −Σ w gⱼ, the
 /// colour's linear terms `bs` = −Σ w dⱼ, and `w` = Σ w (each channel's
 /// squared term).
 #[derive(Clone, Copy, Debug, Default)]
 struct ColourQuadric {
-    a: [f64; 6],
-    b: DVec3,
-    c: f64,
+    /// Its terms in position alone (of no weight: the geometry's weighs).
+    position: Quadric,
     h: [DVec3; 3],
     bs: DVec3,
     w: f64,
@@ -199,22 +198,13 @@ impl ColourQuadric {
         });
         let mut q = ColourQuadric { h: channels.map(|(g, _)| -w * g), bs: DVec3::from(channels.map(|(_, d)| -w * d)), w, ..Default::default() };
         for (g, d) in channels {
-            let plane = Quadric::plane(g, d, w);
-            for (x, y) in q.a.iter_mut().zip(plane.a) {
-                *x += y;
-            }
-            q.b += plane.b;
-            q.c += plane.c;
+            q.position.add(&Quadric { weight: 0.0, ..Quadric::plane(g, d, w) });
         }
         Some(q)
     }
 
     fn add(&mut self, o: &ColourQuadric) {
-        for (x, y) in self.a.iter_mut().zip(o.a) {
-            *x += y;
-        }
-        self.b += o.b;
-        self.c += o.c;
+        self.position.add(&o.position);
         for j in 0..3 {
             self.h[j] += o.h[j];
         }
@@ -233,7 +223,7 @@ impl ColourQuadric {
     /// The error with the best colour at each position, as a position-only
     /// quadric of no weight (the Schur complement of the colour block).
     fn reduced(&self) -> Quadric {
-        let mut q = Quadric { a: self.a, b: self.b, c: self.c, weight: 0.0 };
+        let mut q = self.position;
         if self.w > 0.0 {
             for j in 0..3 {
                 let h = self.h[j];

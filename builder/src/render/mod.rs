@@ -335,7 +335,7 @@ pub fn equirect_from_cube(faces: &[Vec<Vec3>], size: u32, width: u32) -> Vec<Vec
 }
 
 /// Linear [0, 1] to an sRGB byte, by a table fine enough for 8-bit output.
-fn linear_to_srgb(x: f32) -> u8 {
+pub(crate) fn linear_to_srgb(x: f32) -> u8 {
     const STEPS: usize = 8192;
     static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
