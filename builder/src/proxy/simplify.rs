@@ -40,6 +40,11 @@ use glam::{DMat3, DVec3, Vec3};
 use std::cmp::Reverse;
 use dary_heap::OctonaryHeap as BinaryHeap;
 use rayon::prelude::*;
+use smallvec::SmallVec;
+
+/// A vertex's neighbours or triangles: a handful, kept off the allocator on
+/// the hot path.
+type Few = SmallVec<[u32; 16]>;
 
 /// Weight of boundary and group-border planes, relative to the triangles'
 /// (times the edge's length, as theirs are the square root of an area).
@@ -254,6 +259,9 @@ struct State<'a> {
     /// Per vertex, with colours: the colour part of its quadric, and its colour
     /// (weighted, as the quadric sees it).
     colour_quadrics: Vec<ColourQuadric>,
+    /// Per vertex, with colours: its whole quadric in position, the colour
+    /// part at its best (asked for at every cost, so kept, not recomputed).
+    with_colour: Vec<Quadric>,
     colours: Vec<DVec3>,
     /// Bumped whenever a vertex's neighbourhood changes; queue entries carry it.
     stamp: Vec<u32>,
@@ -275,7 +283,7 @@ enum Job {
 /// A queue entry packed in 16 bytes, smallest cost first: the queue holds
 /// millions of entries and popping them dominated the run at 32 bytes each
 /// in a binary heap (hence also an 8-ary heap: half as many cache misses).
-#[derive(PartialEq, Eq, PartialOrd, Ord)]
+#[derive(PartialEq, Eq, PartialOrd, Ord, Default)]
 struct Entry(u128);
 
 impl Entry {
@@ -296,6 +304,75 @@ impl Entry {
     }
 }
 
+/// The queue of collapses: a small heap of the entries up to a threshold,
+/// and the rest unsorted. Each collapse outdates the entries of a dozen
+/// edges; in one heap of every entry, popping those dominated the run. Here
+/// they are mostly dropped in bulk, in the sequential scan that refills the
+/// heap from the rest, and the heap stays small enough for the cache. Pops
+/// come out in exactly the order one heap would give.
+#[derive(Default)]
+struct Queue {
+    heap: BinaryHeap<Reverse<Entry>>,
+    /// Entries above `threshold` (any order).
+    rest: Vec<Reverse<Entry>>,
+    /// Every entry in `heap` is at most this, every entry in `rest` above it.
+    threshold: Entry,
+}
+
+/// Entries a refill moves into the heap, at least (and a quarter of the rest).
+const REFILL: usize = 4096;
+
+impl Queue {
+    fn push(&mut self, entry: Reverse<Entry>) {
+        if entry.0 <= self.threshold {
+            self.heap.push(entry);
+        } else {
+            self.rest.push(entry);
+        }
+    }
+
+    /// The cheapest entry; `valid` says which entries of the rest are still
+    /// worth keeping when the heap runs dry.
+    fn pop(&mut self, valid: impl Fn(&Entry) -> bool) -> Option<Entry> {
+        if self.heap.is_empty() {
+            self.refill(valid);
+        }
+        self.heap.pop().map(|Reverse(e)| e)
+    }
+
+    /// Drops the invalid entries of the rest and moves its cheapest into the heap.
+    fn refill(&mut self, valid: impl Fn(&Entry) -> bool) {
+        self.rest.retain(|Reverse(e)| valid(e));
+        if self.rest.is_empty() {
+            return;
+        }
+        let take = (self.rest.len() / 4).max(REFILL).min(self.rest.len());
+        if take < self.rest.len() {
+            // Reverse(e) orders largest first: the `take` smallest go last.
+            let at = self.rest.len() - take;
+            self.rest.select_nth_unstable(at);
+        }
+        let moved = self.rest.split_off(self.rest.len() - take);
+        self.threshold = Entry(moved.iter().map(|Reverse(e)| e.0).max().expect("not empty"));
+        let mut all = std::mem::take(&mut self.heap).into_vec();
+        all.extend(moved);
+        self.heap = BinaryHeap::from(all);
+    }
+
+    fn retain(&mut self, keep: impl Fn(&Entry) -> bool) {
+        self.heap.retain(|Reverse(e)| keep(e));
+        self.rest.retain(|Reverse(e)| keep(e));
+    }
+
+    /// Adds many entries at once (then the heap is made anew).
+    fn extend(&mut self, entries: Vec<Reverse<Entry>>) {
+        let heap = std::mem::take(&mut self.heap).into_vec();
+        self.rest.extend(heap);
+        self.rest.extend(entries);
+        self.refill(|_| true);
+    }
+}
+
 /// Simplifies `mesh` (welded: neighbouring triangles share vertex indices).
 pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
     simplify_with_colours(mesh, None, params)
@@ -313,6 +390,7 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
         around: vec![Vec::new(); n],
         quadrics: vec![Quadric::default(); n],
         colour_quadrics: vec![ColourQuadric::default(); if colours.is_some() { n } else { 0 }],
+        with_colour: Vec::new(),
         colours: colours.map(|c| c.values.iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default(),
         stamp: vec![0; n],
         dead_vertex: vec![false; n],
@@ -342,13 +420,12 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
         }
     }
     s.add_border_planes();
+    s.with_colour = (0..s.colour_quadrics.len() as u32).map(|v| s.quadric(v)).collect();
     let parts = s.label_parts();
-    let mut queue: BinaryHeap<Reverse<Entry>> = BinaryHeap::new();
     let stamps = |s: &State, a: u32, b: u32| s.stamp[a as usize].wrapping_add(s.stamp[b as usize]);
-    for (i, (diagonal, _)) in parts.iter().enumerate() {
-        // Removing a part moves its surface by up to half its diagonal.
-        queue.push(Entry::new(0.5 * diagonal, Job::Part(i as u32)));
-    }
+    // Removing a part moves its surface by up to half its diagonal.
+    let mut queue = Queue::default();
+    queue.extend(parts.iter().enumerate().map(|(i, (diagonal, _))| Entry::new(0.5 * diagonal, Job::Part(i as u32))).collect());
     let mut live = mesh.triangles.len();
     let mut steps = Vec::new();
     // The largest part is never pruned: a mesh does not vanish.
@@ -360,11 +437,14 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
         let before = live;
         // Every edge's cost (in parallel, in edge order), then one heapify.
         let fresh: Vec<Reverse<Entry>> = s.edges().par_iter().filter_map(|&(a, b)| Some(Entry::new(s.cost(a, b)?, Job::Edge(a, b, stamps(&s, a, b))))).collect();
-        let mut all = std::mem::take(&mut queue).into_vec();
-        all.extend(fresh);
-        queue = BinaryHeap::from(all);
+        queue.extend(fresh);
         while live > params.target_triangles {
-            let Some(Reverse(entry)) = queue.pop() else { break };
+            // Entries whose edge lost an end or changed since are dropped.
+            let valid = |e: &Entry| match e.job() {
+                Job::Edge(a, b, stamped) => !s.dead_vertex[a as usize] && !s.dead_vertex[b as usize] && stamps(&s, a, b) == stamped,
+                Job::Part(_) => true,
+            };
+            let Some(entry) = queue.pop(valid) else { break };
             let (cost, job) = (entry.cost(), entry.job());
             if cost > params.max_error {
                 break 'rounds;
@@ -380,7 +460,7 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
                         continue;
                     }
                     // The error reported is geometric (cost may include colour).
-                    error = error.max(s.cost_at(kept, removed, target, false));
+                    error = error.max(if s.with_colour.is_empty() { cost } else { s.cost_at(kept, removed, target, false) });
                     let c = s.collapse(kept, removed, target);
                     live -= c.deleted.len();
                     steps.push(Step::Collapse(c));
@@ -411,7 +491,7 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
         if live <= params.target_triangles || live == before {
             break;
         }
-        queue.retain(|Reverse(entry)| matches!(entry.job(), Job::Part(_)));
+        queue.retain(|entry| matches!(entry.job(), Job::Part(_)));
     }
     let colours = colours.map(|c| s.colours.iter().map(|v| (*v / c.weight as f64).as_vec3()).collect()).unwrap_or_default();
     Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps, error, colours }
@@ -428,13 +508,13 @@ impl State<'_> {
             let tri = self.triangles[t];
             (0..3).map(move |k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3])))
         }).collect();
-        out.sort_unstable();
+        out.par_sort_unstable();
         out.dedup();
         out
     }
 
-    fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut out: Vec<u32> = self.live_around(v).flat_map(|t| self.triangles[t as usize]).filter(|&w| w != v).collect();
+    fn neighbours(&self, v: u32) -> Few {
+        let mut out: Few = self.live_around(v).flat_map(|t| self.triangles[t as usize]).filter(|&w| w != v).collect();
         out.sort_unstable();
         out.dedup();
         out
@@ -443,18 +523,24 @@ impl State<'_> {
     /// Boundary planes along edges with one triangle, or more than two, or
     /// two of different groups.
     fn add_border_planes(&mut self) {
-        let mut edges: rustc_hash::FxHashMap<(u32, u32), (u32, u32)> = Default::default();
-        for (t, tri) in self.triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let e = edges.entry((a.min(b), a.max(b))).or_insert((0, t as u32));
-                e.0 += 1;
-                if e.0 == 2 && self.groups[e.1 as usize] != self.groups[t] {
-                    e.0 = 3;
+        // Every triangle edge as (low end, high end, triangle), sorted so an
+        // edge's triangles sit together; those of an interior edge are marked.
+        let mut sides: Vec<(u32, u32, u32)> = self.triangles.iter().enumerate().flat_map(|(t, tri)| (0..3).map(move |k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3]), t as u32))).collect();
+        sides.par_sort_unstable();
+        let mut interior = vec![0u8; self.triangles.len()];
+        for run in sides.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+            if let [(a, b, t), (_, _, u)] = *run {
+                if self.groups[t as usize] == self.groups[u as usize] {
+                    for t in [t, u] {
+                        let tri = self.triangles[t as usize];
+                        let k = (0..3).find(|&k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3])) == (a, b)).expect("the edge is the triangle's");
+                        interior[t as usize] |= 1 << k;
+                    }
                 }
             }
         }
-        for tri in &self.triangles {
+        drop(sides);
+        for (t, tri) in self.triangles.iter().enumerate() {
             let p = tri.map(|v| self.positions[v as usize]);
             let n = normal(p);
             if n.length_squared() == 0.0 {
@@ -462,7 +548,7 @@ impl State<'_> {
             }
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                if edges[&(a.min(b), a.max(b))].0 == 2 {
+                if interior[t] & (1 << k) != 0 {
                     continue;
                 }
                 let (pa, pb) = (p[k].as_dvec3(), p[(k + 1) % 3].as_dvec3());
@@ -548,15 +634,16 @@ impl State<'_> {
     /// would let a large flat neighbour hide a small feature being flattened).
     fn cost_at(&self, a: u32, b: u32, p: DVec3, colour: bool) -> f32 {
         let own = |v: u32| {
-            let q = if colour { self.quadric(v) } else { self.quadrics[v as usize] };
-            q.error(p) / self.quadrics[v as usize].weight.max(1e-30)
+            // (The colour part adds no weight.)
+            let q = if colour && !self.with_colour.is_empty() { &self.with_colour[v as usize] } else { &self.quadrics[v as usize] };
+            q.error(p) / q.weight.max(1e-30)
         };
         own(a).max(own(b)).sqrt() as f32
     }
 
     fn can_collapse(&self, kept: u32, removed: u32, target: DVec3) -> bool {
         // Link condition: shared neighbours are exactly the edge's triangles' third corners.
-        let shared_triangles: Vec<u32> = self.live_around(kept).filter(|&t| self.triangles[t as usize].contains(&removed)).collect();
+        let shared_triangles: Few = self.live_around(kept).filter(|&t| self.triangles[t as usize].contains(&removed)).collect();
         if shared_triangles.is_empty() {
             return false;
         }
@@ -599,7 +686,7 @@ impl State<'_> {
 
     fn collapse(&mut self, kept: u32, removed: u32, target: DVec3) -> Collapse {
         let mut c = Collapse { kept, removed, kept_was: self.positions[kept as usize], kept_now: target.as_vec3(), moved: Vec::new(), deleted: Vec::new() };
-        let tris: Vec<u32> = self.live_around(removed).collect();
+        let tris: Few = self.live_around(removed).collect();
         for t in tris {
             let tri = &mut self.triangles[t as usize];
             if tri.contains(&kept) {
@@ -624,6 +711,7 @@ impl State<'_> {
             let c = self.colour_quadrics[removed as usize];
             self.colour_quadrics[kept as usize].add(&c);
             self.colours[kept as usize] = self.colour_quadrics[kept as usize].colour(target);
+            self.with_colour[kept as usize] = self.quadric(kept);
         }
         self.dead_vertex[removed as usize] = true;
         // Only edges at `kept` change cost (their validity is checked when taken).
@@ -661,6 +749,40 @@ pub(crate) mod tests {
             let n1 = normal(after.mesh.triangles[t].map(|v| after.mesh.positions[v as usize]));
             n0.dot(n1) > 0.0
         })
+    }
+
+    #[test]
+    fn the_queue_pops_in_the_order_of_one_heap_and_drops_what_became_invalid() {
+        // Entries pushed in bulk and one by one, and entries becoming invalid
+        // as the steps go (once invalid, for good, as in the simplifier):
+        // each step takes the cheapest valid entry, which must be the one a
+        // plain heap of everything gives.
+        let mut rng = 12345u64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (rng >> 33) as u32
+        };
+        let first: Vec<Reverse<Entry>> = (0..20_000).map(|i| Entry::new((next() % 1000) as f32, Job::Edge(i, i + 1, 0))).collect();
+        let mut queue = Queue::default();
+        queue.extend(first.iter().map(|e| Reverse(Entry(e.0 .0))).collect());
+        let mut plain: BinaryHeap<Reverse<Entry>> = first.into_iter().collect();
+        for step in 0..25_000u32 {
+            // Odd edges below 4 × step are gone.
+            let valid = |e: &Entry| !matches!(e.job(), Job::Edge(a, _, _) if a % 2 == 1 && a < 4 * step);
+            if step % 3 == 0 {
+                let e = Entry::new((next() % 1000) as f32, Job::Edge(100_000 + step, 0, 0));
+                plain.push(Reverse(Entry(e.0 .0)));
+                queue.push(e);
+            }
+            let ours = std::iter::from_fn(|| queue.pop(valid)).find(&valid).map(|e| e.0);
+            let theirs = std::iter::from_fn(|| plain.pop()).find(|Reverse(e)| valid(e)).map(|Reverse(e)| e.0);
+            assert_eq!(ours, theirs, "step {step}");
+            if ours.is_none() {
+                assert!(step > 15_000, "ran dry at step {step}");
+                return;
+            }
+        }
+        panic!("never ran dry");
     }
 
     #[test]
