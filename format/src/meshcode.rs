@@ -21,7 +21,9 @@ use constriction::stream::stack::DefaultAnsCoder;
 use constriction::stream::{Decode, Encode};
 
 const MAGIC: &[u8; 4] = b"EMMC";
-const VERSION: u8 = 1;
+/// Version 2 leaves out the dummies that start components (version 1 files,
+/// which list every dummy, are still read).
+const VERSION: u8 = 2;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset, which
 /// allows table lookups when decoding).
@@ -98,7 +100,11 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    // Dummies that start components are implied by the symbols.
+    let implied = &edgebreaker::component_starts(&code.symbols)[..code.dummy_starts as usize];
+    let listed: Vec<u32> = code.dummies.iter().copied().filter(|d| implied.binary_search(d).is_err()).collect();
+    debug_assert_eq!(listed.len() + implied.len(), code.dummies.len());
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummy_starts, listed.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -119,7 +125,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
         }
     }
     let mut last = 0;
-    for &d in &code.dummies {
+    for &d in &listed {
         sink.value(SYMBOL_MODELS - 1, d - last);
         last = d;
     }
@@ -166,14 +172,16 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 /// Decodes a coded mesh; any inconsistency is an error, never a panic.
 pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
-    let mut input = framed(bytes, MAGIC, VERSION, "coded mesh")?;
+    let version = if bytes.get(4) == Some(&1) { 1 } else { VERSION };
+    let mut input = framed(bytes, MAGIC, version, "coded mesh")?;
     let body = input.bytes;
-    let mut counts = [0u32; 9];
-    for c in counts.iter_mut() {
+    let mut counts = [0u32; 10];
+    // Version 1 has no count of dummy starts.
+    for c in counts.iter_mut().enumerate().filter(|(i, _)| version > 1 || *i != 4).map(|(_, c)| c) {
         *c = u32::try_from(input.varint()?).map_err(|_| corrupt("count over 32 bits"))?;
     }
-    let [triangle_count, vertex_count, symbol_count, merge_count, dummy_count, copy_count, group_count, has_colours, bits] = counts;
-    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
+    let [triangle_count, vertex_count, symbol_count, merge_count, dummy_starts, dummy_count, copy_count, group_count, has_colours, bits] = counts;
+    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, dummy_starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
         return Err(corrupt("counts out of range"));
     }
     let mut lo = [0f32; 3];
@@ -203,10 +211,17 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
     }
     let mut last = 0u32;
+    let mut listed = Vec::with_capacity(dummy_count as usize);
     for _ in 0..dummy_count {
         last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("dummy index"))?;
-        code.dummies.push(last);
+        listed.push(last);
     }
+    let starts = edgebreaker::component_starts(&code.symbols);
+    let implied = starts.get(..dummy_starts as usize).ok_or_else(|| corrupt("more dummy starts than components"))?;
+    // Both lists ascend; a dummy in both is refused when vertices are kept.
+    code.dummies = implied.iter().chain(&listed).copied().collect();
+    code.dummies.sort_unstable();
+    code.dummy_starts = dummy_starts;
     let mut last = 0u32;
     for _ in 0..copy_count {
         last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("copy index"))?;
@@ -517,7 +532,7 @@ struct Model {
 }
 
 /// Symbols a model decodes by search before it builds its lookup table.
-const SEARCHED: u32 = 512;
+const SEARCHED: u32 = 64;
 
 /// A section being decoded.
 pub(crate) struct Source<'a> {
@@ -719,6 +734,52 @@ mod tests {
 
     /// Files that pass the checksum but lie: every field rewritten, the CRC
     /// recomputed. Errors or a mesh; never a panic.
+    #[test]
+    fn dummies_that_start_components_are_left_out_and_version_1_files_still_decode() {
+        // Two open grids: each starts at its boundary's dummy, so no dummy is listed.
+        let one = wavy_grid(4);
+        let mut two = one.clone();
+        let n = one.positions.len() as u32;
+        two.positions.extend(one.positions.iter().map(|p| [p[0] + 10.0, p[1], p[2]]));
+        two.triangles.extend(one.triangles.iter().map(|t| t.map(|v| v + n)));
+        two.groups.extend(one.groups.clone());
+        two.colours.extend(one.colours.clone());
+        let coded = check_round_trip(&two, 14);
+        let mut reader = Reader { bytes: &coded.bytes, at: 5 };
+        let counts: Vec<u64> = (0..6).map(|_| reader.varint().unwrap()).collect();
+        assert_eq!((counts[4], counts[5]), (2, 0), "two dummy starts, none listed");
+        // A header claiming more dummy starts than there are components is refused.
+        let mut bad = MAGIC.to_vec();
+        bad.push(VERSION);
+        let mut w = Writer::default();
+        for (i, &c) in counts.iter().enumerate() {
+            w.varint(if i == 4 { 3 } else { c });
+        }
+        bad.extend_from_slice(&w.bytes);
+        bad.extend_from_slice(&coded.bytes[reader.at..coded.bytes.len() - 4]);
+        let crc = crc32fast::hash(&bad);
+        bad.extend_from_slice(&crc.to_le_bytes());
+        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("dummy starts")));
+        // Version 1 (every dummy listed): the fuzzing seed, written before version 2.
+        let v1 = include_bytes!("../../fuzz/seeds/proxy/0.emmc");
+        assert_eq!(v1[4], 1);
+        let old = decode(v1).expect("a version 1 file decodes");
+        assert!(!old.triangles.is_empty());
+        let again = decode(&encode(&old, 14).unwrap().bytes).unwrap();
+        // The same triangles (by their corners' positions, each rotated to
+        // start at its least corner), in any order.
+        let set = |m: &MeshData| {
+            let mut out: Vec<[[u32; 3]; 3]> = m.triangles.iter().map(|t| {
+                let c = t.map(|v| m.positions[v as usize].map(f32::to_bits));
+                let r = (0..3).min_by_key(|&i| c[i]).unwrap();
+                [c[r], c[(r + 1) % 3], c[(r + 2) % 3]]
+            }).collect();
+            out.sort_unstable();
+            out
+        };
+        assert_eq!(set(&again), set(&old));
+    }
+
     #[test]
     fn hostile_files_do_not_panic() {
         let mesh = wavy_grid(5);

@@ -44,7 +44,7 @@ use smallvec::SmallVec;
 
 /// A vertex's neighbours or triangles: a handful, kept off the allocator on
 /// the hot path.
-type Few = SmallVec<[u32; 16]>;
+type Few = SmallVec<[u32; 32]>;
 
 /// Weight of boundary and group-border planes, relative to the triangles'
 /// (times the edge's length, as theirs are the square root of an area).
@@ -502,15 +502,10 @@ impl State<'_> {
         self.around[v as usize].iter().copied().filter(|&t| self.alive[t as usize])
     }
 
-    /// Every edge of a live triangle, once, as (low, high).
+    /// Every edge of a live triangle, once, as (low, high), in order: per
+    /// vertex from its own triangles (no sort of the whole mesh's edges).
     fn edges(&self) -> Vec<(u32, u32)> {
-        let mut out: Vec<(u32, u32)> = (0..self.triangles.len()).filter(|&t| self.alive[t]).flat_map(|t| {
-            let tri = self.triangles[t];
-            (0..3).map(move |k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3])))
-        }).collect();
-        out.par_sort_unstable();
-        out.dedup();
-        out
+        (0..self.positions.len() as u32).into_par_iter().flat_map_iter(|v| self.neighbours(v).into_iter().filter(move |&w| w > v).map(move |w| (v, w))).collect()
     }
 
     fn neighbours(&self, v: u32) -> Few {
@@ -523,23 +518,15 @@ impl State<'_> {
     /// Boundary planes along edges with one triangle, or more than two, or
     /// two of different groups.
     fn add_border_planes(&mut self) {
-        // Every triangle edge as (low end, high end, triangle), sorted so an
-        // edge's triangles sit together; those of an interior edge are marked.
-        let mut sides: Vec<(u32, u32, u32)> = self.triangles.iter().enumerate().flat_map(|(t, tri)| (0..3).map(move |k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3]), t as u32))).collect();
-        sides.par_sort_unstable();
-        let mut interior = vec![0u8; self.triangles.len()];
-        for run in sides.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
-            if let [(a, b, t), (_, _, u)] = *run {
-                if self.groups[t as usize] == self.groups[u as usize] {
-                    for t in [t, u] {
-                        let tri = self.triangles[t as usize];
-                        let k = (0..3).find(|&k| (tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3])) == (a, b)).expect("the edge is the triangle's");
-                        interior[t as usize] |= 1 << k;
-                    }
-                }
-            }
-        }
-        drop(sides);
+        // Per triangle, a bit per edge glued to exactly one other triangle of
+        // its group (found among the triangles around the edge's first end).
+        let interior: Vec<u8> = self.triangles.par_iter().enumerate().map(|(t, tri)| {
+            (0..3).filter(|&k| {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let mut others = self.around[a as usize].iter().filter(|&&u| u as usize != t && self.triangles[u as usize].contains(&b));
+                matches!((others.next(), others.next()), (Some(&u), None) if self.groups[u as usize] == self.groups[t])
+            }).fold(0u8, |bits, k| bits | 1 << k)
+        }).collect();
         for (t, tri) in self.triangles.iter().enumerate() {
             let p = tri.map(|v| self.positions[v as usize]);
             let n = normal(p);
