@@ -26,8 +26,8 @@
 //!   the decoder drops it with its triangles. Components with a boundary are
 //!   walked first, each from a triangle of its first loop's fan with the dummy
 //!   as its first vertex, so those dummies follow from where components start
-//!   ([`component_starts`]) and a file need not list them: on soups of small
-//!   open parts the list cost a quarter of the connectivity bits.
+//!   and need no listing: on soups of small open parts the list cost a quarter
+//!   of the connectivity bits.
 //!
 //! So decoding gives back every triangle with its orientation, up to the order
 //! of vertices and triangles and the rotation of corners within a triangle.
@@ -70,12 +70,12 @@ pub struct Connectivity {
     /// Triangles and vertices decoded, dummies and copies included.
     pub triangle_count: u32,
     pub vertex_count: u32,
-    /// Decoded indices of the dummy vertices, ascending.
-    pub dummies: Vec<u32>,
     /// How many components, the first ones, start at a dummy: the encoder
     /// starts each component with a boundary at its first boundary loop's
-    /// dummy (decoded first), so a file need not list those dummies.
+    /// dummy, decoded as the component's first vertex.
     pub dummy_starts: u32,
+    /// Decoded indices of the other dummy vertices, ascending.
+    pub dummies: Vec<u32>,
     /// `[copy, original]` decoded indices, ascending by copy.
     pub copies: Vec<[u32; 2]>,
 }
@@ -376,6 +376,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     // turned to (d, w, u), so their first vertex is a dummy the file need not
     // list; then closed components.
     let starts = (*real_triangles..triangle_total as u32).chain(0..*real_triangles);
+    let mut implied = Vec::new();
     for start in starts {
         if visited[start as usize] {
             continue;
@@ -386,6 +387,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
         // Per node, its vertex and the corner facing the edge to the next.
         let (v, facing) = if start >= *real_triangles {
             out.dummy_starts += 1;
+            implied.push(emitted.len() as u32);
             ([corners[c0 as usize + 2], corners[c0 as usize], corners[c0 as usize + 1]], [c0 + 1, c0 + 2, c0])
         } else {
             ([corners[c0 as usize], corners[c0 as usize + 1], corners[c0 as usize + 2]], [c0 + 2, c0, c0 + 1])
@@ -551,7 +553,9 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     for (i, &v) in emitted.iter().enumerate() {
         let s = source[v as usize];
         if s == NONE {
-            out.dummies.push(i as u32);
+            if implied.binary_search(&(i as u32)).is_err() {
+                out.dummies.push(i as u32);
+            }
         } else if first[s as usize] != NONE {
             out.copies.push([i as u32, first[s as usize]]);
         } else {
@@ -561,28 +565,6 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     }
     order.triangles = triangle_order.into_iter().filter(|&t| t < *real_triangles).collect();
     Ok((out, order))
-}
-
-/// The decoded index of each component's first vertex, from the symbols
-/// alone (a component is three vertices and one more per C; it ends at an E
-/// with no loop waiting). Corrupt symbols give some list, never a panic.
-pub fn component_starts(symbols: &[u8]) -> Vec<u32> {
-    let (mut starts, mut vertices, mut depth, mut open) = (Vec::new(), 0u32, 0u32, false);
-    for &s in symbols {
-        if !open {
-            starts.push(vertices);
-            vertices = vertices.saturating_add(3);
-            open = true;
-        }
-        match s {
-            C => vertices = vertices.saturating_add(1),
-            S => depth += 1,
-            E if depth == 0 => open = false,
-            E | M => depth = depth.saturating_sub(1),
-            _ => {}
-        }
-    }
-    starts
 }
 
 /// Per decoded vertex, its index among kept vertices (copies take their
@@ -636,12 +618,20 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if code.triangle_count > MAX_TRIANGLES || code.vertex_count > code.triangle_count.saturating_mul(3) {
         return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
     }
-    // Components end at an E with an empty stack.
+    // Components end at an E with an empty stack. Each starts with three
+    // vertices and brings one more per C: the first vertices of the first
+    // `dummy_starts` components are dummies.
     let mut ends = Vec::new();
     let mut depth = 0u32;
     let mut merges = 0usize;
+    let mut implied = Vec::with_capacity(code.dummy_starts.min(code.vertex_count) as usize);
+    let mut new_vertices = 0u32;
     for (i, &s) in symbols.iter().enumerate() {
+        if implied.len() == ends.len() && implied.len() < code.dummy_starts as usize {
+            implied.push(new_vertices + 3 * ends.len() as u32);
+        }
         match s {
+            C => new_vertices += 1,
             S => depth += 1,
             E if depth == 0 => ends.push(i),
             E => depth -= 1,
@@ -653,7 +643,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 depth -= 1;
                 merges += 1;
             }
-            C | L | R => {}
+            L | R => {}
             _ => return corrupt(format!("symbol {s}")),
         }
     }
@@ -713,7 +703,14 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     }
 
     // Forwards: rebuild.
-    let (keep, kept_vertices) = keep_vertices(code.vertex_count, &code.dummies, &code.copies)?;
+    if implied.len() != code.dummy_starts as usize {
+        return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
+    }
+    // Both lists ascend; a dummy in both is refused as a repeat.
+    let mut dummies = implied;
+    dummies.extend_from_slice(&code.dummies);
+    dummies.sort_unstable();
+    let (keep, kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
     let mut out = Decoded { triangles: Vec::with_capacity(code.triangle_count as usize), predictors: Vec::with_capacity(code.vertex_count as usize), keep, kept_vertices };
     let mut loops = Loops::default();
     loops.nodes.reserve(code.triangle_count as usize + 3);
@@ -891,10 +888,9 @@ pub(crate) mod tests {
     fn open_grid_gets_one_dummy_and_about_two_bits_worth_of_symbols() {
         let tris = grid(8);
         let code = round_trip(&tris, 81);
-        assert_eq!(code.dummies.len(), 1);
-        // The component starts at its dummy, so a file need not list it.
-        assert_eq!((code.dummy_starts, code.dummies[0]), (1, 0));
-        assert_eq!(component_starts(&code.symbols), vec![0]);
+        // One dummy, the component's first vertex: implied, not listed.
+        assert_eq!((code.dummy_starts, code.dummies.len()), (1, 0));
+        assert_eq!(decode(&code).unwrap().keep[0], NONE);
         assert!(code.merges.is_empty());
         let cs = code.symbols.iter().filter(|&&s| s == C).count();
         // Euler: every vertex but the first three arrives by a C.

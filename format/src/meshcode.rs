@@ -100,11 +100,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    // Dummies that start components are implied by the symbols.
-    let implied = &edgebreaker::component_starts(&code.symbols)[..code.dummy_starts as usize];
-    let listed: Vec<u32> = code.dummies.iter().copied().filter(|d| implied.binary_search(d).is_err()).collect();
-    debug_assert_eq!(listed.len() + implied.len(), code.dummies.len());
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummy_starts, listed.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummy_starts, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -125,7 +121,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
         }
     }
     let mut last = 0;
-    for &d in &listed {
+    for &d in &code.dummies {
         sink.value(SYMBOL_MODELS - 1, d - last);
         last = d;
     }
@@ -195,7 +191,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let grid = Grid::new(lo, hi, bits);
 
     let mut source = Source::new(&mut input, SYMBOL_MODELS)?;
-    let mut code = Connectivity { triangle_count, vertex_count, ..Connectivity::default() };
+    let mut code = Connectivity { triangle_count, vertex_count, dummy_starts, ..Connectivity::default() };
     code.symbols.reserve(symbol_count as usize);
     let mut context = 0;
     for _ in 0..symbol_count {
@@ -211,17 +207,10 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
     }
     let mut last = 0u32;
-    let mut listed = Vec::with_capacity(dummy_count as usize);
     for _ in 0..dummy_count {
         last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("dummy index"))?;
-        listed.push(last);
+        code.dummies.push(last);
     }
-    let starts = edgebreaker::component_starts(&code.symbols);
-    let implied = starts.get(..dummy_starts as usize).ok_or_else(|| corrupt("more dummy starts than components"))?;
-    // Both lists ascend; a dummy in both is refused when vertices are kept.
-    code.dummies = implied.iter().chain(&listed).copied().collect();
-    code.dummies.sort_unstable();
-    code.dummy_starts = dummy_starts;
     let mut last = 0u32;
     for _ in 0..copy_count {
         last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("copy index"))?;
@@ -759,7 +748,7 @@ mod tests {
         bad.extend_from_slice(&coded.bytes[reader.at..coded.bytes.len() - 4]);
         let crc = crc32fast::hash(&bad);
         bad.extend_from_slice(&crc.to_le_bytes());
-        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("dummy starts")));
+        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a dummy")), "{:?}", decode(&bad));
         // Version 1 (every dummy listed): the fuzzing seed, written before version 2.
         let v1 = include_bytes!("../../fuzz/seeds/proxy/0.emmc");
         assert_eq!(v1[4], 1);
