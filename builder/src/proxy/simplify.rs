@@ -382,45 +382,7 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
 pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &SimplifyParams) -> Simplified {
     let n = mesh.positions.len();
     let colours = colours.filter(|c| c.values.len() == n && c.weight > 0.0);
-    let mut s = State {
-        positions: mesh.positions.clone(),
-        triangles: mesh.triangles.clone(),
-        groups: &mesh.groups,
-        alive: vec![true; mesh.triangles.len()],
-        around: vec![Vec::new(); n],
-        quadrics: vec![Quadric::default(); n],
-        colour_quadrics: vec![ColourQuadric::default(); if colours.is_some() { n } else { 0 }],
-        with_colour: Vec::new(),
-        colours: colours.map(|c| c.values.iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default(),
-        stamp: vec![0; n],
-        dead_vertex: vec![false; n],
-        part: vec![u32::MAX; n],
-        input_normals: mesh.triangles.iter().map(|t| normal(t.map(|v| mesh.positions[v as usize]))).collect(),
-    };
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for &v in tri {
-            s.around[v as usize].push(t as u32);
-        }
-        let p = tri.map(|v| s.positions[v as usize]);
-        let nrm = normal(p);
-        let area = 0.5 * nrm.length() as f64;
-        if area > 0.0 {
-            let u = nrm.normalize().as_dvec3();
-            let q = Quadric::plane(u, -u.dot(p[0].as_dvec3()), area.sqrt());
-            for &v in tri {
-                s.quadrics[v as usize].add(&q);
-            }
-            if !s.colours.is_empty() {
-                if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), tri.map(|v| s.colours[v as usize]), u, area.sqrt()) {
-                    for &v in tri {
-                        s.colour_quadrics[v as usize].add(&c);
-                    }
-                }
-            }
-        }
-    }
-    s.add_border_planes();
-    s.with_colour = (0..s.colour_quadrics.len() as u32).map(|v| s.quadric(v)).collect();
+    let mut s = State::new(mesh, colours);
     let parts = s.label_parts();
     let stamps = |s: &State, a: u32, b: u32| s.stamp[a as usize].wrapping_add(s.stamp[b as usize]);
     // Removing a part moves its surface by up to half its diagonal.
@@ -495,6 +457,53 @@ pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &Sim
     }
     let colours = colours.map(|c| s.colours.iter().map(|v| (*v / c.weight as f64).as_vec3()).collect()).unwrap_or_default();
     Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps, error, colours }
+}
+
+impl<'a> State<'a> {
+    /// The mesh with its quadrics and boundary planes.
+    fn new(mesh: &'a Mesh, colours: Option<Colours>) -> State<'a> {
+        let n = mesh.positions.len();
+        let mut s = State {
+            positions: mesh.positions.clone(),
+            triangles: mesh.triangles.clone(),
+            groups: &mesh.groups,
+            alive: vec![true; mesh.triangles.len()],
+            around: vec![Vec::new(); n],
+            quadrics: vec![Quadric::default(); n],
+            colour_quadrics: vec![ColourQuadric::default(); if colours.is_some() { n } else { 0 }],
+            with_colour: Vec::new(),
+            colours: colours.map(|c| c.values.iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default(),
+            stamp: vec![0; n],
+            dead_vertex: vec![false; n],
+            part: vec![u32::MAX; n],
+            input_normals: mesh.triangles.iter().map(|t| normal(t.map(|v| mesh.positions[v as usize]))).collect(),
+        };
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &v in tri {
+                s.around[v as usize].push(t as u32);
+            }
+            let p = tri.map(|v| s.positions[v as usize]);
+            let nrm = normal(p);
+            let area = 0.5 * nrm.length() as f64;
+            if area > 0.0 {
+                let u = nrm.normalize().as_dvec3();
+                let q = Quadric::plane(u, -u.dot(p[0].as_dvec3()), area.sqrt());
+                for &v in tri {
+                    s.quadrics[v as usize].add(&q);
+                }
+                if !s.colours.is_empty() {
+                    if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), tri.map(|v| s.colours[v as usize]), u, area.sqrt()) {
+                        for &v in tri {
+                            s.colour_quadrics[v as usize].add(&c);
+                        }
+                    }
+                }
+            }
+        }
+        s.add_border_planes();
+        s.with_colour = (0..s.colour_quadrics.len() as u32).map(|v| s.quadric(v)).collect();
+        s
+    }
 }
 
 impl State<'_> {
