@@ -416,7 +416,7 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 0xF00D + done as u64 };
+        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
         for (f, s) in sum.iter_mut().enumerate() {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
             s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);

@@ -99,13 +99,21 @@ pub struct Settings {
     pub seed: u64,
 }
 
+/// Shadow rays toward the sun at each first hit in `final` (stratified over
+/// its disk): one left soft shadow edges speckled at two samples a pixel;
+/// eight made them smooth for 18 % more time a panorama on the Crytek Sponza
+/// (test `several_sun_rays_smooth_a_soft_shadow_edge`: the penumbra's error
+/// falls from 0.36 to 0.07 of its light). Frames between video keys take
+/// the keys' light, so only keys pay.
+const SUN_RAYS: u32 = 8;
+
 impl Settings {
     pub fn new(quality: Quality, seed: u64) -> Settings {
         match quality {
             Quality::Preview => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed },
                 cell_m: 0.3,
                 gather_rays: 32,
                 max_cells: 300_000,
@@ -119,8 +127,8 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3 }), antialias: false, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3 }), antialias: false, seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
@@ -185,7 +193,7 @@ impl<'a> Renderer<'a> {
     /// pushes the 98th percentile past the tone curve's shoulder (a median
     /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
-        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, seed: self.settings.seed };
+        let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed: self.settings.seed };
         let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
         if seen.is_empty() {
             return 1.0;

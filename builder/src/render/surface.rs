@@ -266,17 +266,24 @@ impl Lighting {
     }
 
     /// The shadow rays of direct lighting at `s`, each with the irradiance it
-    /// brings if unblocked: one per sun (a point on its disk from `u`) and one
-    /// per point light, as `which` says, each with its light's index (suns
-    /// first, then point lights). Lights below the surface give none.
-    pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, mut emit: impl FnMut(usize, Ray, Vec3)) {
+    /// brings if unblocked: `sun_rays` per sun (points on its disk: `u`, and
+    /// for more, a rank-1 lattice over the disk shifted by `u`, each ray
+    /// with its share) and one per point light, as `which` says, each with
+    /// its light's index (suns first, then point lights). Lights below the
+    /// surface give none.
+    pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, sun_rays: u32, mut emit: impl FnMut(usize, Ray, Vec3)) {
         let from = s.lifted();
         let suns = if which == Which::Points { &[][..] } else { &self.suns[..] };
+        let share = 1.0 / sun_rays as f32;
         for (k, &(dir, irradiance)) in suns.iter().enumerate() {
-            let d = Lighting::sun_direction(dir, u);
-            let cos = s.normal.dot(d);
-            if cos > 0.0 && s.geometric.dot(d) > 0.0 {
-                emit(k, Ray::new(from, d), irradiance * cos);
+            for j in 0..sun_rays {
+                // Fibonacci lattice: j/n along one axis, j times the golden ratio's fraction along the other.
+                let v = (u + Vec2::new(j as f32 * share, j as f32 * 0.618_034)).fract();
+                let d = Lighting::sun_direction(dir, v);
+                let cos = s.normal.dot(d);
+                if cos > 0.0 && s.geometric.dot(d) > 0.0 {
+                    emit(k, Ray::new(from, d), irradiance * cos * share);
+                }
             }
         }
         if which == Which::Suns {
@@ -305,7 +312,7 @@ impl Lighting {
     /// each (`visible` says whether a ray is clear).
     pub fn direct(&self, s: &Surface, u: Vec2, which: Which, visible: impl Fn(&Ray) -> bool) -> Vec3 {
         let mut e = Vec3::ZERO;
-        self.shadow_rays(s, u, which, |_, ray, irradiance| {
+        self.shadow_rays(s, u, which, 1, |_, ray, irradiance| {
             if visible(&ray) {
                 e += irradiance;
             }

@@ -27,9 +27,9 @@ fn furnace_matches_the_analytic_radiance() {
     let expected = 1.0 / (1.0 - 0.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
     let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 16, 0, equirect_direction);
-    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 0);
-    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, antialias: false, seed: 1 }, eye, 32, 0);
+    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 0);
+    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 0);
     let gathered = renderer.equirect(&renderer.settings.panorama, eye, 32, 0);
     for (name, frame) in [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce), ("final gather", &gathered)] {
         let m = mean(&frame.color);
@@ -47,7 +47,7 @@ fn renders_do_not_depend_on_the_thread_count() {
         rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
             let rays = ray_scene(&scene);
             let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 3));
-            let params = TraceParams { samples: 4, bounces: 1, baked_points: false, gather: None, antialias: false, seed: 3 };
+            let params = TraceParams { samples: 4, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 3 };
             let gather = Settings::new(Quality::Final, 3).panorama;
             let video = Settings::new(Quality::Final, 3).video;
             let walk: Vec<Vec3> = (0..5).map(|i| eyes[0].lerp(eyes[1], i as f32 / 4.0)).collect();
@@ -114,7 +114,7 @@ fn cutout_holes_let_light_and_sight_through() {
     scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new((p.x + 2.0) / 4.0 * 0.999, 0.5)).collect();
     let rays = ray_scene(&scene);
     let tracer = Tracer::path_traced(&scene, &rays, Lighting::for_scene(&scene, &rays, &[Vec3::ZERO]), &[Vec3::ZERO]);
-    let params = TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 0 };
+    let params = TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0 };
     let looking = |x: f32| tracer.render(&params, Vec3::new(x, 0.0, 0.0), 1, 1, 0, |_, _| Vec3::NEG_Z).color[0];
     assert!(looking(-1.0).x > 0.99, "through the hole the glowing wall shows: {}", looking(-1.0));
     assert!(looking(1.0).x < 0.01, "the opaque half hides it: {}", looking(1.0));
@@ -217,7 +217,7 @@ fn denoising_brings_a_noisy_path_traced_image_closer_to_the_converged_one() {
     let eye = Vec3::new(3.0, 1.6, 2.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, antialias: false, seed }, eye, 96, 64, 0, |s, t| {
+    let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed }, eye, 96, 64, 0, |s, t| {
         let d = Vec3::new(2.0 * s - 1.0, (1.0 - 2.0 * t) * 0.66, -1.0);
         d.normalize()
     });
@@ -273,7 +273,7 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     // Straight up, 90° across: all ceiling.
     let up = |params: &TraceParams, tracer: &Tracer| tracer.render(params, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize());
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, antialias: false, seed: 5 }, &pure);
+    let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 5 }, &pure);
     let ours = up(&renderer.settings.panorama, &renderer.tracer);
     let before = up(&TraceParams { gather: None, ..renderer.settings.panorama }, &renderer.tracer);
     let energy = |f: &Frame| band_energy(size as usize, &f.color, 1.5, 8.0);
@@ -363,7 +363,7 @@ fn sampling_the_lights_changes_the_noise_not_the_answer() {
         let guided = Tracer::path_traced(scene, &rays, lighting, &[eye]);
         let plain = Tracer { guide: None, ..Tracer::path_traced(scene, &rays, guided.lighting.clone(), &[eye]) };
         let size = 16;
-        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
+        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
         let truth = up(&plain, 8192, 1);
         let quarter_means = |img: &[Vec3]| -> Vec<f32> {
             (0..4).map(|q| img.iter().enumerate().filter(|(i, _)| (i % 16 / 8) + 2 * (i / 16 / 8) == q).map(|(_, c)| luminance(*c)).sum::<f32>() / 64.0).collect()
@@ -398,4 +398,37 @@ fn antialiasing_brings_one_sample_frames_close_to_many_samples() {
     println!("against 32 samples a pixel: centres {e_plain:.3} levels, antialiased {e_smooth:.3}; {:.1} % of pixels refined", 100.0 * refined);
     assert!(e_smooth < 0.6 * e_plain, "antialiased {e_smooth:.3} levels off 32 samples, centres only {e_plain:.3}");
     assert!(refined > 0.005 && refined < 0.3, "{:.1} % of pixels refined", 100.0 * refined);
+}
+
+#[test]
+fn several_sun_rays_smooth_a_soft_shadow_edge() {
+    // A black slab 20 units above a floor, the sun straight overhead: the
+    // slab's edge casts a penumbra 0.19 units wide (the sun's disk), seen from
+    // 1 unit above. Only direct sunlight reaches the floor (no sky, nothing
+    // else lit), so the error is the shadow rays' alone.
+    let mut m = MeshBuilder::new("penumbra");
+    m.add_material(Material::diffuse("floor", [0.5; 3]));
+    m.cuboid(Vec3::new(-10.0, -0.1, -10.0), Vec3::new(10.0, 0.0, 10.0));
+    let black = m.add_material(Material::diffuse("black", [0.0; 3]));
+    m.set_material(black);
+    m.cuboid(Vec3::new(-10.0, 20.0, -10.0), Vec3::new(0.0, 20.1, 10.0));
+    let scene = m.finish();
+    let rays = ray_scene(&scene);
+    let lighting = Lighting { suns: vec![(Vec3::Y, Vec3::ONE)], points: Vec::new(), sky: Sky::NONE, description: String::new() };
+    let tracer = Tracer { rays: &rays, materials: Materials::new(&scene), lighting, cache: None, guide: None };
+    let eye = Vec3::new(0.0, 1.0, 0.0);
+    let shot = |samples: u32, sun_rays: u32, seed: u64| {
+        let params = TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays, seed };
+        tracer.render(&params, eye, 48, 8, 0, |s, t| Vec3::new(0.2 * (2.0 * s - 1.0), -1.0, 0.2 * (2.0 * t - 1.0)).normalize()).color
+    };
+    let truth = shot(1024, 1, 1);
+    // The penumbra runs across the image: dark at the left, lit at the right.
+    assert!(luminance(truth[0]) < 0.01 && luminance(truth[47]) > 0.1, "{} .. {}", luminance(truth[0]), luminance(truth[47]));
+    let rms = |img: &[Vec3]| (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt() / luminance(mean(&truth));
+    let (one, eight) = (rms(&shot(2, 1, 2)), rms(&shot(2, 8, 2)));
+    println!("penumbra at 2 samples a pixel: relative RMS error {one:.3} with one sun ray, {eight:.3} with eight");
+    assert!(eight < 0.35 * one, "eight stratified sun rays should cut the penumbra's noise: {eight:.3} against {one:.3}");
+    // Each ray carries its share: the mean light is unchanged.
+    let (m1, m8) = (luminance(mean(&shot(64, 1, 3))), luminance(mean(&shot(8, 8, 3))));
+    assert!((m8 / m1 - 1.0).abs() < 0.02, "mean {m8} with eight rays against {m1} with one");
 }

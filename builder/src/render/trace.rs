@@ -48,6 +48,10 @@ pub struct TraceParams {
     /// gallery it nearly doubles a video frame's cost for 0.001 FLIP (0.007-0.010
     /// on the Crytek Sponza).
     pub antialias: bool,
+    /// Shadow rays toward each sun at a first hit, spread over its disk
+    /// (stratified, each carrying its share): one leaves the half-lit band of
+    /// a soft shadow edge (its penumbra) speckled at a few samples a pixel.
+    pub sun_rays: u32,
     pub seed: u64,
 }
 
@@ -178,7 +182,7 @@ impl<'a> Tracer<'a> {
                     // Suns' light here weighed against reaching a sunlit point by connection.
                     let mut e = Vec3::ZERO;
                     let u = Vec2::new(rng.random(), rng.random());
-                    self.lighting.shadow_rays(&s, u, Which::All, |k, r, irradiance| {
+                    self.lighting.shadow_rays(&s, u, Which::All, 1, |k, r, irradiance| {
                         if self.visible(&r) {
                             e += if k < self.lighting.suns.len() { irradiance * g.bounce_weight_sun(k, &from, &s, r.dir) } else { irradiance };
                         }
@@ -358,11 +362,7 @@ impl<'a> Tracer<'a> {
                             continue;
                         }
                         let u = Vec2::new(rng.random(), rng.random());
-                        let mut light = 0;
-                        self.lighting.shadow_rays(s, u, which, |_, r, e| {
-                            shadows.push((light, i, r, e));
-                            light += 1;
-                        });
+                        self.lighting.shadow_rays(s, u, which, params.sun_rays.max(1), |k, r, e| shadows.push((k, i, r, e)));
                     }
                 }
                 surfaces.push(s);
