@@ -29,7 +29,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights (to check each kind against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes], VIDEO_KEYS=n and VIDEO_ANTIALIAS=0 try
+//! PANORAMA_GATHER=rays,step[,passes], VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -131,6 +131,10 @@ fn main() {
         }
         // VIDEO_ANTIALIAS=0 turns the video frames' adaptive antialiasing off.
         settings.video.antialias &= std::env::var("VIDEO_ANTIALIAS").map_or(true, |v| v != "0");
+        // SUN_RAYS=n tries another count of shadow rays toward the sun (panoramas and video keys).
+        if let Some(n) = std::env::var("SUN_RAYS").ok().and_then(|v| v.parse().ok()) {
+            (settings.panorama.sun_rays, settings.video.sun_rays) = (n, n);
+        }
         // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes] try another gather.
         for (var, params) in [("VIDEO_GATHER", &mut settings.video), ("PANORAMA_GATHER", &mut settings.panorama)] {
             let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
