@@ -242,7 +242,7 @@ fn parse_point(text: &str) -> Result<[f32; 3], String> {
 /// How a bundle is rendered.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// final: 2 samples a pixel, every light sampled (8 shadow rays over the sun's
+    /// final: 2 samples a pixel, every light sampled (4 shadow rays over the sun's
     /// disk), global illumination gathered one bounce deep over the baked radiance
     /// cache, cube faces 512/1024/2048 and 1024-wide videos (about 24 s a probe and
     /// 0.3 s a video frame on the Crytek Sponza, 2 cores); preview: one sample

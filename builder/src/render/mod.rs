@@ -100,12 +100,13 @@ pub struct Settings {
 }
 
 /// Shadow rays toward the sun at each first hit in `final` (stratified over
-/// its disk): one left soft shadow edges speckled at two samples a pixel;
-/// eight made them smooth for 18 % more time a panorama on the Crytek Sponza
-/// (test `several_sun_rays_smooth_a_soft_shadow_edge`: the penumbra's error
-/// falls from 0.36 to 0.07 of its light). Frames between video keys take
-/// the keys' light, so only keys pay.
-const SUN_RAYS: u32 = 8;
+/// its disk): one left soft shadow edges speckled at two samples a pixel.
+/// Test `several_sun_rays_smooth_a_soft_shadow_edge`: the penumbra's error
+/// is 0.36 of its light with one ray, 0.14 with four, 0.07 with eight. A
+/// panorama's time, one / four / eight: Crytek Sponza probe 20 / 20 / 24 s,
+/// sunroom 8.0 / 10.7 / 13.5 s; four is the balance. Frames between video
+/// keys take the keys' light, so only keys pay.
+const SUN_RAYS: u32 = 4;
 
 impl Settings {
     pub fn new(quality: Quality, seed: u64) -> Settings {
