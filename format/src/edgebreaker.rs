@@ -624,7 +624,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let mut ends = Vec::new();
     let mut depth = 0u32;
     let mut merges = 0usize;
-    let mut implied = Vec::with_capacity(code.dummy_starts.min(code.vertex_count) as usize);
+    let mut implied = Vec::with_capacity((code.dummy_starts as usize).min(symbols.len()));
     let mut new_vertices = 0u32;
     for (i, &s) in symbols.iter().enumerate() {
         if implied.len() == ends.len() && implied.len() < code.dummy_starts as usize {
