@@ -96,7 +96,7 @@ impl DepthMap {
     /// any inconsistency is an error, never a panic.
     pub fn decode(bytes: &[u8], probes: u32) -> Result<DepthMap, CodingError> {
         let corrupt = |m: String| Err(CodingError::Corrupt(m));
-        let mut input = framed(bytes, MAGIC, VERSION, "depth map")?;
+        let (_, mut input) = framed(bytes, MAGIC, VERSION..=VERSION, "depth map")?;
         let body_len = input.bytes.len();
         let (size, count) = (input.varint()?, input.varint()?);
         if size == 0 || size > u64::from(MAX_SIZE) || count > u64::from(probes) {

@@ -19,6 +19,7 @@ use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order}
 use constriction::stream::model::{SmallContiguousCategoricalEntropyModel, SmallContiguousLookupDecoderModel};
 use constriction::stream::stack::DefaultAnsCoder;
 use constriction::stream::{Decode, Encode};
+use std::ops::RangeInclusive;
 
 const MAGIC: &[u8; 4] = b"EMMC";
 /// Version 2 leaves out the dummies that start components (version 1 files,
@@ -168,15 +169,13 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 /// Decodes a coded mesh; any inconsistency is an error, never a panic.
 pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
-    let version = if bytes.get(4) == Some(&1) { 1 } else { VERSION };
-    let mut input = framed(bytes, MAGIC, version, "coded mesh")?;
+    let (version, mut input) = framed(bytes, MAGIC, 1..=VERSION, "coded mesh")?;
     let body = input.bytes;
-    let mut counts = [0u32; 10];
-    // Version 1 has no count of dummy starts.
-    for c in counts.iter_mut().enumerate().filter(|(i, _)| version > 1 || *i != 4).map(|(_, c)| c) {
-        *c = u32::try_from(input.varint()?).map_err(|_| corrupt("count over 32 bits"))?;
-    }
-    let [triangle_count, vertex_count, symbol_count, merge_count, dummy_starts, dummy_count, copy_count, group_count, has_colours, bits] = counts;
+    let mut count = || input.varint().and_then(|c| u32::try_from(c).map_err(|_| corrupt("count over 32 bits")));
+    let [triangle_count, vertex_count, symbol_count, merge_count] = [count()?, count()?, count()?, count()?];
+    // Version 1 has no count of dummy starts: every dummy is listed.
+    let dummy_starts = if version > 1 { count()? } else { 0 };
+    let [dummy_count, copy_count, group_count, has_colours, bits] = [count()?, count()?, count()?, count()?, count()?];
     if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, dummy_starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
         return Err(corrupt("counts out of range"));
     }
@@ -469,20 +468,22 @@ impl Sink {
 
 /// The body of a file framed as this crate's files are (a 4-byte magic, a
 /// version byte, the body, a CRC-32 of all before it), read past its
-/// version; `what` names the kind of file in errors.
-pub(crate) fn framed<'a>(bytes: &'a [u8], magic: &[u8; 4], version: u8, what: &str) -> Result<Reader<'a>, CodingError> {
+/// version, with that version (one of `versions`); `what` names the kind of
+/// file in errors.
+pub(crate) fn framed<'a>(bytes: &'a [u8], magic: &[u8; 4], versions: RangeInclusive<u8>, what: &str) -> Result<(u8, Reader<'a>), CodingError> {
     let corrupt = |m: String| Err(CodingError::Corrupt(m));
     if bytes.len() < magic.len() + 5 || &bytes[..4] != magic {
         return corrupt(format!("not a {what} (no {} header)", String::from_utf8_lossy(magic)));
     }
-    if bytes[4] != version {
-        return corrupt(format!("{what} version {} (this reader knows {version})", bytes[4]));
+    if !versions.contains(&bytes[4]) {
+        let known = if versions.start() == versions.end() { format!("{}", versions.start()) } else { format!("{} to {}", versions.start(), versions.end()) };
+        return corrupt(format!("{what} version {} (this reader knows {known})", bytes[4]));
     }
     let (body, crc) = bytes.split_at(bytes.len() - 4);
     if crc32fast::hash(body).to_le_bytes() != crc {
         return corrupt(format!("{what} checksum mismatch (truncated or damaged)"));
     }
-    Ok(Reader { bytes: body, at: 5 })
+    Ok((bytes[4], Reader { bytes: body, at: 5 }))
 }
 
 pub(crate) struct Reader<'a> {
@@ -719,6 +720,12 @@ mod tests {
                 assert!(decode(&bad).is_err(), "byte {i} bit {bit}");
             }
         }
+        // A later version, its checksum correct, names the versions this reader knows.
+        let mut later = bytes[..bytes.len() - 4].to_vec();
+        later[4] = VERSION + 1;
+        later.extend_from_slice(&crc32fast::hash(&later).to_le_bytes());
+        let message = decode(&later).unwrap_err().to_string();
+        assert!(message.contains(&format!("version {} (this reader knows 1 to {VERSION})", VERSION + 1)), "{message}");
     }
 
     /// Files that pass the checksum but lie: every field rewritten, the CRC

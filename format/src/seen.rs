@@ -44,7 +44,7 @@ pub fn decode(bytes: &[u8], triangles: usize, probes: u32) -> Result<Vec<u32>, C
 /// files), or, given `triangles`, only a table of that length.
 pub fn decode_runs(bytes: &[u8], triangles: Option<usize>) -> Result<Vec<u32>, CodingError> {
     let corrupt = |m: String| Err(CodingError::Corrupt(m));
-    let mut input = framed(bytes, MAGIC, VERSION, "point-to-go table")?;
+    let (_, mut input) = framed(bytes, MAGIC, VERSION..=VERSION, "point-to-go table")?;
     let body = input.bytes;
     let count = input.varint()?;
     if count > u64::from(MAX_TRIANGLES) || triangles.is_some_and(|t| t as u64 != count) {

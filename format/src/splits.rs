@@ -172,7 +172,7 @@ impl Refiner {
     /// stream order; on an error the mesh keeps the refinements before the
     /// faulty one (a valid mesh still).
     pub fn apply_packet(&mut self, bytes: &[u8]) -> Result<(), CodingError> {
-        let mut input = framed(bytes, MAGIC, VERSION, "vertex-split packet")?;
+        let (_, mut input) = framed(bytes, MAGIC, VERSION..=VERSION, "vertex-split packet")?;
         let body = input.bytes.len();
         let mut h = [0u64; 10];
         for x in h.iter_mut() {
@@ -547,7 +547,7 @@ pub fn packets(bytes: &[u8]) -> Result<Vec<&[u8]>, CodingError> {
             return corrupt("vertex-split packet truncated");
         }
         let packet = &rest[..end];
-        framed(packet, MAGIC, VERSION, "vertex-split packet")?;
+        framed(packet, MAGIC, VERSION..=VERSION, "vertex-split packet")?;
         out.push(packet);
         at += end;
     }

@@ -270,10 +270,11 @@ impl Lighting {
     /// for more, a rank-1 lattice over the disk shifted by `u`, each ray
     /// with its share) and one per point light, as `which` says, each with
     /// its light's index (suns first, then point lights). Lights below the
-    /// surface give none.
+    /// surface give none. A count of 0 is taken as 1.
     pub fn shadow_rays(&self, s: &Surface, u: Vec2, which: Which, sun_rays: u32, mut emit: impl FnMut(usize, Ray, Vec3)) {
         let from = s.lifted();
         let suns = if which == Which::Points { &[][..] } else { &self.suns[..] };
+        let sun_rays = sun_rays.max(1);
         let share = 1.0 / sun_rays as f32;
         for (k, &(dir, irradiance)) in suns.iter().enumerate() {
             for j in 0..sun_rays {

@@ -362,7 +362,7 @@ impl<'a> Tracer<'a> {
                             continue;
                         }
                         let u = Vec2::new(rng.random(), rng.random());
-                        self.lighting.shadow_rays(s, u, which, params.sun_rays.max(1), |k, r, e| shadows.push((k, i, r, e)));
+                        self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| shadows.push((k, i, r, e)));
                     }
                 }
                 surfaces.push(s);
