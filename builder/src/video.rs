@@ -18,6 +18,12 @@ use std::process::{Command, Stdio};
 /// 1024×512 gallery path, against 35 ms with one a second, for 7 % more bytes).
 pub const KEY_FRAME_INTERVAL_S: f32 = 1.0;
 
+/// libx264's preset. On 200 frames of a gallery path (1024 × 512, CRF 20)
+/// against `medium`: `faster` encodes 2.1× as fast for 3 % more bytes and
+/// 0.2 dB less PSNR, `veryfast` 2.9× for 6 % and 0.6 dB. At `medium`
+/// encoding took about a seventh of a final bundle's video time.
+const X264_PRESET: &str = "faster";
+
 fn key_frame_interval(fps: f32) -> u32 {
     (fps * KEY_FRAME_INTERVAL_S).round().max(1.0) as u32
 }
@@ -123,7 +129,7 @@ fn ffmpeg(program: &PathBuf, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, V
     let out = dir.path().join("video.mp4");
     let mut child = Command::new(program)
         .args(["-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", &format!("{w}x{h}"), "-r", &fps.to_string(), "-i", "-"])
-        .args(["-c:v", "libx264", "-preset", "medium", "-crf", "20", "-bf", "0", "-pix_fmt", "yuv420p"])
+        .args(["-c:v", "libx264", "-preset", X264_PRESET, "-crf", "20", "-bf", "0", "-pix_fmt", "yuv420p"])
         .args(["-g", &key, "-keyint_min", &key, "-sc_threshold", "0"])
         .args(["-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m", "-color_range", "tv"])
         .args(["-movflags", "+faststart", "-y"])

@@ -45,32 +45,33 @@ impl Lit {
     /// frame saw something else there.
     fn irradiance(&self, s: &Surface) -> Option<Vec3> {
         let d = s.position - self.eye;
-        let distance = d.length();
+        let across = (d.x * d.x + d.z * d.z).sqrt();
+        let distance = (across * across + d.y * d.y).sqrt();
         if distance <= 0.0 {
             return None;
         }
         // The bundle's yaw (0 toward −Z, turning toward +X) and the angle down from straight up.
-        let yaw = atan2(d.x, -d.z);
-        let down = atan2((d.x * d.x + d.z * d.z).sqrt(), d.y);
-        let x = (yaw / TAU).rem_euclid(1.0) * self.width as f32 - 0.5;
-        let y = down / PI * self.height as f32 - 0.5;
+        let yaw = atan2(d.x, -d.z) / TAU;
+        let down = atan2(across, d.y);
+        let (width, height) = (self.width as i32, self.height as i32);
+        let x = (if yaw < 0.0 { yaw + 1.0 } else { yaw }) * width as f32 - 0.5;
+        let y = down / PI * height as f32 - 0.5;
         // One pixel's footprint at that distance (the equator's, the largest).
         let footprint = TAU / self.width as f32 * distance;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
+        // x, y ≥ −0.5, so truncating x + 1 floors it (without a libm call).
+        let (x0, y0) = ((x + 1.0) as i32 - 1, (y + 1.0) as i32 - 1);
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
-            let yy = y0 as i64 + dy;
-            if yy < 0 || yy >= self.height as i64 {
+        for (yy, wy) in [(y0, 1.0 - fy), (y0 + 1, fy)] {
+            if yy < 0 || yy >= height {
                 continue;
             }
-            for (dx, wx) in [(0, 1.0 - fx), (1, fx)] {
-                let xx = (x0 as i64 + dx).rem_euclid(self.width as i64);
-                let Some((p, n, e)) = self.points[(yy * self.width as i64 + xx) as usize] else { continue };
+            for (xx, wx) in [(x0, 1.0 - fx), (x0 + 1, fx)] {
+                let xx = if xx < 0 { xx + width } else if xx >= width { xx - width } else { xx };
+                let Some((p, n, e)) = self.points[(yy * width + xx) as usize] else { continue };
                 // Neighbouring pixels' hits lie about a footprint apart; farther
                 // means another surface (an occluder in front, or beyond an edge).
-                let apart = (p - s.position).length() / (2.0 * footprint);
-                if apart > 1.0 {
+                if (p - s.position).length_squared() > 4.0 * footprint * footprint {
                     continue;
                 }
                 let w = wx * wy * geometric_weight(s.position, s.normal, p, n, footprint);

@@ -41,6 +41,10 @@ pub fn offset(p: Vec3) -> f32 {
 
 /// sRGB-encoded byte to linear, by table (powf per texel was a fifth of render time).
 pub fn srgb_to_linear(c: u8) -> f32 {
+    srgb_table()[c as usize]
+}
+
+fn srgb_table() -> &'static [f32; 256] {
     static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
         std::array::from_fn(|i| {
@@ -51,25 +55,30 @@ pub fn srgb_to_linear(c: u8) -> f32 {
                 ((c + 0.055) / 1.055).powf(2.4)
             }
         })
-    })[c as usize]
+    })
 }
 
 /// Bilinear filtering of a tiled sRGB texture: linear RGB and alpha.
 fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
-    let (w, h) = (img.width(), img.height());
-    let wrap = |t: f32| t - t.floor();
-    let (x, y) = (wrap(uv.x) * w as f32 - 0.5, wrap(uv.y) * h as f32 - 0.5);
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    // x0 >= -1, so adding the size once keeps the index positive before wrapping.
-    let (xi, yi) = ((x0 as i64 + w as i64) as u32, (y0 as i64 + h as i64) as u32);
-    let texel = |dx: u32, dy: u32| {
-        let p = img.get_pixel((xi + dx) % w, (yi + dy) % h);
-        (Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])), p[3] as f32 / 255.0)
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let table = srgb_table();
+    // The texel grid's coordinates, shifted to be positive: uv tiles, and
+    // truncation floors a positive number without a libm call.
+    let tiled = |t: f32, size: usize| {
+        let t = (t - (t as i64) as f32 + 2.0) * size as f32 - 0.5;
+        let i = t as usize;
+        (i % size, (i + 1) % size, t - i as f32)
+    };
+    let (x0, x1, fx) = tiled(uv.x, w);
+    let (y0, y1, fy) = tiled(uv.y, h);
+    let raw = img.as_raw();
+    let texel = |x: usize, y: usize| {
+        let p = &raw[4 * (y * w + x)..][..4];
+        (Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize]), p[3] as f32 / 255.0)
     };
     let mix = |a: (Vec3, f32), b: (Vec3, f32), f: f32| (a.0 * (1.0 - f) + b.0 * f, a.1 * (1.0 - f) + b.1 * f);
-    let top = mix(texel(0, 0), texel(1, 0), fx);
-    let bottom = mix(texel(0, 1), texel(1, 1), fx);
+    let top = mix(texel(x0, y0), texel(x1, y0), fx);
+    let bottom = mix(texel(x0, y1), texel(x1, y1), fx);
     mix(top, bottom, fy)
 }
 
@@ -406,4 +415,36 @@ pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
     let phi = std::f32::consts::TAU * u.y;
     (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The texture tiles in both directions and interpolates between texel
+    /// centres: checked against the textbook formula (floor and wrap) at
+    /// coordinates on texel centres and edges, negative, and beyond one tile.
+    #[test]
+    fn bilinear_tiles_and_interpolates_like_the_textbook_formula() {
+        let (w, h) = (5u32, 3u32);
+        let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba([(40 * x + 7 * y) as u8, (50 * y) as u8, 200, (60 * x) as u8]));
+        let textbook = |uv: Vec2| {
+            let (x, y) = ((uv.x - uv.x.floor()) * w as f32 - 0.5, (uv.y - uv.y.floor()) * h as f32 - 0.5);
+            let (x0, y0) = (x.floor(), y.floor());
+            let at = |dx: i64, dy: i64| {
+                let p = img.get_pixel((x0 as i64 + dx).rem_euclid(w as i64) as u32, (y0 as i64 + dy).rem_euclid(h as i64) as u32);
+                Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2])).extend(p[3] as f32 / 255.0)
+            };
+            let (fx, fy) = (x - x0, y - y0);
+            (at(0, 0) * (1.0 - fx) + at(1, 0) * fx) * (1.0 - fy) + (at(0, 1) * (1.0 - fx) + at(1, 1) * fx) * fy
+        };
+        for i in -40..=40 {
+            for j in -13..=13 {
+                let uv = Vec2::new(i as f32 * 0.05 + 0.001 * j as f32, j as f32 * 0.1);
+                let (rgb, alpha) = bilinear(&img, uv);
+                let want = textbook(uv);
+                assert!((rgb.extend(alpha) - want).abs().max_element() < 2e-3, "at {uv}: {rgb} {alpha} against {want}");
+            }
+        }
+    }
 }
