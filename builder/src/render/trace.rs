@@ -317,7 +317,9 @@ impl<'a> Tracer<'a> {
         let mut at = Vec::with_capacity(pixels.len());
         let mut hits = vec![None; pixels.len()];
         let mut surfaces = Vec::with_capacity(pixels.len());
-        let mut shadows: Vec<(usize, usize, Ray, Vec3)> = Vec::new();
+        // Shadow rays by light (suns first, then point lights), so each packet
+        // of 8 shares a light (a coherent frustum): (pixel, ray, irradiance).
+        let mut shadows: Vec<Vec<(usize, Ray, Vec3)>> = vec![Vec::new(); self.lighting.suns.len() + self.lighting.points.len()];
         let mut direct = vec![Vec3::ZERO; pixels.len()];
         let mut reused: Vec<Option<Vec3>> = vec![None; pixels.len()];
         let mut last_hit = vec![None; pixels.len()];
@@ -341,7 +343,7 @@ impl<'a> Tracer<'a> {
             // First hits; direct light at them with shadow rays in packets.
             let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
             surfaces.clear();
-            shadows.clear();
+            shadows.iter_mut().for_each(Vec::clear);
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let mut ray = rays[i];
                 let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
@@ -362,28 +364,27 @@ impl<'a> Tracer<'a> {
                             continue;
                         }
                         let u = Vec2::new(rng.random(), rng.random());
-                        self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| shadows.push((k, i, r, e)));
+                        self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| shadows[k].push((i, r, e)));
                     }
                 }
                 surfaces.push(s);
             }
             direct.iter_mut().for_each(|d| *d = Vec3::ZERO);
-            // Light by light, so each packet of 8 shares a light (a coherent frustum).
-            shadows.sort_by_key(|s| s.0);
+            // Light by light, in each pixel's order of lights.
             if self.materials.has_cutouts {
-                for (_, i, r, e) in &shadows {
+                for (i, r, e) in shadows.iter().flatten() {
                     if self.visible(r) {
                         direct[*i] += *e;
                     }
                 }
             } else {
                 let mut blocked = [false; 8];
-                for chunk in shadows.chunks(8) {
-                    let r8: Vec<Ray> = chunk.iter().map(|c| c.2).collect();
+                for chunk in shadows.iter().flat_map(|light| light.chunks(8)) {
+                    let r8: smallvec::SmallVec<[Ray; 8]> = chunk.iter().map(|c| c.1).collect();
                     self.rays.occluded8(&r8, &mut blocked, true);
                     for (c, &b) in chunk.iter().zip(&blocked) {
                         if !b {
-                            direct[c.1] += c.3;
+                            direct[c.0] += c.2;
                         }
                     }
                 }
