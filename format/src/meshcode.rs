@@ -588,10 +588,11 @@ impl<'a> Source<'a> {
         }
         // At most 32 bits from any bit offset: five bytes.
         let (byte, shift) = (self.raw_at / 8, self.raw_at % 8);
-        let mut window = 0u64;
-        for (i, &b) in self.raw[byte..(byte + 5).min(self.raw.len())].iter().enumerate() {
-            window |= (b as u64) << (8 * i);
-        }
+        let window = match self.raw.get(byte..byte + 8) {
+            Some(eight) => u64::from_le_bytes(eight.try_into().expect("eight bytes")),
+            // Near the end: the bytes that are left.
+            None => self.raw[byte..].iter().rev().fold(0u64, |w, &b| w << 8 | b as u64),
+        };
         self.raw_at += bits as usize;
         Ok(((window >> shift) & ((1u64 << bits) - 1)) as u32)
     }
