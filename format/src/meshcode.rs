@@ -586,7 +586,8 @@ impl<'a> Source<'a> {
         if bits > 32 || self.raw_at + bits as usize > self.raw.len() * 8 {
             return Err(CodingError::Corrupt("raw bits run out".into()));
         }
-        // At most 32 bits from any bit offset: five bytes.
+        // At most 32 bits from any bit offset: within five bytes, read as one
+        // little-endian word of eight where eight are left.
         let (byte, shift) = (self.raw_at / 8, self.raw_at % 8);
         let window = match self.raw.get(byte..byte + 8) {
             Some(eight) => u64::from_le_bytes(eight.try_into().expect("eight bytes")),

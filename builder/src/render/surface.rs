@@ -64,10 +64,11 @@ fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
     let table = srgb_table();
     // The texel grid's coordinates, shifted to be positive: uv tiles, and
     // truncation floors a positive number without a libm call.
+    // (Casts saturate, so huge or infinite coordinates give some texel, not a panic.)
     let tiled = |t: f32, size: usize| {
         let t = (t - (t as i64) as f32 + 2.0) * size as f32 - 0.5;
-        let i = t as usize;
-        (i % size, (i + 1) % size, t - i as f32)
+        let i = (t as usize) % size;
+        (i, if i + 1 == size { 0 } else { i + 1 }, (t - (t as usize) as f32).clamp(0.0, 1.0))
     };
     let (x0, x1, fx) = tiled(uv.x, w);
     let (y0, y1, fy) = tiled(uv.y, h);
@@ -423,7 +424,8 @@ mod tests {
 
     /// The texture tiles in both directions and interpolates between texel
     /// centres: checked against the textbook formula (floor and wrap) at
-    /// coordinates on texel centres and edges, negative, and beyond one tile.
+    /// coordinates on texel centres and edges, negative, and beyond one tile;
+    /// huge, infinite and NaN coordinates do not panic.
     #[test]
     fn bilinear_tiles_and_interpolates_like_the_textbook_formula() {
         let (w, h) = (5u32, 3u32);
@@ -438,6 +440,9 @@ mod tests {
             let (fx, fy) = (x - x0, y - y0);
             (at(0, 0) * (1.0 - fx) + at(1, 0) * fx) * (1.0 - fy) + (at(0, 1) * (1.0 - fx) + at(1, 1) * fx) * fy
         };
+        for uv in [Vec2::new(f32::INFINITY, 0.5), Vec2::new(-1e30, f32::NEG_INFINITY), Vec2::new(3e19, 1e10), Vec2::splat(f32::NAN)] {
+            bilinear(&img, uv);
+        }
         for i in -40..=40 {
             for j in -13..=13 {
                 let uv = Vec2::new(i as f32 * 0.05 + 0.001 * j as f32, j as f32 * 0.1);
