@@ -244,8 +244,8 @@ fn parse_point(text: &str) -> Result<[f32; 3], String> {
 pub struct RenderArgs {
     /// final: 2 samples a pixel, every light sampled (4 shadow rays over the sun's
     /// disk), global illumination gathered one bounce deep over the baked radiance
-    /// cache, cube faces 512/1024/2048 and 1024-wide videos (about 24 s a probe and
-    /// 0.3 s a video frame on the Crytek Sponza, 2 cores); preview: one sample
+    /// cache, cube faces 512/1024/2048 and 1024-wide videos (about 20 s a probe and
+    /// 0.2 s a video frame on the Crytek Sponza, 2 cores); preview: one sample
     /// through each pixel centre, 512 faces, 512-wide videos (a few times faster);
     /// tour: final with 4096 faces (512-pixel tiles up to 8 × 8 a face), the size
     /// tour sites publish, at about four times final's time a probe.

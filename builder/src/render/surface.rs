@@ -67,8 +67,9 @@ fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
     // (Casts saturate, so huge or infinite coordinates give some texel, not a panic.)
     let tiled = |t: f32, size: usize| {
         let t = (t - (t as i64) as f32 + 2.0) * size as f32 - 0.5;
-        let i = (t as usize) % size;
-        (i, if i + 1 == size { 0 } else { i + 1 }, (t - (t as usize) as f32).clamp(0.0, 1.0))
+        let whole = t as usize;
+        let i = whole % size;
+        (i, if i + 1 == size { 0 } else { i + 1 }, (t - whole as f32).clamp(0.0, 1.0))
     };
     let (x0, x1, fx) = tiled(uv.x, w);
     let (y0, y1, fy) = tiled(uv.y, h);
