@@ -12,6 +12,12 @@ mkdir -p "$tmp/viewer"
 wasm-bindgen --target web --no-typescript --remove-name-section --remove-producers-section --out-dir "$tmp/viewer" --out-name exploremaps \
   target/wasm32-unknown-unknown/web/exploremaps_web.wasm
 cp web/index.html "$tmp/index.html"
-rm -rf "$out"
-mv "$tmp" "$out"
+# File by file, and only what changed: renders running meanwhile (the test
+# suite runs this beside them) copy these into bundles, and must never find
+# the folder gone. Each rename is atomic.
+mkdir -p "$out/viewer"
+for f in index.html viewer/exploremaps.js viewer/exploremaps_bg.wasm; do
+  cmp -s "$tmp/$f" "$out/$f" || mv -f "$tmp/$f" "$out/$f"
+done
+rm -rf "$tmp"
 echo "web viewer: $out ($(gzip -9 -c "$out/viewer/exploremaps_bg.wasm" | wc -c) bytes of wasm gzipped)"
