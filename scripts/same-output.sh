@@ -9,6 +9,8 @@
 #
 # Keep a copy of the old binary before changing the code, e.g.
 #   cp target/release/exploremaps /tmp/exploremaps-before
+# OLD_BINARY may instead be the `old` folder of an earlier run, to compare
+# against its outputs without making them again.
 set -euo pipefail
 
 if [ $# -lt 2 ]; then
@@ -18,14 +20,19 @@ fi
 old=$1
 new=$2
 work=${3:-target/same-output}
-for bin in "$old" "$new"; do
-  [ -x "$bin" ] || { echo "$bin: not an executable; build it first (cargo build --release)" >&2; exit 2; }
-done
+sides="old new"
+if [ -d "$old" ]; then
+  sides=new
+else
+  [ -x "$old" ] || { echo "$old: not an executable or an earlier run's old folder; build it first (cargo build --release)" >&2; exit 2; }
+fi
+[ -x "$new" ] || { echo "$new: not an executable; build it first (cargo build --release)" >&2; exit 2; }
 
-rm -rf "$work"
+rm -rf "$work/new"
+[ "$sides" = new ] || rm -rf "$work/old"
 mkdir -p "$work"
 status=0
-for side in old new; do
+for side in $sides; do
   bin=$old
   [ "$side" = new ] && bin=$new
   for scene in gallery pillars island; do
@@ -37,10 +44,12 @@ for side in old new; do
   "$bin" -q --seed 7 --threads "$threads" build house --quality preview -o "$work/$side/house" >/dev/null 2>&1
 done
 
-if diff -r -q --exclude=timings.json --exclude=index.html --exclude=viewer "$work/old" "$work/new"; then
+old_dir="$work/old"
+[ -d "$old" ] && old_dir=$old
+if diff -r -q --exclude=timings.json --exclude=index.html --exclude=viewer "$old_dir" "$work/new"; then
   echo "same output: $(find "$work/new" -type f ! -name timings.json ! -name index.html ! -path "*/viewer/*" | wc -l) files identical"
 else
-  echo "the outputs differ (above); inspect $work/old and $work/new" >&2
+  echo "the outputs differ (above); inspect $old_dir and $work/new" >&2
   status=1
 fi
 exit $status

@@ -1,11 +1,11 @@
 //! `exploremaps`: the command-line front end. Glue only: parse arguments, set
-//! up logging and threads, call the builder, map errors to exit codes
-//! (1: failure, 2: bad input).
+//! up logging and threads, call the builder, map errors to exit codes in one
+//! place ([`exit_code`]; 1: failure, 2: bad input).
 
 mod cli;
 mod serve;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Parser;
 use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs, ShardArg};
 use exploremaps_builder::render::{Quality, Settings};
@@ -22,7 +22,8 @@ use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE}
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-/// An error caused by what the user gave us, not by the program: exit code 2.
+/// A command-line option or name that cannot be used (exit code 2); the
+/// crates' own errors are mapped by [`exit_code`].
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 struct BadInput(String);
@@ -40,14 +41,46 @@ fn main() -> ExitCode {
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            if e.downcast_ref::<BadInput>().is_some() || e.downcast_ref::<LoadError>().is_some() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::FAILURE
-            }
+            eprintln!("error: {}", message(&e));
+            ExitCode::from(exit_code(&e))
         }
     }
+}
+
+/// 2 when what the user gave is at fault (options, scene files, bundles,
+/// start points and probes outside the free space, tour and link names), 1
+/// for everything else (the program, the disk, the GPU).
+fn exit_code(e: &anyhow::Error) -> u8 {
+    use exploremaps_builder::{export::ExportError, tour::TourError};
+    use exploremaps_viewer::native::ViewError;
+    let bad_input = e.chain().any(|cause| {
+        cause.is::<BadInput>()
+            || cause.is::<LoadError>()
+            || matches!(cause.downcast_ref(), Some(pipeline::PlanError::FreeSpace(_)))
+            || cause.is::<ExportError>()
+            || matches!(cause.downcast_ref(), Some(TourError::Image { .. } | TourError::NotRendered(_) | TourError::Occupied(_) | TourError::Library { .. }))
+            || matches!(cause.downcast_ref(), Some(ViewError::Read { .. } | ViewError::Format { .. } | ViewError::Link(_) | ViewError::Empty))
+    });
+    if bad_input {
+        2
+    } else {
+        1
+    }
+}
+
+/// The error and its causes, each said once: most errors already quote
+/// their source in their own text.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain().map(|c| c.to_string()) {
+        if !text.contains(&cause) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&cause);
+        }
+    }
+    text
 }
 
 fn init_logging(verbose: u8, quiet: u8) {
@@ -80,7 +113,7 @@ fn run(cli: &Cli) -> Result<()> {
             let scene = builtin.generate(cli.seed);
             match output {
                 Some(path) => {
-                    exploremaps_builder::export::export(&scene, path).map_err(|e| BadInput(e.to_string()))?;
+                    exploremaps_builder::export::export(&scene, path)?;
                     println!("wrote {} ({} triangles)", path.display(), scene.triangles.len());
                     Ok(())
                 }
@@ -112,10 +145,7 @@ fn run(cli: &Cli) -> Result<()> {
                 None => Link { probe: *probe, yaw_deg: *yaw, pitch_deg: *pitch, fov_deg: *fov, dollhouse: false },
             };
             let options = native::ViewOptions { link, tour: *tour, benchmark: *benchmark, started: *STARTED.get_or_init(Instant::now) };
-            native::run(bundle, options).map_err(|e| match e {
-                native::ViewError::Read { .. } | native::ViewError::Format { .. } | native::ViewError::Link(_) | native::ViewError::Empty => BadInput(e.to_string()).into(),
-                e => anyhow::Error::from(e),
-            })
+            Ok(native::run(bundle, options)?)
         }
         Command::Export { bundle, output, to, library } => export_tour(bundle, output.as_deref(), to, library.as_deref()),
         Command::Serve { bundle, address } => serve::serve(bundle, address, web_dir().as_deref()),
@@ -137,10 +167,7 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
     let out = output.map_or_else(|| tour::default_folder(bundle), Path::to_path_buf);
     let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
     let started = Instant::now();
-    let report = tour::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64)).map_err(|e| match e {
-        tour::TourError::Io { .. } => anyhow::Error::from(e),
-        e => BadInput(e.to_string()).into(),
-    })?;
+    let report = tour::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
     let names: Vec<&str> = viewers.iter().map(|v| v.folder()).collect();
     println!(
@@ -249,26 +276,10 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
     let result = pipeline::plan(&scene, &source, &params);
     spinner.finish_and_clear();
-    let mut plan = result.map_err(|e| plan_error(e, ""))?;
-    // What `exploremaps coverage` needs to measure this bundle again.
-    plan.graph.stats.insert(
-        "plan".into(),
-        serde_json::json!({
-            "seed": seed,
-            "up": scene_args.up,
-            "metres_per_unit": scene_args.metres_per_unit,
-            "max_triangles": scene_args.max_triangles,
-            "space": format!("{:?}", planning.space).to_lowercase(),
-            "strategy": format!("{:?}", planning.strategy).to_lowercase(),
-            "coverage_target": planning.coverage,
-            "near_m": planning.near_m,
-            "max_cells": planning.max_cells,
-            "cluster": !planning.no_cluster,
-            "height": if planning.walk { "walk" } else if planning.fly { "fly" } else { "auto" },
-            "eye_height_m": planning.eye_height_m,
-            "seconds": plan.seconds,
-        }),
-    );
+    let mut plan = result?;
+    // What `exploremaps coverage` and `render` need to load the scene again.
+    let recorded = cli::Recorded::new(scene_args, planning, seed, plan.seconds);
+    plan.graph.stats.insert("plan".into(), serde_json::to_value(recorded).unwrap_or_default());
     exploremaps_builder::bundle::write_plan(output, &plan)?;
     print_plan(&scene, output, &plan);
     Ok(())
@@ -282,16 +293,13 @@ fn read_graph(bundle: &Path) -> Result<Graph> {
 }
 
 /// A planned bundle's graph and its scene, loaded as `plan` loaded it.
-fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, serde_json::Value)> {
+fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, cli::Recorded)> {
     let graph = read_graph(bundle)?;
-    let recorded = graph.stats.get("plan").cloned().unwrap_or_default();
-    let scene_args = SceneArgs {
-        scene: graph.scene.source.clone(),
-        up: recorded["up"].as_str().unwrap_or("y").to_string(),
-        metres_per_unit: recorded["metres_per_unit"].as_f64().map(|m| m as f32),
-        max_triangles: recorded["max_triangles"].as_u64().unwrap_or(load::MAX_TRIANGLES),
+    let recorded: cli::Recorded = match graph.stats.get("plan") {
+        Some(entry) => serde_json::from_value(entry.clone()).map_err(|e| BadInput(format!("{}: its stats.plan entry: {e}", bundle.join(GRAPH_FILE).display())))?,
+        None => cli::Recorded::default(),
     };
-    let (scene, _) = load_scene(&scene_args, recorded["seed"].as_u64().unwrap_or(1)).map_err(|e| BadInput(format!("the bundle's scene {}: {e:#}", graph.scene.source)))?;
+    let (scene, _) = load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
     Ok((graph, scene, recorded))
 }
 
@@ -340,7 +348,7 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
     let (index, count) = shard.unwrap_or((0, 1));
     let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.quality.name()));
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
-    let report = exploremaps_builder::bundle::render_missing(bundle, &scene, &mut graph, settings, exploremaps_builder::bundle::Shard { index, count }, |done, total| {
+    let report = exploremaps_builder::render::render_missing(bundle, &scene, &mut graph, settings, exploremaps_builder::render::Shard { index, count }, |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })?;
@@ -383,10 +391,10 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> 
     Ok(())
 }
 
-/// `render --finalize`: completes a split render (see `bundle::finalize`).
+/// `render --finalize`: completes a split render (see `render::finalize`).
 fn finalize(bundle: &Path) -> Result<()> {
     let mut graph = read_graph(bundle)?;
-    let checked = exploremaps_builder::bundle::finalize(bundle, &mut graph)?;
+    let checked = exploremaps_builder::render::finalize(bundle, &mut graph)?;
     println!("{}: complete, {checked} files checked; graph.json written", bundle.display());
     Ok(())
 }
@@ -403,24 +411,15 @@ fn web_dir() -> Option<std::path::PathBuf> {
 }
 
 /// `exploremaps coverage`: measure a planned bundle's probes again.
-/// Free-space errors come from what the user gave (a start point, a probe, a
-/// near distance): exit code 2, like every bad input.
-fn plan_error(e: pipeline::PlanError, from: &str) -> anyhow::Error {
-    match e {
-        pipeline::PlanError::FreeSpace(e) => anyhow::Error::new(BadInput(format!("{from}{e}"))),
-        other => other.into(),
-    }
-}
-
 fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     let (graph, scene, recorded) = open_bundle(bundle)?;
-    let seed = recorded["seed"].as_u64().unwrap_or(1);
+    let seed = recorded.seed;
     let space = match graph.scene.space.as_deref() {
         Some("outside") => SpaceMode::Outside,
         _ => SpaceMode::Inside,
     };
     let near_m = graph.scene.near_distance.map(|r| r * scene.metres_per_unit);
-    let max_cells = recorded["max_cells"].as_u64().unwrap_or(256) as usize;
+    let max_cells = recorded.max_cells;
     let height = match graph.scene.eye_height_m {
         Some(_) => HeightMode::Walk,
         None => HeightMode::Fly,
@@ -435,8 +434,7 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
     let spinner = spinner(format!("measuring coverage of {} probes", graph.probes.len()));
     let result = pipeline::remeasure(&scene, graph, &params);
     spinner.finish_and_clear();
-    let from = format!("{} (its probes): ", bundle.join(GRAPH_FILE).display());
-    let plan = result.map_err(|e| plan_error(e, &from))?;
+    let plan = result.with_context(|| format!("{} (its probes)", bundle.join(GRAPH_FILE).display()))?;
     exploremaps_builder::bundle::write_plan(bundle, &plan)?;
     print_plan(&scene, bundle, &plan);
     Ok(())
@@ -452,7 +450,7 @@ fn num(x: f64) -> String {
 }
 
 fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
-    let f = &plan.free_space;
+    let f = &plan.stats.free_space;
     let c = &plan.coverage;
     let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
@@ -469,26 +467,25 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
             if levels.is_empty() { "no single height (rolling ground)".to_string() } else { levels.join(", ") }
         );
     }
-    if plan.explore.probes > 0 {
-        println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", plan.explore.probes, plan.explore.rays as f64 / 1e6, plan.explore.seconds);
+    let e = &plan.stats.explore;
+    if e.probes > 0 {
+        println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", e.probes, e.rays as f64 / 1e6, e.seconds);
     }
-    if let Some(c) = plan.graph.stats.get("cluster") {
-        println!(
-            "  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)",
-            c["clusters"], c["final_probes"], c["added_back"], c["seconds"].as_f64().unwrap_or(0.0)
-        );
+    if let Some(c) = &plan.stats.cluster {
+        println!("  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)", c.clusters, c.final_probes, c.added_back, c.seconds);
     }
-    if let (Some(c), Some(m)) = (plan.graph.stats.get("connect"), plan.graph.stats.get("smooth")) {
+    let (paths, m) = (&plan.stats.connect, &plan.stats.smooth);
+    if e.probes > 0 {
         println!(
             "  paths       {} paths ({} pairs share a view, {} pruned), {} component(s); smoothed at {:.1} ms a path, clearance ≥ {} (r = {}) ({:.2} s)",
-            c["paths"],
-            c["pairs_sharing_view"],
-            c["pruned"],
-            c["components"],
-            1000.0 * m["seconds_per_path"].as_f64().unwrap_or(0.0),
-            num(m["min_clearance"].as_f64().unwrap_or(0.0)),
-            num(m["near_distance"].as_f64().unwrap_or(0.0)),
-            c["seconds"].as_f64().unwrap_or(0.0) + m["seconds"].as_f64().unwrap_or(0.0)
+            paths.paths,
+            paths.pairs_sharing_view,
+            paths.pruned,
+            paths.components,
+            1000.0 * m.seconds_per_path,
+            num(m.min_clearance as f64),
+            num(m.near_distance as f64),
+            paths.seconds + m.seconds
         );
     }
     println!(

@@ -9,7 +9,8 @@
 //! at most 44, at least 98 % with the paper's 36.
 
 use exploremaps_builder::coverage::{coverage, CoverageParams};
-use exploremaps_builder::explore::{explore, CubeView, ExploreParams, Strategy};
+use exploremaps_builder::explore::{explore, ExploreParams, Strategy};
+use exploremaps_builder::visibility::CubeView;
 use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::raycast::RayScene;

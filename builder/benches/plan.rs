@@ -1,5 +1,5 @@
-//! The whole planning pipeline, stage by stage, next to the paper's Table 1
-//! (DESIGN.md section 4). `cargo bench -p exploremaps-builder --bench plan`.
+//! The whole planning pipeline, stage by stage, next to the timings the
+//! ExploreMaps paper reports (Di Benedetto et al., Eurographics 2014). `cargo bench -p exploremaps-builder --bench plan`.
 //! Goals (issue: paths): paths plus smoothing within 1 s on the Crytek Sponza,
 //! at most 10 ms a path; a full plan (load to order) within 6 s.
 
@@ -32,15 +32,15 @@ fn main() {
     let params = PlanParams { coverage: CoverageParams { samples: 10_000, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() };
     for (name, scene, load_s) in &scenes {
         let p = plan(scene, name, &params).expect("plan");
-        let s = &p.graph.stats;
-        let secs = |k: &str| s.get(k).and_then(|v| v["seconds"].as_f64()).unwrap_or(0.0);
-        let stages = [secs("free_space"), secs("explore"), secs("cluster"), secs("orient"), secs("connect"), secs("smooth"), secs("order")];
+        let s = &p.stats;
+        let cluster = s.cluster.as_ref().map_or(0.0, |c| c.seconds);
+        let stages = [s.free_space.seconds, s.explore.seconds, cluster, s.orient.seconds, s.connect.seconds, s.smooth.seconds, s.order.seconds];
         let planning = load_s + stages.iter().sum::<f64>();
         println!(
             "{:<16} {:>9} {:>6} {:>6} {:>8} {:>5} | {:>6.2} {:>6.2} {:>7.2} {:>7.2} {:>6.2} {:>7.2} {:>7.3} {:>6.3} | {:>8.2} {:>7.2}",
             name,
             scene.triangles.len(),
-            p.explore.probes,
+            s.explore.probes,
             p.graph.probes.len(),
             p.graph.clusters.len(),
             p.graph.paths.len(),
@@ -53,7 +53,7 @@ fn main() {
             stages[5],
             stages[6],
             planning,
-            1000.0 * s["smooth"]["seconds_per_path"].as_f64().unwrap_or(0.0),
+            1000.0 * s.smooth.seconds_per_path,
         );
     }
     println!("paper, Sponza      262267     -     36       10    29 |   exploration 23 s, smoothing 122 s, total planning 189 s (i7 + GTX 670)");

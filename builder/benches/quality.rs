@@ -35,7 +35,7 @@
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
-use exploremaps_builder::render::{
+use exploremaps_builder::renderer::{
     downsample, psnr, srgb_to_linear, to_image, Quality, Renderer, Settings, TraceParams, Tracer,
 };
 use exploremaps_format::cube_direction;
@@ -145,7 +145,7 @@ fn main() {
         let t = Instant::now();
         let mut renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
         if !keep("sky") {
-            renderer.tracer.lighting.sky = exploremaps_builder::render::Sky::NONE;
+            renderer.tracer.lighting.sky = exploremaps_builder::renderer::Sky::NONE;
         }
         let bake = t.elapsed().as_secs_f64();
         let exposure = renderer.exposure;

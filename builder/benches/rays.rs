@@ -6,11 +6,11 @@
 //! stage's workload, in 4×2 pixel tiles, and a 1024² view down a corridor), incoherent (cosine-weighted bounce rays from the primary hits), shadow
 //! (from the hits to a point light). Output buffers are reused, as in the hot loops.
 //! Packets are traced both plainly and flagged COHERENT (one frustum per packet).
-//! Reference limits measured on these 2-core machines (DESIGN.md section 4):
+//! Reference limits measured on these 2-core machines when the project began:
 //! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
 
 use exploremaps_builder::coverage::cosine_dir;
-use exploremaps_builder::explore::CubeView;
+use exploremaps_builder::visibility::CubeView;
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::BuiltIn;
 use glam::Vec3;

@@ -9,7 +9,7 @@ use exploremaps_builder::coverage::CoverageParams;
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
-use exploremaps_builder::render::{equirect_direction, Quality, Renderer, Settings};
+use exploremaps_builder::renderer::{equirect_direction, Quality, Renderer, Settings};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
 use std::path::Path;
@@ -114,7 +114,7 @@ fn main() {
         exploremaps_builder::bundle::write_plan(dir.path(), &planned).unwrap();
         let mut g = planned.graph.clone();
         let t = Instant::now();
-        let report = exploremaps_builder::bundle::render_missing(dir.path(), &scene, &mut g, &Settings::new(Quality::Final, 1), exploremaps_builder::bundle::Shard { index: 0, count: 1 }, |_, _| {}).unwrap();
+        let report = exploremaps_builder::render::render_missing(dir.path(), &scene, &mut g, &Settings::new(Quality::Final, 1), exploremaps_builder::render::Shard { index: 0, count: 1 }, |_, _| {}).unwrap();
         println!(
             "\nwhole bundle at final quality: {} probes, {} paths in {:.0} s ({:.1} min; goal 20 min), videos by {}",
             report.probes_rendered,

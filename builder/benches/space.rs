@@ -88,7 +88,7 @@ fn main() {
             let again_ceiling = again.ceiling();
             let baselines: f64 = result.baselines.iter().map(|b| b.report.seconds).sum();
             let planning = result.seconds - report.seconds - baselines;
-            let (eye_err, levels) = match (&space.walk, &result.free_space.walk) {
+            let (eye_err, levels) = match (&space.walk, &result.stats.free_space.walk) {
                 (Some(w), Some(stats)) => {
                     let err = probes
                         .iter()
@@ -106,7 +106,7 @@ fn main() {
             println!(
                 "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
                 mode(height),
-                result.free_space.space,
+                result.stats.free_space.space,
                 probes.len(),
                 planning,
                 result.seconds,
@@ -121,7 +121,7 @@ fn main() {
                 eye_err,
                 levels
             );
-            println!("{:<10} {}; {}", "", result.free_space.space_reason, result.free_space.height_reason);
+            println!("{:<10} {}; {}", "", result.stats.free_space.space_reason, result.stats.free_space.height_reason);
         }
     }
     println!("columns: plan s = free space to bar order; total s adds the coverage metric and its random and grid baselines;");

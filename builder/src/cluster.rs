@@ -1,6 +1,6 @@
 //! Cluster: group probes that see the same surface, with the Markov Cluster
 //! algorithm (van Dongen 2000), and replace each group by one synthesized
-//! probe (DESIGN.md section 3.5, the paper's section 5).
+//! probe (the ExploreMaps paper, section 5).
 //!
 //! Inputs: per probe, the set of surface samples it sees (bitsets over the
 //! same samples) and the area each sample stands for. Output: a cluster label
@@ -83,7 +83,7 @@ pub fn synthesize(
 ) -> (Synthesized, SynthesisStats) {
     let started = Instant::now();
     let mut stats = SynthesisStats { candidates: candidates.len(), ..Default::default() };
-    let (targets, cast) = Targets::new(scene, rays, space, params.selection_samples, 256, params.seed ^ 0x7379_6e74);
+    let (targets, cast) = Targets::new(scene, rays, space, params.selection_samples, 256, crate::seeds::Stream::Synthesis.seed(params.seed));
     stats.rays += cast;
     let seen: Vec<Vec<u64>> = candidates.par_iter().map(|c| targets.seen_by(rays, c.position, None).0).collect();
     let (labels, mcl) = markov_cluster(&similarity(&overlap(&seen, 1.0)));
@@ -213,7 +213,7 @@ fn anneal(
     (best, cast)
 }
 
-use crate::coverage::{count_bits, Targets};
+use crate::visibility::{count_bits, Targets};
 use crate::explore::Candidate;
 use crate::freespace::FreeSpace;
 use crate::orient;

@@ -1,5 +1,5 @@
 //! Connect: which probes get a path between them, and the raw path
-//! (DESIGN.md section 3.7; the paper's section 6).
+//! (the ExploreMaps paper, section 6).
 //!
 //! Inputs: the ray-casting scene, the navigable [`FreeSpace`], final probes.
 //! Output: raw polylines between connected probe pairs, and [`ConnectStats`].
@@ -19,8 +19,7 @@
 use crate::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use rand::Rng;
 use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -80,7 +79,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     let started = Instant::now();
     let mut stats = ConnectStats::default();
     let navigable = space.navigable_points();
-    let mut rng = Pcg64Mcg::seed_from_u64(params.seed ^ 0x636f_6e6e);
+    let mut rng = crate::seeds::Stream::Connect.rng(params.seed);
     let witnesses: Vec<Vec3> = if navigable.is_empty() { Vec::new() } else { (0..params.witness_points).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
     let seen: Vec<Vec<bool>> = probes
         .par_iter()

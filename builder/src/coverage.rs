@@ -1,7 +1,8 @@
-//! Coverage: how much of the reachable surface a set of probes sees
-//! (DESIGN.md section 3.4). An independent check of exploration: it samples the
-//! surface itself and tests visibility with its own occlusion rays, never with
-//! the cube maps exploration uses.
+//! Coverage: how much of the reachable surface a set of probes sees. An
+//! independent check of exploration: it samples the surface itself and tests
+//! visibility from the final probes with its own occlusion rays, never with
+//! the stages' `crate::visibility`. Reachability (step 2) is the one
+//! definition both use, so those stages optimise what this measures.
 //!
 //! Inputs: the scene, its ray-casting structure, the navigable [`FreeSpace`],
 //! probe positions in placement order, [`CoverageParams`].
@@ -123,7 +124,7 @@ impl CoverageReport {
 /// Samples the surface uniformly by area with a seeded generator.
 pub fn surface_samples(scene: &Scene, count: usize, seed: u64) -> SurfaceSamples {
     let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x636f_7665);
+    let mut rng = crate::seeds::Stream::Surface.rng(seed);
     let mut s = SurfaceSamples::default();
     let total = sample_triangles(scene, &all, count, &mut rng, &mut s);
     s.area_each = total / count.max(1) as f64;
@@ -140,7 +141,7 @@ pub fn stratified_samples(scene: &Scene, count: usize, min_per_object: usize, se
     for &t in &s.triangles {
         per_object[scene.triangle_object[t as usize] as usize] += 1;
     }
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x7374_7261);
+    let mut rng = crate::seeds::Stream::Strata.rng(seed);
     for (object, &have) in per_object.iter().enumerate() {
         if have < min_per_object {
             let triangles: Vec<u32> = (0..scene.triangles.len() as u32).filter(|&t| scene.triangle_object[t as usize] == object as u32).collect();
@@ -246,78 +247,6 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
         .collect();
     let (side, from_open) = reached.into_iter().unzip();
     (side, from_open, samples.points.len() * dirs * 2)
-}
-
-/// The reachable ones among a set of surface samples, as bit positions, for
-/// the stages that choose probes by what they see (exploration's greedy cover,
-/// cluster synthesis). Sampling as in [`stratified_samples`].
-pub struct Targets {
-    pub samples: SurfaceSamples,
-    /// Side each sample is reached from (+1 front, −1 back, 0 never).
-    pub side: Vec<i8>,
-    /// Indices of the reachable samples: bit k stands for `samples[index[k]]`.
-    pub index: Vec<usize>,
-    eps: f32,
-}
-
-impl Targets {
-    /// Samples the surface and keeps the reachable samples; returns the rays cast.
-    pub fn new(scene: &Scene, rays: &RayScene, space: &FreeSpace, count: usize, min_per_object: usize, seed: u64) -> (Targets, usize) {
-        // The per-object floor shrinks with many objects, so the extra samples stay
-        // within `count` (a scene merged from 775 parts would otherwise take 200,000).
-        let min_per_object = min_per_object.min(count / scene.objects.len().max(1)).max(1);
-        let samples = stratified_samples(scene, count, min_per_object, seed);
-        let (side, _, cast) = reachability(rays, space, &samples, 8, seed);
-        let index = (0..samples.points.len()).filter(|&i| side[i] != 0).collect();
-        (Targets { samples, side, index, eps: 1e-3 * space.bounds.diagonal().max(1e-6) }, cast)
-    }
-
-    pub fn len(&self) -> usize {
-        self.index.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.index.is_empty()
-    }
-
-    /// 64-bit words of a bitset over the targets.
-    pub fn words(&self) -> usize {
-        self.index.len().div_ceil(64)
-    }
-
-    /// The targets `eye` sees from the side they are reached from, among those
-    /// set in `among` (all when `None`); returns the bitset and the rays cast.
-    pub fn seen_by(&self, rays: &RayScene, eye: Vec3, among: Option<&[u64]>) -> (Vec<u64>, usize) {
-        let s = &self.samples;
-        let facing: Vec<usize> = (0..self.index.len())
-            .filter(|&k| among.is_none_or(|m| m[k / 64] >> (k % 64) & 1 == 1))
-            .filter(|&k| {
-                let i = self.index[k];
-                (eye - s.points[i]).dot(s.normals[i]) * self.side[i] as f32 > 0.0
-            })
-            .collect();
-        let segments: Vec<Ray> = facing
-            .iter()
-            .map(|&k| {
-                let i = self.index[k];
-                Ray::segment(eye, s.points[i] + s.normals[i] * (self.eps * self.side[i] as f32))
-            })
-            .collect();
-        let mut blocked = vec![false; segments.len()];
-        rays.occluded_into(&segments, &mut blocked, Packing::Packets8);
-        let mut bits = vec![0u64; self.words()];
-        for (&k, b) in facing.iter().zip(blocked) {
-            if !b {
-                bits[k / 64] |= 1 << (k % 64);
-            }
-        }
-        (bits, segments.len())
-    }
-}
-
-/// Set bits of a bitset.
-pub fn count_bits(bits: &[u64]) -> usize {
-    bits.iter().map(|w| w.count_ones() as usize).sum()
 }
 
 /// Measures coverage of `probes` (in placement order).

@@ -1,5 +1,5 @@
 //! Explore: greedy probe placement by visibility, with Embree ray casts
-//! (DESIGN.md section 3.3; ExploreMaps paper, section 4).
+//! (the ExploreMaps paper, Di Benedetto et al., Eurographics 2014, section 4).
 //!
 //! Inputs: the scene, its ray-casting structure, the navigable [`FreeSpace`],
 //! [`ExploreParams`]. Output: candidate probes in placement order, and
@@ -34,11 +34,11 @@
 //! per depth jump, 6 relaxation steps; both: at most 256 probes. Deterministic:
 //! rays are traced in fixed order and all randomness is seeded.
 
-use crate::coverage::Targets;
+use crate::visibility::{CubeView, Targets};
 use crate::freespace::FreeSpace;
 use exploremaps_scenes::Scene;
 use rayon::prelude::*;
-use crate::raycast::{Hit, Packing, Ray, RayScene};
+use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -129,107 +129,6 @@ pub struct ExploreStats {
     pub seconds_relax: f64,
 }
 
-/// (forward, right, up) of the six cube faces, in the order +X, −X, +Y, −Y, +Z, −Z.
-pub const CUBE_FACES: [(Vec3, Vec3, Vec3); 6] = [
-    (Vec3::X, Vec3::NEG_Z, Vec3::Y),
-    (Vec3::NEG_X, Vec3::Z, Vec3::Y),
-    (Vec3::Y, Vec3::X, Vec3::NEG_Z),
-    (Vec3::NEG_Y, Vec3::X, Vec3::Z),
-    (Vec3::Z, Vec3::X, Vec3::Y),
-    (Vec3::NEG_Z, Vec3::NEG_X, Vec3::Y),
-];
-
-/// A probe's view: one closest hit per cube-map pixel, in pixel order
-/// (face, row, column).
-pub struct CubeView {
-    pub origin: Vec3,
-    pub res: usize,
-    pub dirs: Vec<Vec3>,
-    pub hits: Vec<Option<Hit>>,
-}
-
-impl CubeView {
-    /// Traces the cube map with coherent packets of 4×2 pixel tiles.
-    pub fn trace(rays: &RayScene, origin: Vec3, res: usize) -> CubeView {
-        let res = res.max(2).next_multiple_of(4);
-        let (tiled, order) = Self::tiled_rays(origin, res);
-        let traced = rays.intersect_batch(&tiled, Packing::Coherent8);
-        let mut hits = vec![None; tiled.len()];
-        let mut dirs = vec![Vec3::ZERO; tiled.len()];
-        for ((&p, h), r) in order.iter().zip(traced).zip(&tiled) {
-            hits[p] = h;
-            dirs[p] = r.dir;
-        }
-        CubeView { origin, res, dirs, hits }
-    }
-
-    /// The cube map's rays in tracing order (4×2 pixel tiles, face by face; `res`
-    /// a multiple of 4), with the pixel index (face, row, column) of each.
-    pub fn tiled_rays(origin: Vec3, res: usize) -> (Vec<Ray>, Vec<usize>) {
-        let mut rays = Vec::with_capacity(6 * res * res);
-        let mut order = Vec::with_capacity(6 * res * res);
-        for (f, &(forward, right, up)) in CUBE_FACES.iter().enumerate() {
-            for ty in (0..res).step_by(2) {
-                for tx in (0..res).step_by(4) {
-                    for y in ty..ty + 2 {
-                        for x in tx..tx + 4 {
-                            let sx = 2.0 * (x as f32 + 0.5) / res as f32 - 1.0;
-                            let sy = 1.0 - 2.0 * (y as f32 + 0.5) / res as f32;
-                            rays.push(Ray::new(origin, (forward + right * sx + up * sy).normalize()));
-                            order.push((f * res + y) * res + x);
-                        }
-                    }
-                }
-            }
-        }
-        (rays, order)
-    }
-
-    /// Surface area a pixel covers at its hit (solid angle × t² / cos).
-    pub fn pixel_area(&self, pixel: usize) -> f32 {
-        let Some(h) = self.hits[pixel] else { return 0.0 };
-        let d = self.dirs[pixel];
-        let (x, y) = (pixel % self.res, (pixel / self.res) % self.res);
-        let sx = 2.0 * (x as f32 + 0.5) / self.res as f32 - 1.0;
-        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / self.res as f32;
-        let texel = (2.0 / self.res as f32).powi(2);
-        let solid_angle = texel / (1.0 + sx * sx + sy * sy).powf(1.5);
-        let cos = h.normal.dot(d).abs().max(0.05);
-        solid_angle * h.t * h.t / cos
-    }
-
-    pub fn point(&self, pixel: usize) -> Option<Vec3> {
-        self.hits[pixel].map(|h| self.origin + self.dirs[pixel] * h.t)
-    }
-
-    /// Pairs of neighbouring pixels (same face) where one point lies more than
-    /// τ + two pixel footprints off the other's tangent plane: (near pixel, far depth).
-    fn depth_jumps(&self, tau: f32) -> Vec<(usize, f32)> {
-        let r = self.res;
-        let mut jumps = Vec::new();
-        let footprint = 2.0 / r as f32;
-        for f in 0..6 {
-            for y in 0..r {
-                for x in 0..r {
-                    let a = (f * r + y) * r + x;
-                    for b in [(x + 1 < r).then(|| a + 1), (y + 1 < r).then(|| a + r)].into_iter().flatten() {
-                        let (Some(ha), Some(hb)) = (self.hits[a], self.hits[b]) else { continue };
-                        let (near, far, hn, hf) = if ha.t <= hb.t { (a, b, ha, hb) } else { (b, a, hb, ha) };
-                        let (pn, pf) = (self.origin + self.dirs[near] * hn.t, self.origin + self.dirs[far] * hf.t);
-                        // Either point off the other's tangent plane, beyond the slack of
-                        // sampling (one test alone misses a wall that continues past an opening).
-                        let off = (pf - pn).dot(hn.normal).abs().max((pn - pf).dot(hf.normal).abs());
-                        if off > tau + 2.0 * footprint * hf.t {
-                            jumps.push((near, hf.t));
-                        }
-                    }
-                }
-            }
-        }
-        jumps
-    }
-}
-
 /// Places probes with the chosen strategy.
 pub fn explore(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats) {
     match params.strategy {
@@ -242,7 +141,7 @@ pub fn explore(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Explo
 fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats) {
     let started = Instant::now();
     let mut stats = ExploreStats::default();
-    let seed = params.seed ^ 0x6772_6565;
+    let seed = crate::seeds::Stream::Greedy.seed(params.seed);
     let (targets, reach_rays) = Targets::new(scene, rays, space, params.selection_samples, MIN_SAMPLES_PER_OBJECT, seed);
     stats.rays += reach_rays;
 
@@ -329,7 +228,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
 fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats) {
     let started = Instant::now();
     let mut stats = ExploreStats::default();
-    let mut rng = Pcg64Mcg::seed_from_u64(params.seed ^ 0x6578_706c);
+    let mut rng = crate::seeds::Stream::Explore.rng(params.seed);
     let mut probes: Vec<Candidate> = Vec::new();
     let mut pending: Vec<Vec3> = Vec::new();
     // Per triangle: already seen by an earlier probe (for relaxation's "newly seen").

@@ -199,7 +199,7 @@ pub fn proxy_glb(name: &str, mesh: &crate::proxy::Mesh, colours: &[[u8; 3]]) -> 
     let positions = glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": mesh.positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }));
     let mut attributes = json!({ "POSITION": positions });
     if colours.len() == mesh.positions.len() {
-        let linear = floats(&mut colours.iter().flat_map(|c| c.map(crate::render::srgb_to_linear)));
+        let linear = floats(&mut colours.iter().flat_map(|c| c.map(crate::renderer::srgb_to_linear)));
         let view = glb.view(&linear, Some(ARRAY_BUFFER));
         attributes["COLOR_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": colours.len(), "type": "VEC3" })));
     }

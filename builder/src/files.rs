@@ -3,7 +3,8 @@
 //! half-written file under the real name. A temporary's name says which
 //! process wrote it (`.<name>.<host>-<pid>.<random>.tmp`), so the leftovers of
 //! a killed run can be told from a running shard's files and removed
-//! ([`remove_abandoned`]).
+//! ([`remove_abandoned`]). Also the bundle's image encoders ([`jpeg`],
+//! [`png`]), so every picture is encoded one way.
 
 use std::io::Write;
 use std::path::Path;
@@ -66,6 +67,20 @@ pub fn remove_abandoned(dir: &Path) -> usize {
         }
     }
     removed
+}
+
+/// JPEG bytes of an image (`quality` 1-100).
+pub fn jpeg(image: &image::RgbImage, quality: u8) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, quality).encode_image(image).expect("JPEG encoding to memory");
+    bytes
+}
+
+/// PNG bytes of an image.
+pub fn png(image: &image::RgbImage) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).expect("PNG encoding to memory");
+    bytes
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
-//! Free space: which points a probe or a path may occupy (DESIGN.md section 3.2,
-//! as revised by the navigable-space issue).
+//! Free space: which points a probe or a path may occupy, at human scale
+//! where the scene has floors.
 //!
 //! Inputs: the scene, its ray-casting structure, [`FreeSpaceParams`].
 //! Outputs: [`FreeSpace`] (a voxel grid with occupancy, clearance, the open
@@ -58,8 +58,6 @@ use crate::raycast::{Hit, Packing, Ray, RayScene};
 use crate::walk::{self, Walk, WalkStats};
 use exploremaps_scenes::{Aabb, ScaleSource, Scene};
 use glam::Vec3;
-use rand::SeedableRng;
-use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -529,8 +527,8 @@ const FACING_SAMPLES: usize = 4096;
 /// object seen from around it, low for interiors (rays hit walls) and for
 /// landscapes (rays that escape go up, to the sky).
 fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
-    let samples = surface_samples(scene, FACING_SAMPLES, seed ^ 0x6661_6365);
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6f75_7473);
+    let samples = surface_samples(scene, FACING_SAMPLES, crate::seeds::Stream::Facing.seed(seed));
+    let mut rng = crate::seeds::Stream::Outward.rng(seed);
     let eps = 1e-4 * bounds.diagonal().max(1e-6);
     let list: Vec<Ray> = samples
         .points

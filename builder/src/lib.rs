@@ -1,12 +1,14 @@
-//! The ExploreMaps builder: loads a scene and runs the pipeline stages on it.
+//! The ExploreMaps builder: loads a scene and runs the pipeline on it.
 //!
-//! Stages, in pipeline order (DESIGN.md section 2), one module each:
-//! `load` (scene files into a `Scene`) → `raycast` (Embree; the only module
-//! that talks to it) → `freespace` → `explore` → `coverage`; `report` draws the
-//! pictures, `pipeline` wires the stages, `bundle` writes the result (with
-//! `render`, `tiles`, `video` and `proxy`, the light 3D stand-in of the
-//! scene), `tour` exports a bundle to other tour viewers; `export` (scenes
-//! out as OBJ/GLB) and `files` are utilities.
+//! Two stages a user runs, each a module that reads as its list of steps:
+//! `pipeline` (`exploremaps plan`: raycast → freespace (with `walk`) →
+//! explore → cluster → orient → connect → smooth → order → coverage, pictures
+//! by `report`) and `render` (`exploremaps render`: the jobs a planned bundle
+//! lacks, pictured by `renderer`, videos by `video`, tour tiles by `tiles`,
+//! the 3D stand-in by `proxy`). `load` reads scene files; `raycast` is the
+//! only module that talks to Embree; `bundle` writes the folder; `tour`
+//! exports a bundle to other tour viewers; `export` (scenes out as OBJ/GLB),
+//! `files` and `seeds` (every random stream) are utilities.
 
 pub mod bundle;
 pub mod cluster;
@@ -23,11 +25,14 @@ pub mod pipeline;
 pub mod proxy;
 pub mod raycast;
 pub mod render;
+pub mod renderer;
 pub mod report;
+pub mod seeds;
 pub mod smooth;
 pub mod tiles;
 pub mod tour;
 pub mod video;
+pub mod visibility;
 pub mod walk;
 #[cfg(test)]
 mod testing;

@@ -1,5 +1,5 @@
 //! Order: the thumbnail bar's order of probes, a weighted minimum linear
-//! arrangement (DESIGN.md section 3.9): minimise Σ w_ij·|pos(i) − pos(j)|, so
+//! arrangement: minimise Σ w_ij·|pos(i) − pos(j)|, so
 //! probes close in the graph sit close in the bar.
 //!
 //! Inputs: the number of probes and weighted edges (1 / path length once paths
@@ -14,8 +14,6 @@
 //! Deterministic: no randomness except the seeded random baseline.
 
 use rand::seq::SliceRandom;
-use rand::SeedableRng;
-use rand_pcg::Pcg64Mcg;
 
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct OrderStats {
@@ -96,7 +94,7 @@ pub fn order(n: usize, edges: &[(usize, usize, f64)], seed: u64) -> (Vec<u32>, O
         return (Vec::new(), OrderStats::default());
     }
     let mut stats = OrderStats::default();
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6f72_6465);
+    let mut rng = crate::seeds::Stream::Order.rng(seed);
     stats.random_cost = (0..16)
         .map(|_| {
             let mut o: Vec<usize> = (0..n).collect();

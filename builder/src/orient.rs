@@ -1,5 +1,5 @@
-//! Orient: where a probe is best looked at from (DESIGN.md section 3.6; the
-//! paper's section 5, after Vázquez et al.'s viewpoint measures).
+//! Orient: where a probe is best looked at from (the ExploreMaps paper,
+//! section 5, after Vázquez et al.'s viewpoint measures).
 //!
 //! Inputs: the ray-casting scene, a probe position, the near distance r, the
 //! scene diagonal. Output: preferred view directions (yaw, pitch, goodness),
@@ -23,7 +23,7 @@
 //!
 //! Defaults: α = 0.5, β = 0.5, cube faces of 24², 96 directions.
 
-use crate::explore::CubeView;
+use crate::visibility::CubeView;
 use crate::raycast::RayScene;
 use glam::Vec3;
 

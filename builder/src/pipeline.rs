@@ -1,20 +1,21 @@
-//! The pipeline, step by step: what `exploremaps plan` runs. Each step is one
-//! stage module; this file only wires their results together.
+//! The planning pipeline: what `exploremaps plan` runs. Each line of [`plan`]
+//! is one stage module over the previous stages' typed results; the graph
+//! is assembled once, at the end.
 //!
-//! Planning today: ray casting → free space → explore (candidate probes) →
-//! cluster and synthesize (final probes) → orient (preferred view directions)
-//! → connect and smooth (paths) → order (thumbnail bar) → coverage (with random and grid baselines of the same probe count) →
-//! pictures → graph. Clustering,
-//! orientation, paths, ordering and rendering join here as they land.
+//! raycast (Embree) → freespace (navigable space, human scale) → explore
+//! (candidate probes) → cluster (final probes) → orient (preferred view
+//! directions) → connect and smooth (paths) → order (thumbnail bar) →
+//! coverage (with random and grid baselines of the same probe count, and
+//! pictures) → graph. `crate::render` then renders a planned bundle.
 
-use crate::cluster::{self, SynthesisParams};
-use crate::connect::{self, ConnectParams};
+use crate::cluster::{self, SynthesisParams, SynthesisStats};
+use crate::connect::{self, ConnectParams, ConnectStats};
 use crate::smooth;
 use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
-use crate::explore::{explore, ExploreParams, ExploreStats};
+use crate::explore::{explore, Candidate, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
 use crate::raycast::{RayScene, RaycastError};
-use crate::order;
+use crate::order::{self, OrderStats};
 use crate::orient;
 use rayon::prelude::*;
 use crate::report;
@@ -22,8 +23,7 @@ use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
 use glam::Vec3;
 use image::{Rgb, RgbImage};
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use rand::Rng;
 use std::time::Instant;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -51,11 +51,11 @@ pub struct Baseline {
 }
 
 pub struct Plan {
+    /// The bundle's graph, assembled from the stages' results at the end.
     pub graph: format::Graph,
+    pub stats: PlanStats,
     pub coverage: CoverageReport,
     pub baselines: Vec<Baseline>,
-    pub free_space: FreeSpaceStats,
-    pub explore: ExploreStats,
     /// (file name, picture) to write into the bundle.
     pub images: Vec<(String, RgbImage)>,
     /// Per material and per object: (name, reachable area, covered area).
@@ -64,89 +64,132 @@ pub struct Plan {
     pub seconds: f64,
 }
 
+/// What the planning stages report, one entry each in graph.json's `stats`
+/// (their `seconds` go to timings.json).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PlanStats {
+    pub free_space: FreeSpaceStats,
+    pub explore: ExploreStats,
+    /// None when the candidates are kept as the final probes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<SynthesisStats>,
+    pub orient: Seconds,
+    pub connect: ConnectStats,
+    pub smooth: SmoothStats,
+    pub order: OrderSummary,
+    pub coverage: CoverageStats,
+}
+
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Seconds {
+    pub seconds: f64,
+}
+
+/// The paths' smoothing, over all of them.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SmoothStats {
+    pub paths: usize,
+    pub seconds: f64,
+    pub seconds_per_path: f64,
+    pub iterations_max: usize,
+    pub blocked_segments: usize,
+    pub min_clearance: f32,
+    pub mean_clearance: f64,
+    /// The clearance asked for: the free space's near distance.
+    pub near_distance: f32,
+}
+
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct OrderSummary {
+    #[serde(flatten)]
+    pub stats: OrderStats,
+    pub seconds: f64,
+}
+
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct CoverageStats {
+    pub seconds: f64,
+    pub rays: usize,
+    pub fraction: f64,
+}
+
 const EXPLORED: Rgb<u8> = Rgb([20, 150, 40]);
 const RANDOM: Rgb<u8> = Rgb([230, 120, 20]);
 const GRID: Rgb<u8> = Rgb([40, 90, 220]);
 
-/// Plans a scene: every step from ray casting to the graph.
+/// Plans a scene: every stage from ray casting to the graph.
 pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, PlanError> {
     let started = Instant::now();
-    let (rays, space, free_stats) = prepare(scene, &params.free_space)?;
-    let (candidates, explore_stats) = {
-        let _span = tracing::info_span!("explore").entered();
-        explore(scene, &rays, &space, &params.explore)
-    };
-    tracing::info!("explore: {} candidate probes in {:.2} s", candidates.len(), explore_stats.seconds);
-    let synthesized = match &params.synthesis {
-        Some(synthesis) => {
-            let _span = tracing::info_span!("cluster").entered();
-            let (out, stats) = cluster::synthesize(scene, &rays, &space, &candidates, synthesis);
-            tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
-            Some((out, stats))
-        }
-        None => None,
-    };
-    let mut graph = match &synthesized {
-        Some((out, _)) => new_graph(scene, source, &space, &out.probes, &out.user_placed, Some(out)),
-        None => {
-            let positions: Vec<Vec3> = candidates.iter().map(|c| c.position).collect();
-            let user: Vec<bool> = candidates.iter().map(|c| c.user_placed).collect();
-            new_graph(scene, source, &space, &positions, &user, None)
-        }
-    };
-    if let Some((_, stats)) = &synthesized {
-        graph.stats.insert("cluster".into(), serde_json::to_value(stats).unwrap_or_default());
-    }
-    let oriented = Instant::now();
-    let diagonal = scene.bounds().diagonal();
-    let directions: Vec<Vec<orient::Preferred>> =
-        graph.probes.par_iter().map(|p| orient::preferred_directions(&rays, Vec3::from(p.position), space.near, diagonal)).collect();
-    for (probe, preferred) in graph.probes.iter_mut().zip(directions) {
-        probe.preferred_directions = preferred
-            .into_iter()
-            .take(3)
-            .map(|p| format::ViewDirection { yaw: p.yaw, pitch: p.pitch, goodness: p.goodness })
-            .collect();
-    }
-    graph.stats.insert("orient".into(), serde_json::json!({ "seconds": oriented.elapsed().as_secs_f64() }));
-    route(scene, &rays, &space, &mut graph, params.explore.seed);
-    // The bar order weighs probe pairs by 1 / path length, or by 1 / Euclidean
-    // distance when no path joins any probes.
-    let points: Vec<[f32; 3]> = graph.probes.iter().map(|p| p.position).collect();
-    let edges = if graph.paths.is_empty() {
-        order::euclidean_edges(&points)
-    } else {
-        graph.paths.iter().map(|p| (p.from as usize, p.to as usize, 1.0 / (p.length as f64).max(1e-9))).collect()
-    };
-    let ordered = Instant::now();
-    let (bar_order, order_stats) = order::order(points.len(), &edges, params.explore.seed);
-    graph.bar_order = bar_order;
-    let order_s = ordered.elapsed().as_secs_f64();
-    graph.stats.insert("free_space".into(), serde_json::to_value(&free_stats).unwrap_or_default());
-    graph.stats.insert("explore".into(), serde_json::to_value(&explore_stats).unwrap_or_default());
-    let mut order_json = serde_json::to_value(&order_stats).unwrap_or_default();
-    order_json["seconds"] = serde_json::json!(order_s);
-    graph.stats.insert("order".into(), order_json);
-    Ok(measure(scene, &rays, &space, graph, free_stats, explore_stats, params, started))
+    let seed = params.explore.seed;
+    let (rays, space, free_space) = prepare(scene, &params.free_space)?;
+    let (candidates, explore) = explore_stage(scene, &rays, &space, &params.explore);
+    let (probes, cluster) = synthesize(scene, &rays, &space, &candidates, params.synthesis.as_ref());
+    let (directions, orient) = orient_stage(scene, &rays, &space, &probes.positions);
+    let (paths, connect, smooth) = route(scene, &rays, &space, &probes.positions, &directions, seed);
+    let (bar_order, order) = order_stage(&probes.positions, &paths, seed);
+    let measured = measure(scene, &rays, &space, &probes.positions, params);
+    let stats = PlanStats { free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
+    let graph = assemble(scene, source, &space, &probes, directions, paths, bar_order, &measured, &stats);
+    Ok(measured.into_plan(graph, stats, started))
 }
 
-/// Connects the graph's probes, smooths and times the paths, and writes them
-/// into the graph with their stats.
-fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, graph: &mut format::Graph, seed: u64) {
+/// Greedy exploration: candidate probes until the coverage target.
+fn explore_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats) {
+    let _span = tracing::info_span!("explore").entered();
+    let (candidates, stats) = explore(scene, rays, space, params);
+    tracing::info!("explore: {} candidate probes in {:.2} s", candidates.len(), stats.seconds);
+    (candidates, stats)
+}
+
+/// The final probes: clustered and synthesized from the candidates, or the
+/// candidates themselves when synthesis is off.
+struct Probes {
+    positions: Vec<Vec3>,
+    user_placed: Vec<bool>,
+    clusters: Option<cluster::Synthesized>,
+}
+
+fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[Candidate], params: Option<&SynthesisParams>) -> (Probes, Option<SynthesisStats>) {
+    let Some(params) = params else {
+        let probes = Probes { positions: candidates.iter().map(|c| c.position).collect(), user_placed: candidates.iter().map(|c| c.user_placed).collect(), clusters: None };
+        return (probes, None);
+    };
+    let _span = tracing::info_span!("cluster").entered();
+    let (out, stats) = cluster::synthesize(scene, rays, space, candidates, params);
+    tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
+    (Probes { positions: out.probes.clone(), user_placed: out.user_placed.clone(), clusters: Some(out) }, Some(stats))
+}
+
+/// Each probe's preferred view directions, best first (at most three kept).
+fn orient_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> (Vec<Vec<format::ViewDirection>>, Seconds) {
+    let started = Instant::now();
+    let diagonal = scene.bounds().diagonal();
+    let directions = probes
+        .par_iter()
+        .map(|&p| {
+            let preferred = orient::preferred_directions(rays, p, space.near, diagonal);
+            preferred.into_iter().take(3).map(|p| format::ViewDirection { yaw: p.yaw, pitch: p.pitch, goodness: p.goodness }).collect()
+        })
+        .collect();
+    (directions, Seconds { seconds: started.elapsed().as_secs_f64() })
+}
+
+/// Connects the probes, smooths and times the paths (arriving facing the
+/// destination's preferred direction).
+fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], directions: &[Vec<format::ViewDirection>], seed: u64) -> (Vec<format::Path>, ConnectStats, SmoothStats) {
     let _span = tracing::info_span!("connect").entered();
-    let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
-    let (raw, connect_stats) = connect::connect(rays, space, &probes, &ConnectParams { seed, ..Default::default() });
+    let (raw, connect_stats) = connect::connect(rays, space, probes, &ConnectParams { seed, ..Default::default() });
     let started = Instant::now();
     let smoothed: Vec<(Vec<Vec3>, smooth::SmoothingStats)> = raw.par_iter().map(|r| smooth::smooth(rays, space, &r.polyline)).collect();
     let smoothing_s = started.elapsed().as_secs_f64();
-    graph.paths = raw
+    let paths = raw
         .iter()
         .zip(&smoothed)
         .enumerate()
         .map(|(id, (r, (polyline, _)))| {
             let length = connect::polyline_length(polyline);
             let duration_s = smooth::duration(length, scene.metres_per_unit);
-            let arrival = graph.probes[r.to].preferred_directions.first().map(|d| (d.yaw, d.pitch));
+            let arrival = directions[r.to].first().map(|d| (d.yaw, d.pitch));
             format::Path {
                 id: id as u32,
                 from: r.from as u32,
@@ -164,30 +207,47 @@ fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, graph: &mut format::
         .collect();
     tracing::info!("{} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
     let n = smoothed.len().max(1) as f64;
-    graph.stats.insert("connect".into(), serde_json::to_value(&connect_stats).unwrap_or_default());
-    graph.stats.insert(
-        "smooth".into(),
-        serde_json::json!({
-            "paths": smoothed.len(),
-            "seconds": smoothing_s,
-            "seconds_per_path": smoothing_s / n,
-            "iterations_max": smoothed.iter().map(|s| s.1.iterations).max().unwrap_or(0),
-            "blocked_segments": smoothed.iter().map(|s| s.1.blocked_segments).sum::<usize>(),
-            "min_clearance": smoothed.iter().map(|s| s.1.min_clearance).fold(f32::INFINITY, f32::min),
-            "mean_clearance": smoothed.iter().map(|s| s.1.mean_clearance as f64).sum::<f64>() / n,
-            "near_distance": space.near,
-        }),
-    );
+    let smooth_stats = SmoothStats {
+        paths: smoothed.len(),
+        seconds: smoothing_s,
+        seconds_per_path: smoothing_s / n,
+        iterations_max: smoothed.iter().map(|s| s.1.iterations).max().unwrap_or(0),
+        blocked_segments: smoothed.iter().map(|s| s.1.blocked_segments).sum::<usize>(),
+        min_clearance: smoothed.iter().map(|s| s.1.min_clearance).fold(f32::INFINITY, f32::min),
+        mean_clearance: smoothed.iter().map(|s| s.1.mean_clearance as f64).sum::<f64>() / n,
+        near_distance: space.near,
+    };
+    (paths, connect_stats, smooth_stats)
+}
+
+/// The thumbnail bar's order: probe pairs weighed by 1 / path length, or by
+/// 1 / Euclidean distance when no path joins any probes.
+fn order_stage(probes: &[Vec3], paths: &[format::Path], seed: u64) -> (Vec<u32>, OrderSummary) {
+    let points: Vec<[f32; 3]> = probes.iter().map(|p| p.to_array()).collect();
+    let edges = if paths.is_empty() {
+        order::euclidean_edges(&points)
+    } else {
+        paths.iter().map(|p| (p.from as usize, p.to as usize, 1.0 / (p.length as f64).max(1e-9))).collect()
+    };
+    let started = Instant::now();
+    let (bar_order, stats) = order::order(points.len(), &edges, seed);
+    (bar_order, OrderSummary { stats, seconds: started.elapsed().as_secs_f64() })
 }
 
 /// Measures the coverage of a planned graph's probes again (e.g. with more
 /// samples). The navigable component is the one holding the first probe.
-pub fn remeasure(scene: &Scene, graph: format::Graph, params: &PlanParams) -> Result<Plan, PlanError> {
+/// The graph keeps its other stages' stats.
+pub fn remeasure(scene: &Scene, mut graph: format::Graph, params: &PlanParams) -> Result<Plan, PlanError> {
     let started = Instant::now();
     let mut free_params = params.free_space.clone();
     free_params.start = graph.probes.first().map(|p| Vec3::from(p.position));
-    let (rays, space, free_stats) = prepare(scene, &free_params)?;
-    Ok(measure(scene, &rays, &space, graph, free_stats, ExploreStats::default(), params, started))
+    let (rays, space, free_space) = prepare(scene, &free_params)?;
+    let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+    let measured = measure(scene, &rays, &space, &probes, params);
+    let stats = PlanStats { free_space, coverage: measured.stats(), ..Default::default() };
+    graph.coverage = Some(measured.entry());
+    graph.stats.insert("coverage".into(), serde_json::to_value(&stats.coverage).unwrap_or_default());
+    Ok(measured.into_plan(graph, stats, started))
 }
 
 fn prepare(scene: &Scene, params: &FreeSpaceParams) -> Result<(RayScene, FreeSpace, FreeSpaceStats), PlanError> {
@@ -204,22 +264,44 @@ fn prepare(scene: &Scene, params: &FreeSpaceParams) -> Result<(RayScene, FreeSpa
     Ok((rays, space, stats))
 }
 
-/// Coverage, baselines and pictures for the graph's probes.
-#[allow(clippy::too_many_arguments)]
-fn measure(
-    scene: &Scene,
-    rays: &RayScene,
-    space: &FreeSpace,
-    mut graph: format::Graph,
-    free_space: FreeSpaceStats,
-    explore: ExploreStats,
-    params: &PlanParams,
-    started: Instant,
-) -> Plan {
-    let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+/// The coverage stage's results: the metric, its baselines and pictures.
+struct Measured {
+    report: CoverageReport,
+    baselines: Vec<Baseline>,
+    images: Vec<(String, RgbImage)>,
+    per_material: Vec<(String, f64, f64)>,
+    per_object: Vec<(String, f64, f64)>,
+}
+
+impl Measured {
+    fn stats(&self) -> CoverageStats {
+        CoverageStats { seconds: self.report.seconds, rays: self.report.rays, fraction: self.report.fraction() }
+    }
+
+    /// graph.json's coverage entry.
+    fn entry(&self) -> format::Coverage {
+        let report = &self.report;
+        format::Coverage {
+            samples: report.samples.points.len() as u32,
+            reachable_area: report.reachable_area,
+            covered_area: report.covered_area,
+            ceiling: Some(report.ceiling()),
+            per_group: self.per_material.iter().map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c }).collect(),
+            curve: report.curve.clone(),
+        }
+    }
+
+    fn into_plan(self, graph: format::Graph, stats: PlanStats, started: Instant) -> Plan {
+        let Measured { report, baselines, images, per_material, per_object } = self;
+        Plan { graph, stats, coverage: report, baselines, images, per_material, per_object, seconds: started.elapsed().as_secs_f64() }
+    }
+}
+
+/// Coverage, baselines and pictures for the probes.
+fn measure(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &PlanParams) -> Measured {
     let report = {
         let _span = tracing::info_span!("coverage").entered();
-        coverage(scene, rays, space, &probes, &params.coverage)
+        coverage(scene, rays, space, probes, &params.coverage)
     };
     let baselines = baselines(rays, space, probes.len(), params.explore.seed, &report);
     let floor = ([&report].into_iter().chain(baselines.iter().map(|b| &b.report)))
@@ -231,40 +313,18 @@ fn measure(
     }
     let mut images = vec![
         ("coverage_curve.png".to_string(), report::coverage_chart(&curves, (floor - 0.05).clamp(0.0, 0.9), 640, 400)),
-        ("coverage_top.png".to_string(), report::top_view(scene, rays, space, &report, &probes, 800)),
+        ("coverage_top.png".to_string(), report::top_view(scene, rays, space, &report, probes, 800)),
     ];
     if let Some(eye) = space.most_open_point() {
         let e = scene.bounds().extent();
         let long = if e.x >= e.z { Vec3::X } else { Vec3::Z };
         for (k, forward) in [long, -long].into_iter().enumerate() {
-            images.push((format!("coverage_view_{k}.png"), report::perspective_view(scene, rays, &report, &probes, eye, forward, 640)));
+            images.push((format!("coverage_view_{k}.png"), report::perspective_view(scene, rays, &report, probes, eye, forward, 640)));
         }
     }
     let per_material = report.per_group(&scene.triangle_material, &scene.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>());
     let per_object = report.per_group(&scene.triangle_object, &scene.objects);
-    graph.coverage = Some(format::Coverage {
-        samples: report.samples.points.len() as u32,
-        reachable_area: report.reachable_area,
-        covered_area: report.covered_area,
-        ceiling: Some(report.ceiling()),
-        per_group: per_material.iter().map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c }).collect(),
-        curve: report.curve.clone(),
-    });
-    graph.stats.insert(
-        "coverage".into(),
-        serde_json::json!({ "seconds": report.seconds, "rays": report.rays, "fraction": report.fraction() }),
-    );
-    Plan {
-        graph,
-        coverage: report,
-        baselines,
-        free_space,
-        explore,
-        images,
-        per_material,
-        per_object,
-        seconds: started.elapsed().as_secs_f64(),
-    }
+    Measured { report, baselines, images, per_material, per_object }
 }
 
 /// Random navigable points and a regular lattice of navigable points, `count`
@@ -274,7 +334,7 @@ pub fn baselines(rays: &RayScene, space: &FreeSpace, count: usize, seed: u64, ba
     if navigable.is_empty() || count == 0 {
         return Vec::new();
     }
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x7261_6e64);
+    let mut rng = crate::seeds::Stream::Baseline.rng(seed);
     let random: Vec<Vec3> = (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect();
     // The coarsest lattice (in voxels) with at least `count` navigable nodes, thinned evenly.
     let mut lattice = Vec::new();
@@ -298,9 +358,21 @@ pub fn baselines(rays: &RayScene, space: &FreeSpace, count: usize, seed: u64, ba
         .collect()
 }
 
-/// A graph holding the scene's description and the final probes (with their
-/// clusters when synthesis ran).
-fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, probes: &[Vec3], user_placed: &[bool], clusters: Option<&cluster::Synthesized>) -> format::Graph {
+/// The bundle's graph from the stages' results: the scene's description, the
+/// probes (with their clusters and view directions), paths, bar order,
+/// coverage and stats.
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    scene: &Scene,
+    source: &str,
+    space: &FreeSpace,
+    probes: &Probes,
+    directions: Vec<Vec<format::ViewDirection>>,
+    paths: Vec<format::Path>,
+    bar_order: Vec<u32>,
+    measured: &Measured,
+    stats: &PlanStats,
+) -> format::Graph {
     let b = scene.bounds();
     let mut graph = format::Graph::new(format::SceneInfo {
         name: scene.name.clone(),
@@ -320,20 +392,29 @@ fn new_graph(scene: &Scene, source: &str, space: &FreeSpace, probes: &[Vec3], us
         eye_height_m: space.walk.as_ref().map(|w| w.eye * scene.metres_per_unit),
         credits: Vec::new(),
     });
+    let clusters = probes.clusters.as_ref();
     graph.probes = probes
+        .positions
         .iter()
+        .zip(directions)
         .enumerate()
-        .map(|(i, p)| format::Probe {
+        .map(|(i, (p, preferred_directions))| format::Probe {
             id: i as u32,
             position: p.to_array(),
             cluster: clusters.map(|c| c.cluster_of[i]),
-            preferred_directions: Vec::new(),
-            user_placed: user_placed[i],
+            preferred_directions,
+            user_placed: probes.user_placed[i],
             assets: format::ProbeAssets::default(),
         })
         .collect();
     if let Some(c) = clusters {
         graph.clusters = c.clusters.iter().enumerate().map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 }).collect();
+    }
+    graph.paths = paths;
+    graph.bar_order = bar_order;
+    graph.coverage = Some(measured.entry());
+    if let Ok(serde_json::Value::Object(entries)) = serde_json::to_value(stats) {
+        graph.stats.extend(entries);
     }
     graph
 }

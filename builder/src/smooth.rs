@@ -1,5 +1,5 @@
 //! Smooth: mass-spring smoothing of raw paths, then camera timing
-//! (DESIGN.md section 3.8; the paper spends up to 3,012 s here, this takes
+//! (the ExploreMaps paper, section 6, spends up to 3,012 s here; this takes
 //! milliseconds a path).
 //!
 //! Inputs: a raw polyline between two probes, the ray-casting scene, the
@@ -25,6 +25,7 @@ use crate::connect::polyline_length;
 use crate::orient::yaw_pitch;
 use crate::freespace::FreeSpace;
 use crate::raycast::{Ray, RayScene};
+use exploremaps_format::timing::{ease, ArcLength};
 use glam::Vec3;
 
 const MAX_ITERATIONS: usize = 400;
@@ -122,31 +123,20 @@ pub fn duration(length: f32, metres_per_unit: f32) -> f32 {
     (length * metres_per_unit / WALKING_SPEED_M_S).max(MIN_DURATION_S)
 }
 
-fn smoothstep(t: f32) -> f32 {
-    let t = t.clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-/// Camera keys at 25 fps: (time s, position, yaw, pitch).
+/// Camera keys at 25 fps: (time s, position, yaw, pitch), eased along the
+/// path's length as the viewer moves (`exploremaps_format::timing`).
 pub fn camera_keys(p: &[Vec3], duration_s: f32, arrival: Option<(f32, f32)>) -> Vec<(f32, Vec3, f32, f32)> {
-    let length = polyline_length(p);
     let departure = yaw_pitch(p[1.min(p.len() - 1)] - p[0]);
     let (end_yaw, end_pitch) = arrival.unwrap_or_else(|| yaw_pitch(p[p.len() - 1] - p[p.len().saturating_sub(2)]));
     let frames = (duration_s * FPS).ceil().max(1.0) as usize;
-    let mut cumulative = vec![0.0f32];
-    for w in p.windows(2) {
-        cumulative.push(cumulative.last().unwrap() + (w[1] - w[0]).length());
-    }
+    let points: Vec<[f32; 3]> = p.iter().map(|q| q.to_array()).collect();
+    let arc = ArcLength::new(&points);
     (0..=frames)
         .map(|f| {
             let t = (f as f32 / FPS).min(duration_s);
-            let s = smoothstep(t / duration_s);
-            let at = s * length;
-            let seg = cumulative.partition_point(|&c| c <= at).clamp(1, p.len() - 1) - 1;
-            let l = (cumulative[seg + 1] - cumulative[seg]).max(1e-12);
-            let position = p[seg] + (p[seg + 1] - p[seg]) * ((at - cumulative[seg]) / l).clamp(0.0, 1.0);
+            let s = ease(t / duration_s);
             let turn = (end_yaw - departure.0 + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
-            (t, position, departure.0 + turn * s, departure.1 + (end_pitch - departure.1) * s)
+            (t, Vec3::from(arc.at(s)), departure.0 + turn * s, departure.1 + (end_pitch - departure.1) * s)
         })
         .collect()
 }

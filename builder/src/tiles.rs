@@ -79,9 +79,7 @@ mod tests {
     }
 
     fn jpeg_round_trip(image: &RgbImage) -> RgbImage {
-        let mut bytes = Vec::new();
-        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 90).encode_image(image).unwrap();
-        image::load_from_memory(&bytes).unwrap().to_rgb8()
+        image::load_from_memory(&crate::files::jpeg(image, 90)).unwrap().to_rgb8()
     }
 
     #[test]

@@ -151,7 +151,7 @@ fn ffmpeg(program: &PathBuf, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::{psnr, Quality, Renderer, Settings};
+    use crate::renderer::{psnr, Quality, Renderer, Settings};
     use exploremaps_format::video::{decode_mp4, Mp4Decoder};
     use glam::Vec3;
 

@@ -14,6 +14,7 @@ pub mod edgebreaker;
 pub mod meshcode;
 pub mod seen;
 pub mod splits;
+pub mod timing;
 #[cfg(feature = "video")]
 pub mod video;
 

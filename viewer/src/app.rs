@@ -5,7 +5,8 @@
 //! `web`) own the window, files and decoding.
 
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
-use crate::navigation::{direction, smoothstep, Navigator, State};
+use crate::navigation::{direction, Navigator, State};
+use exploremaps_format::timing::ease;
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
@@ -19,6 +20,25 @@ pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub format: wgpu::TextureFormat,
+}
+
+impl Gpu {
+    /// Opens the device and configures `surface` (`width` × `height`) as
+    /// both front ends do: WebGL2-level limits raised to the adapter's
+    /// texture sizes, and an sRGB view of whatever format the surface offers
+    /// (WebGPU canvases offer only non-sRGB ones). Returns the configuration
+    /// (its view format is the `Gpu`'s), or what failed.
+    pub async fn open(adapter: &wgpu::Adapter, surface: &wgpu::Surface<'_>, width: u32, height: u32) -> Result<(Gpu, wgpu::SurfaceConfiguration), String> {
+        let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
+        let desc = wgpu::DeviceDescriptor { label: Some("viewer"), required_limits: limits, ..Default::default() };
+        let (device, queue) = adapter.request_device(&desc).await.map_err(|e| format!("no GPU device: {e}"))?;
+        let mut config = surface.get_default_config(adapter, width.max(1), height.max(1)).ok_or("the adapter cannot draw to this surface")?;
+        let format = config.format.add_srgb_suffix();
+        config.view_formats = vec![format];
+        config.present_mode = wgpu::PresentMode::AutoVsync;
+        surface.configure(&device, &config);
+        Ok((Gpu { device, queue, format }, config))
+    }
 }
 
 /// A probe's panorama as loaded: a cube level, or the equirectangular image
@@ -137,6 +157,31 @@ pub enum Key {
     Floor,
 }
 
+impl Key {
+    /// The key for a key code as the web names them (`KeyboardEvent.code`,
+    /// which winit's `KeyCode` variants are named after): arrows or WASD
+    /// turn, +/- zoom, Enter or Space go, N/P next or previous probe, M map,
+    /// T tour, O dollhouse, F floor.
+    pub fn from_code(code: &str) -> Option<Key> {
+        Some(match code {
+            "ArrowLeft" | "KeyA" => Key::Left,
+            "ArrowRight" | "KeyD" => Key::Right,
+            "ArrowUp" | "KeyW" => Key::Up,
+            "ArrowDown" | "KeyS" => Key::Down,
+            "Equal" | "NumpadAdd" | "PageUp" => Key::ZoomIn,
+            "Minus" | "NumpadSubtract" | "PageDown" => Key::ZoomOut,
+            "Enter" | "Space" => Key::Go,
+            "KeyN" => Key::NextProbe,
+            "KeyP" => Key::PreviousProbe,
+            "KeyM" => Key::Map,
+            "KeyT" => Key::Tour,
+            "KeyO" => Key::Dollhouse,
+            "KeyF" => Key::Floor,
+            _ => return None,
+        })
+    }
+}
+
 /// Seconds the tour stays at a probe before moving on.
 const TOUR_DWELL_S: f32 = 2.0;
 /// A press that moves less than this many logical pixels is a tap.
@@ -199,7 +244,7 @@ impl Flight {
         (self.elapsed_s / self.duration_s).min(1.0)
     }
     fn camera(&self) -> Camera {
-        let s = smoothstep(self.t());
+        let s = ease(self.t());
         match &self.via {
             None => self.from.lerp(&self.to, s),
             Some(v) => {
@@ -1202,7 +1247,7 @@ impl App {
         let source = match (self.nav.state, video) {
             (State::Travelling { .. }, Some(v)) => Some(Source::Video(v)),
             (State::CrossFading { from, to, .. }, _) => match (source_of(from), source_of(to)) {
-                (Some(Source::Cube(a, ta)), Some(Source::Cube(b, tb))) => Some(Source::Fade((a, ta), (b, tb), crate::navigation::smoothstep(progress))),
+                (Some(Source::Cube(a, ta)), Some(Source::Cube(b, tb))) => Some(Source::Fade((a, ta), (b, tb), ease(progress))),
                 (_, Some(b)) if progress >= 0.5 => Some(b),
                 (a, _) => a,
             },

@@ -418,23 +418,12 @@ struct Runner {
     bench: Bench,
 }
 
+/// Tab also steps to the next probe here (a web page keeps it for focus).
 fn key(code: KeyCode) -> Option<Key> {
-    Some(match code {
-        KeyCode::ArrowLeft | KeyCode::KeyA => Key::Left,
-        KeyCode::ArrowRight | KeyCode::KeyD => Key::Right,
-        KeyCode::ArrowUp | KeyCode::KeyW => Key::Up,
-        KeyCode::ArrowDown | KeyCode::KeyS => Key::Down,
-        KeyCode::Equal | KeyCode::NumpadAdd | KeyCode::PageUp => Key::ZoomIn,
-        KeyCode::Minus | KeyCode::NumpadSubtract | KeyCode::PageDown => Key::ZoomOut,
-        KeyCode::Enter | KeyCode::Space => Key::Go,
-        KeyCode::Tab | KeyCode::KeyN => Key::NextProbe,
-        KeyCode::KeyP => Key::PreviousProbe,
-        KeyCode::KeyM => Key::Map,
-        KeyCode::KeyT => Key::Tour,
-        KeyCode::KeyO => Key::Dollhouse,
-        KeyCode::KeyF => Key::Floor,
-        _ => return None,
-    })
+    if code == KeyCode::Tab {
+        return Some(Key::NextProbe);
+    }
+    Key::from_code(&format!("{code:?}"))
 }
 
 impl Runner {
@@ -445,25 +434,17 @@ impl Runner {
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| ViewError::Window(e.to_string()))?);
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let surface = instance.create_surface(window.clone()).map_err(|e| ViewError::Window(e.to_string()))?;
-        let (adapter, device, queue) = pollster::block_on(async {
+        let size = window.inner_size();
+        let (adapter, gpu, config) = pollster::block_on(async {
             let adapter = instance
                 .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
                 .await
                 .map_err(|e| ViewError::Gpu(e.to_string()))?;
-            let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
-            let desc = wgpu::DeviceDescriptor { label: Some("viewer"), required_limits: limits, ..Default::default() };
-            let (device, queue) = adapter.request_device(&desc).await.map_err(|e| ViewError::Gpu(e.to_string()))?;
-            Ok::<_, ViewError>((adapter, device, queue))
+            let (gpu, config) = Gpu::open(&adapter, &surface, size.width, size.height).await.map_err(ViewError::Gpu)?;
+            Ok::<_, ViewError>((adapter, gpu, config))
         })?;
-        let size = window.inner_size();
-        let mut config = surface.get_default_config(&adapter, size.width.max(1), size.height.max(1)).ok_or_else(|| ViewError::Gpu("the adapter cannot draw to this window".into()))?;
-        // Draw through an sRGB view whatever the surface's own format.
-        let view_format = config.format.add_srgb_suffix();
-        config.view_formats = vec![view_format];
-        config.present_mode = wgpu::PresentMode::AutoVsync;
-        surface.configure(&device, &config);
+        let view_format = gpu.format;
         tracing::info!("viewer on {} ({:?})", adapter.get_info().name, adapter.get_info().backend);
-        let gpu = Gpu { device, queue, format: view_format };
         let mut platform = NativePlatform::new(self.bundle.clone());
         let nav = Navigator::new(graph, self.options.link.probe, 1).map_err(|e| ViewError::Link(format!("--probe: {e}")))?;
         let options = Options { budget_bytes: 768 << 20, max_face: 2048, show_map: true, tour: self.options.tour };

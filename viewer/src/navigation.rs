@@ -1,5 +1,6 @@
 //! Navigation: where the viewer is, where it looks and where it can go, as pure
-//! logic on the bundle graph, unit-tested without a GPU (DESIGN.md section 3.12).
+//! logic on the bundle graph, unit-tested without a GPU (the ExploreMaps paper's browsing: look around,
+//! follow a path's video, jump anywhere).
 //!
 //! States: at a probe (look around); travelling along a path (its 360° video
 //! plays while the view blends from the user's direction to the arrival
@@ -25,6 +26,7 @@ pub struct View {
 }
 
 pub use exploremaps_format::{direction, yaw_pitch};
+use exploremaps_format::timing::{ease, ArcLength};
 
 /// Angle between two view directions, radians.
 fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
@@ -36,15 +38,6 @@ fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
 fn wrap(a: f32) -> f32 {
     let w = (a + PI).rem_euclid(TAU) - PI;
     if w <= -PI { w + TAU } else { w }
-}
-
-fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
-    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
-}
-
-pub(crate) fn smoothstep(t: f32) -> f32 {
-    let t = t.clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -230,7 +223,7 @@ impl Navigator {
             State::Travelling { path, reversed, start, .. } => {
                 let to = self.endpoints(path, reversed).1;
                 let (yaw, pitch) = self.arrival_direction(to, Some((path, reversed)));
-                let s = smoothstep(t);
+                let s = ease(t);
                 self.view.yaw = wrap(start.yaw + wrap(yaw - start.yaw) * s);
                 self.view.pitch = start.pitch + (pitch - start.pitch) * s;
                 if t >= 1.0 {
@@ -253,22 +246,9 @@ impl Navigator {
         let State::Travelling { path, reversed, .. } = self.state else {
             return self.graph.probes[self.probe() as usize].position;
         };
-        let pts = &self.graph.paths[path as usize].polyline;
-        let s = smoothstep(self.progress().unwrap_or(0.0));
+        let s = ease(self.progress().unwrap_or(0.0));
         let s = if reversed { 1.0 - s } else { s };
-        let seg_len = |i: usize| dist(pts[i], pts[i + 1]);
-        let total: f32 = (0..pts.len() - 1).map(seg_len).sum();
-        let mut remaining = s * total;
-        for i in 0..pts.len() - 1 {
-            let l = seg_len(i);
-            if remaining <= l && l > 0.0 {
-                let f = remaining / l;
-                let (a, b) = (pts[i], pts[i + 1]);
-                return [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f];
-            }
-            remaining -= l;
-        }
-        pts[pts.len() - 1]
+        ArcLength::new(&self.graph.paths[path as usize].polyline).at(s)
     }
 
     /// Turns the view (drag, keys); pitch is clamped short of straight up/down.

@@ -535,25 +535,6 @@ fn set_status(key: &str, value: &JsValue) {
     let _ = js_sys::Reflect::set(&status, &key.into(), value);
 }
 
-fn key(code: &str) -> Option<Key> {
-    Some(match code {
-        "ArrowLeft" | "KeyA" => Key::Left,
-        "ArrowRight" | "KeyD" => Key::Right,
-        "ArrowUp" | "KeyW" => Key::Up,
-        "ArrowDown" | "KeyS" => Key::Down,
-        "Equal" | "NumpadAdd" => Key::ZoomIn,
-        "Minus" | "NumpadSubtract" => Key::ZoomOut,
-        "Enter" | "Space" => Key::Go,
-        "KeyN" => Key::NextProbe,
-        "KeyP" => Key::PreviousProbe,
-        "KeyM" => Key::Map,
-        "KeyT" => Key::Tour,
-        "KeyO" => Key::Dollhouse,
-        "KeyF" => Key::Floor,
-        _ => return None,
-    })
-}
-
 fn listen<E: JsCast + 'static>(target: &web_sys::EventTarget, name: &str, state: &Rc<RefCell<State>>, handler: impl Fn(&mut State, E) + 'static) {
     let state = state.clone();
     let closure = Closure::<dyn FnMut(web_sys::Event)>::new(move |e: web_sys::Event| {
@@ -609,14 +590,8 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
         .await
         .map_err(|e| format!("this browser offers neither WebGPU nor WebGL2 ({e})"))?;
-    let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
-    let (device, queue) = adapter.request_device(&wgpu::DeviceDescriptor { label: Some("viewer"), required_limits: limits, ..Default::default() }).await.map_err(|e| format!("no GPU device: {e}"))?;
     let (w, h) = (canvas.width().max(1), canvas.height().max(1));
-    let mut config = surface.get_default_config(&adapter, w, h).ok_or("the canvas cannot be drawn on by this adapter")?;
-    // WebGPU canvases offer only non-sRGB formats: draw through an sRGB view.
-    let view_format = config.format.add_srgb_suffix();
-    config.view_formats = vec![view_format];
-    surface.configure(&device, &config);
+    let (gpu, config) = Gpu::open(&adapter, &surface, w, h).await?;
     mark("device");
     set_status("backend", &format!("{:?}", adapter.get_info().backend).into());
 
@@ -634,7 +609,8 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
     let options = Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
-    let app = App::new(Gpu { device, queue, format: view_format }, nav, Some(&link), options, &mut platform);
+    let view_format = gpu.format;
+    let app = App::new(gpu, nav, Some(&link), options, &mut platform);
     mark("app");
     let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false, dollhouse_level: None }));
 
@@ -659,7 +635,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         s.app.input(Input::Wheel(-(e.delta_y() as f32) / 100.0), &mut s.platform);
     });
     listen(window().as_ref(), "keydown", &state, |s, e: web_sys::KeyboardEvent| {
-        if let Some(k) = key(&e.code()) {
+        if let Some(k) = Key::from_code(&e.code()) {
             e.prevent_default();
             s.app.input(Input::Key(k), &mut s.platform);
         }

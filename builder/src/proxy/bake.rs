@@ -11,7 +11,7 @@
 //! Colours are display sRGB, as the panoramas' pixels.
 
 use super::Mesh;
-use crate::render::Renderer;
+use crate::renderer::Renderer;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -92,7 +92,7 @@ fn fill(values: &[Option<Vec3>], neighbours: &[Vec<u32>]) -> Vec<Vec3> {
 mod tests {
     use super::*;
     use crate::raycast::{Ray, RayScene};
-    use crate::render::{Quality, Settings};
+    use crate::renderer::{Quality, Settings};
 
     #[test]
     fn baked_colours_match_the_panorama_where_both_see_the_floor() {

@@ -206,8 +206,7 @@ fn probe_tiles(bundle: &Path, graph: &Graph, id: usize, dir: &Path) -> Result<(T
     let tiles = Tiles::new(folder, largest.size, TILE, 256.min(largest.size));
     let (mut files, mut bytes) = (0, 0);
     crate::tiles::cut(&tiles, &[(largest.size, faces)], |name, tile| {
-        let mut jpeg = Vec::new();
-        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, TILE_QUALITY).encode_image(tile).expect("JPEG encoding to memory");
+        let jpeg = crate::files::jpeg(tile, TILE_QUALITY);
         files += 1;
         bytes += write(dir, name, &jpeg)?;
         Ok::<_, TourError>(())

@@ -15,18 +15,12 @@ use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
 use exploremaps_scenes::Scene;
 use glam::{Vec2, Vec3};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
-/// A generator for one stream of a render: (seed, kind of work, index).
-pub fn sampler(seed: u64, stream: u64, index: u64) -> Pcg32 {
-    let mut z = seed ^ stream.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ index.wrapping_mul(0xD1B5_4A32_D192_ED03);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    Pcg32::seed_from_u64(z ^ (z >> 31))
-}
+pub use crate::seeds::sampler;
 
 /// How rays are turned into radiance.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,0 +1,42 @@
+//! A path's job: its 360° frames along the camera keys (key frames lit in
+//! full, the frames between reusing their light), encoded as an MP4, and a
+//! poster (the first frame).
+
+use crate::bundle::{write, BundleError};
+use crate::files::jpeg;
+use crate::renderer::{Renderer, Settings};
+use crate::video::Encoder;
+use exploremaps_format::Path as PathInfo;
+use glam::Vec3;
+use image::RgbImage;
+use std::path::Path;
+
+/// Random-number streams of video frames (path id × 2²⁴ + frame), apart from
+/// panoramas' and thumbnails'.
+const VIDEO_STREAMS: u64 = 2 << 48;
+
+/// The video's and the poster's file names.
+pub(super) fn files(id: usize) -> (String, String) {
+    (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
+}
+
+/// The path's equirectangular frames, one a camera key.
+pub(super) fn frames(renderer: &Renderer, settings: &Settings, path: &PathInfo, id: usize) -> Vec<RgbImage> {
+    let w = settings.video_width;
+    let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
+    let mut frames = Vec::with_capacity(eyes.len());
+    renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| frames.push(renderer.to_image(w, w / 2, &frame.color)));
+    frames
+}
+
+/// Renders path `id`, encodes and writes its files. A path without camera
+/// keys has nothing to show: false, and no files.
+pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encoder: &Encoder, path: &PathInfo, id: usize) -> Result<bool, BundleError> {
+    let (video, poster) = files(id);
+    let frames = frames(renderer, settings, path, id);
+    let Some(first) = frames.first() else { return Ok(false) };
+    let mp4 = encoder.encode(&frames, crate::smooth::FPS).map_err(|e| BundleError::Video { path: dir.join(&video).display().to_string(), source: e })?;
+    write(dir, &poster, &jpeg(first, 85))?;
+    write(dir, &video, &mp4)?;
+    Ok(true)
+}

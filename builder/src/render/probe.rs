@@ -1,0 +1,81 @@
+//! A probe's job: its cube faces at every level (512 up to the largest),
+//! the tour tiles cut from them, a photo-sphere panorama resampled from the
+//! largest faces, and a thumbnail in its preferred direction.
+
+use crate::bundle::{write, BundleError};
+use crate::files::jpeg;
+use crate::renderer::{denoise, downsample, equirect_from_cube, photo_sphere_jpeg, Frame, Renderer, Settings};
+use exploremaps_format::{CubeLevel, Probe, Tiles, CUBE_FACES};
+use glam::Vec3;
+use std::path::Path;
+
+/// Random-number streams of thumbnails, apart from the cube faces' (probe id
+/// × 8 + face) and the videos', so no two images share samples.
+const THUMBNAIL_STREAMS: u64 = 1 << 48;
+
+/// Tour tiles are 512 pixels, as tour viewers' are; the preview strip's
+/// faces 256 (or the face, if smaller).
+const TILE: u32 = 512;
+const TILE_PREVIEW: u32 = 256;
+/// JPEG quality of faces, tiles and the panorama (thumbnails: 85).
+const QUALITY: u8 = 90;
+
+/// File names of a probe's assets.
+pub(super) struct ProbeFiles {
+    /// Cube faces per level.
+    pub cube: Vec<CubeLevel>,
+    pub tiles: Tiles,
+    pub pano: String,
+    pub thumb: String,
+}
+
+impl ProbeFiles {
+    pub fn new(id: usize, levels: &[u32]) -> ProbeFiles {
+        let cube = levels.iter().map(|&size| CubeLevel { size, faces: CUBE_FACES.map(|f| format!("probes/{id}/{size}_{f}.jpg")) }).collect();
+        let face = levels.last().copied().unwrap_or(TILE);
+        let tiles = Tiles::new(format!("probes/{id}/tiles"), face, TILE, TILE_PREVIEW.min(face));
+        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg") }
+    }
+
+    /// Every file, each level's faces, the tiles and their preview.
+    pub fn all(&self) -> Vec<String> {
+        let faces = self.cube.iter().flat_map(|l| l.faces.iter().cloned());
+        faces.chain(self.tiles.files()).chain([self.tiles.preview.clone(), self.pano.clone(), self.thumb.clone()]).collect()
+    }
+}
+
+/// Renders probe `id` and writes its files; files already there are kept.
+pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe: &Probe, id: usize, levels: &[u32]) -> Result<(), BundleError> {
+    let exists = |name: &String| dir.join(name).exists();
+    let eye = Vec3::from(probe.position);
+    let ProbeFiles { cube, tiles, pano, thumb } = ProbeFiles::new(id, levels);
+    let denoised = |mut f: Frame| -> Result<Vec<Vec3>, BundleError> {
+        if settings.denoise {
+            denoise(&mut f).map_err(|message| BundleError::Denoise { path: dir.join(&pano).display().to_string(), message })?;
+        }
+        Ok(f.color)
+    };
+    let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, id as u64).into_iter().map(denoised).collect::<Result<_, _>>()?;
+    let full = faces.clone();
+    // Levels from the largest down, each box-filtered from the one above.
+    let mut images = Vec::with_capacity(cube.len());
+    for level in cube.iter().rev() {
+        if faces.len() == 6 && level.size < settings.face {
+            faces = faces.iter().map(|f| downsample(level.size * 2, f)).collect();
+        }
+        let level_images: Vec<image::RgbImage> = faces.iter().map(|face| renderer.to_image(level.size, level.size, face)).collect();
+        for (image, name) in level_images.iter().zip(&level.faces) {
+            if !exists(name) {
+                write(dir, name, &jpeg(image, QUALITY))?;
+            }
+        }
+        images.push((level.size, level_images));
+    }
+    crate::tiles::cut(&tiles, &images, |name, tile| if dir.join(name).exists() { Ok(()) } else { write(dir, name, &jpeg(tile, QUALITY)) })?;
+    let pano_width = settings.face.max(1024);
+    let equirect = equirect_from_cube(&full, settings.face, pano_width);
+    write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), QUALITY))?;
+    let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
+    let view = denoised(renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, THUMBNAIL_STREAMS + id as u64))?;
+    write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view), 85))
+}
