@@ -98,7 +98,7 @@ fn init_logging(verbose: u8, quiet: u8) {
 fn run(cli: &Cli) -> Result<()> {
     match &cli.command {
         Command::Info { scene } => info(&load_scene(scene, cli.seed)?.0),
-        Command::Plan { job } => plan(job, cli.seed),
+        Command::Plan { job } => plan(job, cli.seed).map(drop),
         Command::Coverage { bundle, samples } => remeasure(bundle, *samples),
         Command::Scenes { name: None, .. } => {
             println!("Built-in scenes (use as SCENE, e.g. `exploremaps info maze:12`):");
@@ -122,8 +122,9 @@ fn run(cli: &Cli) -> Result<()> {
         }
         Command::Build { job, render: args } => {
             let settings = render_settings(args, cli.seed)?;
-            plan(job, cli.seed)?;
-            render(&job.output, &settings, None)
+            // The planned graph and the loaded scene go straight on to rendering.
+            let planned = plan(job, cli.seed)?;
+            render(&job.output, &settings, None, planned)
         }
         Command::Render { bundle, finalize: true, .. } => finalize(bundle),
         Command::Render { bundle, render: args, shard, .. } => {
@@ -136,7 +137,9 @@ fn run(cli: &Cli) -> Result<()> {
                     Some((i, n))
                 }
             };
-            render(bundle, &render_settings(args, cli.seed)?, shard)
+            let settings = render_settings(args, cli.seed)?;
+            let (graph, scene, _) = open_bundle(bundle)?;
+            render(bundle, &settings, shard, (graph, scene))
         }
         Command::View { bundle, probe, yaw, pitch, fov, link, tour, benchmark } => {
             use exploremaps_viewer::{native, ui::Link};
@@ -267,8 +270,9 @@ fn plan_params(planning: &PlanArgs, seed: u64) -> PlanParams {
     }
 }
 
-/// `exploremaps plan`: explore, measure, write the bundle.
-fn plan(job: &PlanJob, seed: u64) -> Result<()> {
+/// `exploremaps plan`: explore, measure, write the bundle; returns the graph
+/// as written and the scene.
+fn plan(job: &PlanJob, seed: u64) -> Result<(Graph, Scene)> {
     let (scene_args, output, planning) = (&job.scene, job.output.as_path(), &job.planning);
     check_planning(planning)?;
     let (scene, source) = load_scene(scene_args, seed)?;
@@ -282,7 +286,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<()> {
     plan.graph.stats.insert("plan".into(), serde_json::to_value(recorded).unwrap_or_default());
     exploremaps_builder::bundle::write_plan(output, &plan)?;
     print_plan(&scene, output, &plan);
-    Ok(())
+    Ok((plan.graph, scene))
 }
 
 /// A bundle's graph.json, read and validated; errors are the user's (exit 2).
@@ -342,9 +346,8 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
     Ok(settings)
 }
 
-/// `exploremaps render`: the assets the bundle lacks.
-fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>) -> Result<()> {
-    let (mut graph, scene, _) = open_bundle(bundle)?;
+/// `exploremaps render`: the assets the bundle lacks, given its graph and scene.
+fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>, (mut graph, scene): (Graph, Scene)) -> Result<()> {
     let (index, count) = shard.unwrap_or((0, 1));
     let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.quality.name()));
     bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
