@@ -554,3 +554,27 @@ fn info(scene: &Scene) -> Result<()> {
     println!("surface     {:.1} units²", scene.total_area());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_input_exits_2_wherever_it_is_wrapped_and_the_program_s_failures_1() {
+        let free_space = pipeline::PlanError::FreeSpace(exploremaps_builder::freespace::FreeSpaceError::StartInGeometry(Vec3::ZERO));
+        let wrapped = anyhow::Error::new(free_space).context("graph.json (its probes)");
+        assert_eq!(exit_code(&wrapped), 2);
+        assert_eq!(exit_code(&anyhow::Error::new(BadInput("--face 3".into()))), 2);
+        let disk = exploremaps_builder::bundle::BundleError::Io { path: "b/graph.json".into(), source: std::io::Error::other("disk full") };
+        assert_eq!(exit_code(&anyhow::Error::new(disk)), 1);
+    }
+
+    #[test]
+    fn an_error_message_says_each_cause_once() {
+        // BundleError::Io quotes its source in its own text.
+        let disk = exploremaps_builder::bundle::BundleError::Io { path: "b/graph.json".into(), source: std::io::Error::other("disk full") };
+        let text = message(&anyhow::Error::new(disk).context("rendering b"));
+        assert!(text.starts_with("rendering b: cannot write b/graph.json: disk full;"), "{text}");
+        assert_eq!(text.matches("disk full").count(), 1, "{text}");
+    }
+}

@@ -9,12 +9,12 @@
 //! Reference limits measured on these 2-core machines when the project began:
 //! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
 
-use exploremaps_builder::coverage::cosine_dir;
+use exploremaps_builder::seeds::cosine_direction;
 use exploremaps_builder::visibility::CubeView;
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::BuiltIn;
 use glam::Vec3;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use std::time::Instant;
 
 fn main() {
@@ -47,7 +47,7 @@ fn main() {
         let Some(h) = h else { continue };
         let n = if h.normal.dot(r.dir) < 0.0 { h.normal } else { -h.normal };
         let p = r.at(h.t) + n * 1e-3;
-        bounce.push(Ray::new(p, cosine_dir(n, &mut rng)));
+        bounce.push(Ray::new(p, cosine_direction(n, glam::Vec2::new(rng.random(), rng.random()))));
         shadow.push(Ray::segment(p, light));
     }
     println!(

@@ -72,14 +72,23 @@ fn main() {
         for f in 0..n {
             renderer.equirect(&settings.video, eye + Vec3::X * f as f32 * 0.1, vw, f);
         }
-        let per_frame = t.elapsed().as_secs_f64() / n as f64;
+        let lit_alone = t.elapsed().as_secs_f64() / n as f64;
+        // As bundles render them: along a path, a key frame every
+        // `video_keys` frames and the frames between reusing the keys' light.
+        let eyes: Vec<Vec3> = graph.paths.first().map(|p| p.camera.iter().take(2 * settings.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect()).unwrap_or_default();
+        let t = Instant::now();
+        renderer.path_frames(&settings.video, &eyes, vw, 0, settings.video_keys, |_, _| {});
+        let per_frame = t.elapsed().as_secs_f64() / eyes.len().max(1) as f64;
         let px = (vw * vw / 2) as f64 * settings.video.samples as f64;
         println!(
-            "  video frame {vw}x{} at {} spp: {:.1} ms ({:.1} M samples/s); all {frames} frames: {:.0} s",
+            "  video frame {vw}x{} at {} spp: lit alone {:.1} ms ({:.1} M samples/s); along a path (a key every {} frames) {:.1} ms a frame over {} frames; all {frames} frames: {:.0} s",
             vw / 2,
             settings.video.samples,
+            lit_alone * 1e3,
+            px / lit_alone / 1e6,
+            settings.video_keys,
             per_frame * 1e3,
-            px / per_frame / 1e6,
+            eyes.len(),
             per_frame * frames as f64
         );
         let t = Instant::now();

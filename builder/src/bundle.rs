@@ -16,12 +16,12 @@ pub enum BundleError {
     Io { path: String, source: std::io::Error },
     #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
     Invalid(#[from] exploremaps_format::FormatError),
-    #[error("cannot denoise {path}: {message}")]
-    Denoise { path: String, message: String },
+    #[error("cannot denoise {path}: {source}")]
+    Denoise { path: String, source: crate::renderer::DenoiseError },
     #[error("cannot encode the transition video {path}: {source}")]
     Video { path: String, source: crate::video::VideoError },
-    #[error("cannot code the proxy mesh {path}: {message}; this is a bug, please report it")]
-    Proxy { path: String, message: String },
+    #[error("cannot code the proxy mesh {path}: {source}; this is a bug, please report it")]
+    Proxy { path: String, source: exploremaps_format::edgebreaker::CodingError },
     #[error(transparent)]
     Raycast(#[from] crate::raycast::RaycastError),
     #[error("{dir} is not complete; {} problems:\n  {}\nrun the shards named again (`exploremaps render {dir} --shard i/n`), then --finalize", problems.len(), list_some(problems))]

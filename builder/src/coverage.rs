@@ -36,7 +36,8 @@
 use crate::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::Scene;
-use glam::Vec3;
+use crate::seeds::cosine_direction;
+use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -177,15 +178,6 @@ fn sample_triangles(scene: &Scene, triangles: &[u32], count: usize, rng: &mut Pc
     total
 }
 
-/// A direction around `n` with density proportional to the cosine.
-pub fn cosine_dir(n: Vec3, rng: &mut impl Rng) -> Vec3 {
-    let (u1, u2): (f32, f32) = (rng.random(), rng.random());
-    let r = u1.sqrt();
-    let phi = std::f32::consts::TAU * u2;
-    let (t, b) = n.any_orthonormal_pair();
-    (t * r * phi.cos() + b * r * phi.sin() + n * (1.0 - u1).max(0.0).sqrt()).normalize_or(n)
-}
-
 /// From where in the open space a surface sample is seen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FromOpen {
@@ -219,7 +211,7 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
                 let n = samples.normals[i] * side;
                 let origin = samples.points[i] + n * eps;
                 for _ in 0..dirs {
-                    let d = cosine_dir(n, &mut rng);
+                    let d = cosine_direction(n, Vec2::new(rng.random(), rng.random()));
                     let t_hit = rays.intersect(&Ray::new(origin, d)).map_or(far, |h| h.t).min(far);
                     let mut t = step.min(t_hit);
                     while t < t_hit {

@@ -53,6 +53,7 @@
 //! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
 //! order.
 
+use rand::Rng;
 use crate::coverage::surface_samples;
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use crate::walk::{self, Walk, WalkStats};
@@ -534,7 +535,7 @@ fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
         .points
         .iter()
         .zip(&samples.normals)
-        .map(|(&p, &n)| Ray::new(p + n * eps, crate::coverage::cosine_dir(n, &mut rng)))
+        .map(|(&p, &n)| Ray::new(p + n * eps, crate::seeds::cosine_direction(n, glam::Vec2::new(rng.random(), rng.random()))))
         .collect();
     if list.is_empty() {
         return 0.0;

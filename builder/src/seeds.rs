@@ -3,8 +3,10 @@
 //! two uses share numbers. Planning stages draw from named streams
 //! ([`Stream`]: the seed mixed with the stream's own constant); the renderer
 //! from a stream per (kind of work, index) ([`sampler`]), one per image, tile
-//! or cache cell, so the order parallel work runs in cannot matter.
+//! or cache cell, so the order parallel work runs in cannot matter. Also
+//! the one cosine-weighted direction every stage draws ([`cosine_direction`]).
 
+use glam::{Vec2, Vec3};
 use rand::SeedableRng;
 use rand_pcg::{Pcg32, Pcg64Mcg};
 
@@ -53,4 +55,13 @@ pub fn sampler(seed: u64, stream: u64, index: u64) -> Pcg32 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     Pcg32::seed_from_u64(z ^ (z >> 31))
+}
+
+/// A cosine-weighted direction about the unit normal `n` from two uniform
+/// numbers in [0, 1): reachability, the facing test and every bounce.
+pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
+    let (t1, t2) = n.any_orthonormal_pair();
+    let r = u.x.sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
 }

@@ -51,7 +51,7 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
     let ProbeFiles { cube, tiles, pano, thumb } = ProbeFiles::new(id, levels);
     let denoised = |mut f: Frame| -> Result<Vec<Vec3>, BundleError> {
         if settings.denoise {
-            denoise(&mut f).map_err(|message| BundleError::Denoise { path: dir.join(&pano).display().to_string(), message })?;
+            denoise(&mut f).map_err(|source| BundleError::Denoise { path: dir.join(&pano).display().to_string(), source })?;
         }
         Ok(f.color)
     };

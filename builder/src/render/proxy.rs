@@ -89,7 +89,7 @@ pub(super) fn render(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &expl
             let mut data = mesh.to_coded();
             data.colours = was.iter().map(|&v| colours[v as usize]).collect();
             let file = format!("{name}.emmc");
-            let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), message: e.to_string() })?;
+            let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), source: e })?;
             write(dir, &file, &coded.bytes)?;
             let seen_file = format!("{name}.seen");
             write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[triangles[t as usize]]).collect::<Vec<u32>>()))?;
@@ -139,7 +139,7 @@ struct CodedWhole {
 fn write_splits(dir: &Path, coarse: (&str, CodedWhole, &[u32]), mut stream: crate::proxy::progressive::Progressive, finer: (&[[u8; 3]], &[u32]), probes: u32, bits: u32) -> Result<Vec<exploremaps_format::ProxyPacket>, BundleError> {
     use exploremaps_format::{meshcode, splits, ProxyPacket};
     let (file, CodedWhole { bytes, vertices, triangles }, best) = coarse;
-    let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), message: e.to_string() };
+    let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), source: e };
     // The coder predicts from the coarse level exactly as a viewer decodes it.
     let mut base = meshcode::decode(&bytes).map_err(|e| fail(file, e))?;
     base.groups = triangles.iter().map(|&t| best[t as usize].min(probes)).collect();

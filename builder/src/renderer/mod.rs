@@ -37,7 +37,7 @@ mod surface;
 mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
-pub use denoise::denoise;
+pub use denoise::{denoise, DenoiseError};
 pub use surface::{srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN};
 pub use gather::GatherParams;
 pub use trace::{Frame, TraceParams, Tracer};

@@ -411,13 +411,7 @@ pub fn fibonacci_sphere(n: usize) -> Vec<Vec3> {
         .collect()
 }
 
-/// A cosine-weighted direction about `n` from two uniform numbers.
-pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
-    let (t1, t2) = n.any_orthonormal_pair();
-    let r = u.x.sqrt();
-    let phi = std::f32::consts::TAU * u.y;
-    (t1 * (r * phi.cos()) + t2 * (r * phi.sin()) + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
-}
+pub use crate::seeds::cosine_direction;
 
 #[cfg(test)]
 mod tests {
