@@ -3,7 +3,7 @@
 //! rays, and (with `BENCH_BUNDLE=1`) a whole final-quality bundle.
 //! `cargo bench -p exploremaps-builder --bench render`. The comparison with
 //! Cycles is in the quality bench (`CYCLES=1`), against a common reference.
-//! Goal (issue: render): the whole Sponza bundle at `final` within 20 min on 2 cores.
+//! Goal (issue 14): the whole Crytek Sponza bundle at `final` within 15 min on 2 cores.
 
 use exploremaps_builder::coverage::CoverageParams;
 use exploremaps_builder::load::{load, LoadOptions};
@@ -125,7 +125,7 @@ fn main() {
         let t = Instant::now();
         let report = exploremaps_builder::render::render_missing(dir.path(), &scene, &mut g, &Settings::new(Quality::Final, 1), exploremaps_builder::render::Shard { index: 0, count: 1 }, |_, _| {}).unwrap();
         println!(
-            "\nwhole bundle at final quality: {} probes, {} paths in {:.0} s ({:.1} min; goal 20 min), videos by {}",
+            "\nwhole bundle at final quality: {} probes, {} paths in {:.0} s ({:.1} min; goal 15 min), videos by {}",
             report.probes_rendered,
             report.paths_rendered,
             t.elapsed().as_secs_f64(),
