@@ -194,7 +194,7 @@ pub struct PlanArgs {
     /// Stop placing probes once this fraction of the reachable surface is seen. The
     /// default leaves out only nooks seen through narrow gaps, each of which would
     /// cost a probe; 1 places probes until none adds anything.
-    #[arg(long, default_value_t = 0.995)]
+    #[arg(long, default_value_t = exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET)]
     pub coverage: f64,
     /// Near distance r in metres: the least clearance of probes and paths (default 0.5 %
     /// of the scene's bounding-box diagonal, at most 0.3 m when walking or when the
@@ -405,7 +405,7 @@ impl Default for Recorded {
             max_triangles: exploremaps_builder::load::MAX_TRIANGLES,
             space: "auto".into(),
             strategy: "greedy".into(),
-            coverage_target: 0.995,
+            coverage_target: exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET,
             near_m: None,
             max_cells: 256,
             cluster: true,

@@ -8,7 +8,7 @@
 //! coverage (with random and grid baselines of the same probe count, and
 //! pictures) → graph. `crate::render` then renders a planned bundle.
 
-use crate::cluster::{self, SynthesisParams, SynthesisStats};
+use crate::cluster::{self, SynthesisParams, SynthesisStats, Synthesized};
 use crate::connect::{self, ConnectParams, ConnectStats};
 use crate::smooth;
 use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
@@ -124,10 +124,10 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     let (rays, space, free_space) = prepare(scene, &params.free_space)?;
     let (candidates, explore) = explore_stage(scene, &rays, &space, &params.explore);
     let (probes, cluster) = synthesize(scene, &rays, &space, &candidates, params.synthesis.as_ref());
-    let (directions, orient) = orient_stage(scene, &rays, &space, &probes.positions);
-    let (paths, connect, smooth) = route(scene, &rays, &space, &probes.positions, &directions, seed);
-    let (bar_order, order) = order_stage(&probes.positions, &paths, seed);
-    let measured = measure(scene, &rays, &space, &probes.positions, params);
+    let (directions, orient) = orient_stage(scene, &rays, &space, &probes.probes);
+    let (paths, connect, smooth) = route(scene, &rays, &space, &probes.probes, &directions, seed);
+    let (bar_order, order) = order_stage(&probes.probes, &paths, seed);
+    let measured = measure(scene, &rays, &space, &probes.probes, params);
     let stats = PlanStats { free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
     let graph = assemble(scene, source, &space, &probes, directions, paths, bar_order, &measured, &stats);
     Ok(measured.into_plan(graph, stats, started))
@@ -142,22 +142,17 @@ fn explore_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Exp
 }
 
 /// The final probes: clustered and synthesized from the candidates, or the
-/// candidates themselves when synthesis is off.
-struct Probes {
-    positions: Vec<Vec3>,
-    user_placed: Vec<bool>,
-    clusters: Option<cluster::Synthesized>,
-}
-
-fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[Candidate], params: Option<&SynthesisParams>) -> (Probes, Option<SynthesisStats>) {
+/// candidates themselves (and no clusters) when synthesis is off.
+fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[Candidate], params: Option<&SynthesisParams>) -> (Synthesized, Option<SynthesisStats>) {
     let Some(params) = params else {
-        let probes = Probes { positions: candidates.iter().map(|c| c.position).collect(), user_placed: candidates.iter().map(|c| c.user_placed).collect(), clusters: None };
-        return (probes, None);
+        let probes = candidates.iter().map(|c| c.position).collect();
+        let user_placed = candidates.iter().map(|c| c.user_placed).collect();
+        return (Synthesized { probes, user_placed, cluster_of: Vec::new(), clusters: Vec::new() }, None);
     };
     let _span = tracing::info_span!("cluster").entered();
     let (out, stats) = cluster::synthesize(scene, rays, space, candidates, params);
     tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
-    (Probes { positions: out.probes.clone(), user_placed: out.user_placed.clone(), clusters: Some(out) }, Some(stats))
+    (out, Some(stats))
 }
 
 /// Each probe's preferred view directions, best first (at most three kept).
@@ -366,7 +361,7 @@ fn assemble(
     scene: &Scene,
     source: &str,
     space: &FreeSpace,
-    probes: &Probes,
+    probes: &Synthesized,
     directions: Vec<Vec<format::ViewDirection>>,
     paths: Vec<format::Path>,
     bar_order: Vec<u32>,
@@ -392,24 +387,21 @@ fn assemble(
         eye_height_m: space.walk.as_ref().map(|w| w.eye * scene.metres_per_unit),
         credits: Vec::new(),
     });
-    let clusters = probes.clusters.as_ref();
     graph.probes = probes
-        .positions
+        .probes
         .iter()
         .zip(directions)
         .enumerate()
         .map(|(i, (p, preferred_directions))| format::Probe {
             id: i as u32,
             position: p.to_array(),
-            cluster: clusters.map(|c| c.cluster_of[i]),
+            cluster: probes.cluster_of.get(i).copied(),
             preferred_directions,
             user_placed: probes.user_placed[i],
             assets: format::ProbeAssets::default(),
         })
         .collect();
-    if let Some(c) = clusters {
-        graph.clusters = c.clusters.iter().enumerate().map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 }).collect();
-    }
+    graph.clusters = probes.clusters.iter().enumerate().map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 }).collect();
     graph.paths = paths;
     graph.bar_order = bar_order;
     graph.coverage = Some(measured.entry());

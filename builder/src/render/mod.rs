@@ -57,14 +57,17 @@ pub fn all_jobs(graph: &Graph) -> Vec<Job> {
     probes.chain((0..graph.paths.len()).map(Job::Path)).chain([Job::Proxy]).collect()
 }
 
+/// A job with its number in [`all_jobs`].
+pub type Numbered = (usize, Job);
+
 /// This shard's jobs, and those of them whose files are not all in `dir`.
-pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], shard: Shard) -> (Vec<Job>, Vec<Job>) {
+pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], shard: Shard) -> (Vec<Numbered>, Vec<Numbered>) {
     let exists = |name: &String| dir.join(name).exists();
-    let mine: Vec<Job> = all_jobs(graph).into_iter().enumerate().filter(|(k, _)| k % shard.count == shard.index).map(|(_, job)| job).collect();
+    let mine: Vec<Numbered> = all_jobs(graph).into_iter().enumerate().filter(|(k, _)| k % shard.count == shard.index).collect();
     let todo = mine
         .iter()
         .copied()
-        .filter(|&job| match job {
+        .filter(|&(_, job)| match job {
             Job::Probe(id) => !ProbeFiles::new(id, levels).all().iter().all(exists),
             Job::Path(id) => {
                 let (video, poster) = path::files(id);
@@ -102,7 +105,7 @@ pub fn render_missing(dir: &Path, scene: &Scene, graph: &mut Graph, settings: &S
         report.video_encoder = Some(encoder.name());
         let seconds_setup = setup_started.elapsed().as_secs_f64();
         let mut job_seconds = Vec::with_capacity(todo.len());
-        for (done, &job) in todo.iter().enumerate() {
+        for (done, &(_, job)) in todo.iter().enumerate() {
             let job_started = Instant::now();
             progress(done, todo.len());
             match job {
@@ -131,8 +134,7 @@ pub fn render_missing(dir: &Path, scene: &Scene, graph: &mut Graph, settings: &S
             // Timings (moved to timings.json): the renderer's set-up, which
             // every shard repeats, and each job's time by its number, for
             // planning shards.
-            let numbers = job_numbers(graph);
-            let jobs: Vec<(usize, f64)> = todo.iter().map(|job| numbers(*job)).zip(job_seconds).collect();
+            let jobs: Vec<(usize, f64)> = todo.iter().map(|&(k, _)| k).zip(job_seconds).collect();
             stats["seconds_setup"] = seconds_setup.into();
             stats["seconds_jobs"] = serde_json::json!(jobs);
             graph.stats.insert("render".into(), stats);
@@ -145,16 +147,6 @@ pub fn render_missing(dir: &Path, scene: &Scene, graph: &mut Graph, settings: &S
     }
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
-}
-
-/// A job's number in [`all_jobs`].
-fn job_numbers(graph: &Graph) -> impl Fn(Job) -> usize {
-    let (probes, paths) = (graph.probes.len(), graph.paths.len());
-    move |job| match job {
-        Job::Probe(id) => id,
-        Job::Path(id) => probes + id,
-        Job::Proxy => probes + paths,
-    }
 }
 
 /// What a render was made with: graph.json's `render` entry (a shard's
@@ -230,19 +222,17 @@ mod tests {
         assert_eq!(all[4], Job::Probe(4));
         assert_eq!(all[5], Job::Path(0));
         assert_eq!(all[12], Job::Proxy);
-        let number = job_numbers(&g);
-        assert!(all.iter().enumerate().all(|(k, &job)| number(job) == k));
         let dir = tempfile::tempdir().unwrap();
         let mut seen = Vec::new();
         for index in 0..3 {
             let (mine, todo) = jobs(dir.path(), &g, &[512], Shard { index, count: 3 });
             // Nothing is rendered yet: every job is to do.
             assert_eq!(mine, todo);
-            assert!(mine.iter().all(|&job| number(job) % 3 == index));
+            assert!(mine.iter().all(|&(k, job)| k % 3 == index && all[k] == job));
             seen.extend(mine);
         }
-        seen.sort_by_key(|&job| number(job));
-        assert_eq!(seen, all);
+        seen.sort_by_key(|&(k, _)| k);
+        assert_eq!(seen.into_iter().map(|(_, job)| job).collect::<Vec<_>>(), all);
     }
 
     #[test]
@@ -257,6 +247,6 @@ mod tests {
         crate::files::write_atomic(&dir.path().join(path::files(0).0), b"x").unwrap();
         let (mine, todo) = jobs(dir.path(), &g, &[512], whole);
         assert_eq!(mine.len(), 4);
-        assert_eq!(todo, vec![Job::Probe(0), Job::Path(0), Job::Proxy]);
+        assert_eq!(todo, vec![(0, Job::Probe(0)), (2, Job::Path(0)), (3, Job::Proxy)]);
     }
 }
