@@ -31,7 +31,11 @@ const STREAM: u64 = 0x6A7E_0000_0000;
 /// The B3-spline taps of one à-trous pass.
 const TAPS: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 /// Sharpness of the normal weight: cos^N.
-const NORMAL_POWER: i32 = 16;
+pub(super) const NORMAL_POWER: i32 = 16;
+/// The same within the filter, whose wider passes would otherwise mix a
+/// curved or creased surface's sides (a Crytek Sponza panorama: 0.0555 →
+/// 0.0537 mean FLIP at 64 against 16; the sunroom's flat walls unchanged).
+const FILTER_NORMAL_POWER: i32 = 64;
 
 /// How a frame's indirect light is gathered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,13 +69,14 @@ pub struct Field {
 
 /// How much a grid point at (p, n) stands for a surface point at (q, m) seen
 /// from `depth`: normals alike and p near q's tangent plane.
-pub(super) fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f32) -> f32 {
+/// `power` sets how fast it falls with the angle between the normals.
+pub(super) fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f32, power: i32) -> f32 {
     let cos = m.dot(n);
     if cos <= 0.5 {
         return 0.0;
     }
     let plane = (p - q).dot(m).abs() / tolerance;
-    cos.powi(NORMAL_POWER) * (-plane * plane).exp()
+    cos.powi(power) * (-plane * plane).exp()
 }
 
 impl Tracer<'_> {
@@ -179,7 +184,11 @@ impl Field {
             .map(|i| {
                 let mut p = points[i]?;
                 let (x, y) = (i as i64 % gw, i as i64 / gw);
-                let tolerance = footprint * p.depth * spacing as f32;
+                // A plane's points stay on its tangent plane however far
+                // apart: the tolerance does not grow with the spacing (it
+                // did, and a ledge's face then blended with the wall behind
+                // it on the wider passes).
+                let tolerance = footprint * p.depth;
                 let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
                 for (dy, ty) in TAPS.iter().enumerate() {
                     let yy = y + (dy as i64 - 2) * spacing as i64;
@@ -197,7 +206,7 @@ impl Field {
                         let w = tx
                             * ty
                             * geometric_weight(
-                                p.position, p.normal, q.position, q.normal, tolerance,
+                                p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER,
                             );
                         sum += q.irradiance * w;
                         weight += w;
@@ -236,7 +245,7 @@ impl Field {
                 if wx * wy == 0.0 {
                     continue;
                 }
-                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance);
+                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER);
                 sum += q.irradiance * w;
                 weight += w;
             }

@@ -19,7 +19,7 @@
 //! different points); a path rendered with more samples renders every frame
 //! in full.
 
-use super::gather::geometric_weight;
+use super::gather::{geometric_weight, NORMAL_POWER};
 use super::surface::Surface;
 use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
@@ -74,7 +74,7 @@ impl Lit {
                 if (p - s.position).length_squared() > 4.0 * footprint * footprint {
                     continue;
                 }
-                let w = wx * wy * geometric_weight(s.position, s.normal, p, n, footprint);
+                let w = wx * wy * geometric_weight(s.position, s.normal, p, n, footprint, NORMAL_POWER);
                 sum += e * w;
                 weight += w;
             }
