@@ -16,8 +16,11 @@
 //! after 400 iterations. Every final segment is then verified by a ray cast
 //! and its clearance measured on the distance field.
 //!
-//! Timing: duration = max(1.5 s, length / walking speed (1.4 m/s through the
-//! unit scale)); keys at 25 fps; position by arc length with slow-in/slow-out
+//! Timing: duration = length / walking speed (1.4 m/s through the unit
+//! scale), at least 1.5 s and at most 10 s (a longer path is travelled
+//! faster: a visitor waits for a transition, and where the scale is only
+//! guessed, as for a scene flown through, walking pace made the Crytek
+//! Sponza's transitions 46 s long on average); keys at 25 fps; position by arc length with slow-in/slow-out
 //! (smoothstep); view blended with the same easing from the direction of
 //! travel at departure to the arrival direction.
 
@@ -32,6 +35,7 @@ const MAX_ITERATIONS: usize = 400;
 const STEP: f32 = 0.5;
 pub const WALKING_SPEED_M_S: f32 = 1.4;
 pub const MIN_DURATION_S: f32 = 1.5;
+pub const MAX_DURATION_S: f32 = 10.0;
 pub const FPS: f32 = 25.0;
 
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -120,7 +124,7 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
 
 /// Seconds the camera takes along `length` scene units.
 pub fn duration(length: f32, metres_per_unit: f32) -> f32 {
-    (length * metres_per_unit / WALKING_SPEED_M_S).max(MIN_DURATION_S)
+    (length * metres_per_unit / WALKING_SPEED_M_S).clamp(MIN_DURATION_S, MAX_DURATION_S)
 }
 
 /// Camera keys at 25 fps: (time s, position, yaw, pitch), eased along the
@@ -190,6 +194,7 @@ mod tests {
         let d = duration(10.0, 1.0);
         assert!((d - 10.0 / WALKING_SPEED_M_S).abs() < 1e-5);
         assert_eq!(duration(0.5, 1.0), MIN_DURATION_S);
+        assert_eq!(duration(100.0, 1.0), MAX_DURATION_S);
         let keys = camera_keys(&p, d, Some((std::f32::consts::FRAC_PI_2, 0.0)));
         assert_eq!(keys.len(), (d * FPS).ceil() as usize + 1);
         let speed = |k: usize| (keys[k + 1].1 - keys[k].1).length();
