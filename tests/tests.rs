@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use exploremaps_builder::smooth::{MAX_DURATION_S, MIN_DURATION_S};
 
 mod tour;
 mod viewer;
@@ -159,7 +160,7 @@ fn plan_writes_a_valid_bundle_with_coverage_and_pictures() {
         assert!(!graph.paths.is_empty(), "probes are joined by paths");
         assert_eq!(graph.stats["connect"]["components"], 1, "the maze is one connected space");
         assert_eq!(graph.stats["smooth"]["blocked_segments"], 0);
-        assert!(graph.paths.iter().all(|p| (1.5..=10.0).contains(&p.duration_s) && !p.camera.is_empty()));
+        assert!(graph.paths.iter().all(|p| (MIN_DURATION_S..=MAX_DURATION_S).contains(&p.duration_s) && !p.camera.is_empty()));
     }
     let order = &graph.stats["order"];
     assert!(order["cost"].as_f64().unwrap() <= order["random_cost"].as_f64().unwrap(), "{order}");

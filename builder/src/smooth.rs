@@ -20,9 +20,9 @@
 //! scale), at least 1.5 s and at most 10 s (a longer path is travelled
 //! faster: a visitor waits for a transition, and where the scale is only
 //! guessed, as for a scene flown through, walking pace made the Crytek
-//! Sponza's transitions 46 s long on average); keys at 25 fps; position by arc length with slow-in/slow-out
-//! (smoothstep); view blended with the same easing from the direction of
-//! travel at departure to the arrival direction.
+//! Sponza's transitions 46 s long on average); keys at 25 fps; position by
+//! arc length with slow-in/slow-out (smoothstep); view blended with the same
+//! easing from the direction of travel at departure to the arrival direction.
 
 use crate::connect::polyline_length;
 use crate::orient::yaw_pitch;
