@@ -29,7 +29,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights (to check each kind against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes], VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
+//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -135,11 +135,11 @@ fn main() {
         if let Some(n) = std::env::var("SUN_RAYS").ok().and_then(|v| v.parse().ok()) {
             (settings.panorama.sun_rays, settings.video.sun_rays) = (n, n);
         }
-        // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes] try another gather.
+        // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes[,near]] try another gather.
         for (var, params) in [("VIDEO_GATHER", &mut settings.video), ("PANORAMA_GATHER", &mut settings.panorama)] {
             let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
             if let (Some(g), &[rays, step, ..]) = (params.gather.as_mut(), &n[..]) {
-                (g.rays, g.step, g.passes) = (rays, step, n.get(2).copied().unwrap_or(g.passes));
+                (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
             }
         }
         let t = Instant::now();

@@ -10,16 +10,25 @@
 //! weights from normals and distances to the tangent plane, so it never blurs
 //! across a corner or a silhouette), and brought back to every pixel sample by
 //! the same geometric weights over the nearest 2 × 2 grid points, or 4 × 4
-//! where those lie on other surfaces (joint bilateral upsampling). Direct light stays per pixel sample, so sun shadows
-//! stay sharp; samples with no similar grid point nearby (thin objects) fall
-//! back to the cache.
+//! where those lie on other surfaces (joint bilateral upsampling). Direct
+//! light stays per pixel sample, so sun shadows stay sharp; samples with no
+//! similar grid point nearby (thin objects) fall back to the cache.
+//!
+//! Light from surfaces close to a point changes faster than that grid can
+//! follow: the dark band where a curtain's hem meets the floor, a wall's
+//! foot, a ledge's underside. So the gather is split at a reach of a few grid
+//! footprints (a near and a far field, as in ambient occlusion): the coarse
+//! grid keeps only the light from beyond it, which varies slowly; where its
+//! rays found surfaces within reach, a finer grid (every `NEAR_STEP` pixels,
+//! short rays) gathers the near field and the share of rays that get past
+//! it, filtered the same way; a sample then receives near + open × far.
 //!
 //! Random numbers come from generators seeded by (render seed, image, grid
 //! point), so the result does not depend on the thread count.
 
 use super::surface::{cosine_direction, Surface, Which};
 use super::trace::{sampler, Tracer};
-use crate::raycast::Ray;
+use crate::raycast::{Hit, Ray};
 use glam::{Vec2, Vec3};
 use rand::Rng;
 use rand_pcg::Pcg32;
@@ -28,6 +37,8 @@ use std::f32::consts::PI;
 
 /// Random streams of gather points, apart from the pixels' own.
 const STREAM: u64 = 0x6A7E_0000_0000;
+/// The same for the near field's grid.
+const NEAR_STREAM: u64 = 0x6A7F_0000_0000;
 /// The B3-spline taps of one à-trous pass.
 const TAPS: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 /// Sharpness of the normal weight: cos^N.
@@ -36,6 +47,10 @@ pub(super) const NORMAL_POWER: i32 = 16;
 /// curved or creased surface's sides (a Crytek Sponza panorama: 0.0555 →
 /// 0.0538 mean FLIP at 64 against 16; the sunroom's flat walls unchanged).
 const FILTER_NORMAL_POWER: i32 = 64;
+/// The near field's grid: pixels between points, rays a point, à-trous
+/// passes. Crytek Sponza panorama (`FACE=256`): 0.0515 mean FLIP at (3, 4, 2)
+/// against 0.0514 at (2, 4, 2) and 0.0513 at (2, 4, 1), a second cheaper.
+const NEAR_GRID: (u32, u32, u32) = (3, 4, 2);
 
 /// How a frame's indirect light is gathered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,6 +61,8 @@ pub struct GatherParams {
     pub step: u32,
     /// À-trous passes (each doubles the filter's reach).
     pub passes: u32,
+    /// The near field's reach in grid footprints (0: no near field).
+    pub near: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -54,17 +71,42 @@ struct Point {
     normal: Vec3,
     /// Distance from the eye (sets the geometric tolerances).
     depth: f32,
-    irradiance: Vec3,
+    /// π / rays × the radiance of the rays that hit within the reach.
+    near: Vec3,
+    /// π × the mean radiance of the rays that went past it (what the point
+    /// would receive were nothing near it).
+    far: Vec3,
+    /// The share of rays that went past it.
+    open: f32,
 }
 
-/// Indirect irradiance on a coarse grid over one frame.
-pub struct Field {
+/// Gather points on a regular grid over a frame.
+struct Grid {
     width: u32,
     height: u32,
     step: u32,
     /// Angle one pixel spans at the frame's centre, radians.
     pixel_angle: f32,
     points: Vec<Option<Point>>,
+}
+
+/// A blend of grid points' light.
+#[derive(Clone, Copy, Debug)]
+struct Blend {
+    near: Vec3,
+    far: Vec3,
+    open: f32,
+    /// Whether a point that counted had surfaces within the reach.
+    crowded: bool,
+}
+
+/// Indirect irradiance over one frame: the far field on a coarse grid, the
+/// near field on a finer one where surfaces are close.
+pub struct Field {
+    far: Grid,
+    near: Option<Grid>,
+    /// The near field's reach in coarse grid footprints.
+    reach: f32,
 }
 
 /// How much a grid point at (p, n) stands for a surface point at (q, m) seen
@@ -81,7 +123,8 @@ pub(super) fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f3
 
 impl Tracer<'_> {
     /// Gathers the indirect light seen through a `width` × `height` frame
-    /// (as [`Tracer::render`] projects it) on a grid every `params.step` pixels.
+    /// (as [`Tracer::render`] projects it) on a grid every `params.step`
+    /// pixels, and its near field where that grid found surfaces close.
     pub(super) fn gather_field(
         &self,
         params: &GatherParams,
@@ -92,54 +135,71 @@ impl Tracer<'_> {
         project: &(impl Fn(f32, f32) -> Vec3 + Sync),
     ) -> Field {
         let step = params.step.max(1);
-        let (gw, gh) = (width.div_ceil(step), height.div_ceil(step));
         let centre = project(0.5, 0.5);
-        let pixel_angle = centre
-            .angle_between(project(0.5 + 1.0 / width as f32, 0.5))
-            .max(1e-6);
+        let pixel_angle = centre.angle_between(project(0.5 + 1.0 / width as f32, 0.5)).max(1e-6);
+        let mut far = Grid { width, height, step, pixel_angle, points: Vec::new() };
+        let reach = params.near as f32;
+        let reach_at = |depth: f32| reach * pixel_angle * step as f32 * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
-        let points = (0..gw * gh)
+        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, project, |_, _| true);
+        for pass in 0..params.passes {
+            far.filter(1 << pass, false);
+        }
+        let near = (params.near > 0 && far.points.iter().flatten().any(|p| p.open < 1.0)).then(|| {
+            let (near_step, rays, passes) = NEAR_GRID;
+            let mut near = Grid { step: near_step, points: Vec::new(), ..far };
+            let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
+            // Only where a coarse point around had surfaces within reach.
+            let crowded = |x: f32, y: f32| far.around(x, y, 1).any(|p| p.open < 1.0);
+            near.points = self.gather_grid(&near, seed, NEAR_STREAM ^ image, eye, side, &reach_at, project, crowded);
+            for pass in 0..passes {
+                near.filter(1 << pass, true);
+            }
+            near
+        });
+        Field { far, near, reach }
+    }
+
+    /// The points of `grid` (where `wanted` at their pixel), each gathered by
+    /// side² rays split at `reach_at(depth)`.
+    #[allow(clippy::too_many_arguments)]
+    fn gather_grid(
+        &self,
+        grid: &Grid,
+        seed: u64,
+        stream: u64,
+        eye: Vec3,
+        side: u32,
+        reach_at: &(impl Fn(f32) -> f32 + Sync),
+        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+        wanted: impl Fn(f32, f32) -> bool + Sync,
+    ) -> Vec<Option<Point>> {
+        let (gw, gh) = grid.size();
+        let (width, height, step) = (grid.width as f32, grid.height as f32, grid.step as f32);
+        (0..gw * gh)
             .into_par_iter()
             .map(|g| {
                 let _mode = crate::raycast::FlushDenormals::new();
                 let (gx, gy) = (g % gw, g / gw);
-                let x = ((gx as f32 + 0.5) * step as f32).min(width as f32 - 0.5);
-                let y = ((gy as f32 + 0.5) * step as f32).min(height as f32 - 0.5);
-                let mut ray = Ray::new(eye, project(x / width as f32, y / height as f32));
+                let x = ((gx as f32 + 0.5) * step).min(width - 0.5);
+                let y = ((gy as f32 + 0.5) * step).min(height - 0.5);
+                if !wanted(x, y) {
+                    return None;
+                }
+                let mut ray = Ray::new(eye, project(x / width, y / height));
                 let hit = self.intersect(&mut ray)?;
                 let s = self.materials.surface(&ray, &hit);
-                let mut rng = sampler(seed, STREAM ^ image, g as u64);
-                let irradiance = self.gather_at(&s, side, &mut rng);
-                Some(Point {
-                    position: s.position,
-                    normal: s.normal,
-                    depth: hit.t * ray.dir.length(),
-                    irradiance,
-                })
+                let mut rng = sampler(seed, stream, g as u64);
+                let depth = hit.t * ray.dir.length();
+                Some(self.gather_at(&s, depth, side, reach_at(depth), &mut rng))
             })
-            .collect();
-        let mut field = Field {
-            width,
-            height,
-            step,
-            pixel_angle,
-            points,
-        };
-        for pass in 0..params.passes {
-            field.filter(1 << pass);
-        }
-        field
+            .collect()
     }
 
-    /// Indirect irradiance at `s` by side² stratified cosine-weighted rays;
-    /// at their hits, emission plus the cache's light (all of it: direct
-    /// from every sampled light and indirect), or the sky.
-    fn gather_at(&self, s: &Surface, side: u32, rng: &mut Pcg32) -> Vec3 {
-        let cache = self
-            .cache
-            .as_ref()
-            .expect("a final gather needs the radiance cache");
-        let mut sum = Vec3::ZERO;
+    /// Indirect irradiance at `s` by side² stratified cosine-weighted rays,
+    /// split at `reach`.
+    fn gather_at(&self, s: &Surface, depth: f32, side: u32, reach: f32, rng: &mut Pcg32) -> Point {
+        let (mut near, mut far, mut escaped) = (Vec3::ZERO, Vec3::ZERO, 0u32);
         let from = s.lifted();
         for j in 0..side * side {
             let u = Vec2::new(
@@ -148,35 +208,98 @@ impl Tracer<'_> {
             );
             let d = cosine_direction(s.normal, u);
             if d.dot(s.geometric) <= 0.0 {
+                // Below the surface: no light, and nothing near either.
+                escaped += 1;
                 continue;
             }
             let mut ray = Ray::new(from, d);
-            sum += match self.intersect(&mut ray) {
-                None => self.lighting.sky.radiance(d),
-                Some(hit) => {
-                    let h = self.materials.surface(&ray, &hit);
-                    let e = cache
-                        .total_irradiance(h.position, h.geometric)
-                        .unwrap_or_else(|| {
-                            cache.irradiance(h.position, h.geometric, false)
-                                + self.direct(&h, Which::All, rng)
-                        });
-                    h.emission + h.albedo / PI * e
+            match self.intersect(&mut ray) {
+                None => {
+                    far += self.lighting.sky.radiance(d);
+                    escaped += 1;
                 }
-            };
+                Some(hit) if hit.t >= reach => {
+                    far += self.leaving(&ray, &hit, rng);
+                    escaped += 1;
+                }
+                Some(hit) => near += self.leaving(&ray, &hit, rng),
+            }
         }
         // Cosine sampling: E = π · mean radiance.
-        sum * (PI / (side * side) as f32)
+        let n = (side * side) as f32;
+        Point {
+            position: s.position,
+            normal: s.normal,
+            depth,
+            near: near * (PI / n),
+            far: if escaped > 0 { far * (PI / escaped as f32) } else { Vec3::ZERO },
+            open: escaped as f32 / n,
+        }
+    }
+
+    /// Radiance leaving a gather ray's hit toward it: emission plus the
+    /// cache's light (all of it: direct from every sampled light and indirect).
+    fn leaving(&self, ray: &Ray, hit: &Hit, rng: &mut Pcg32) -> Vec3 {
+        let cache = self.cache.as_ref().expect("a final gather needs the radiance cache");
+        let h = self.materials.surface(ray, hit);
+        let e = cache
+            .total_irradiance(h.position, h.geometric)
+            .unwrap_or_else(|| cache.irradiance(h.position, h.geometric, false) + self.direct(&h, Which::All, rng));
+        h.emission + h.albedo / PI * e
+    }
+
+    /// Indirect irradiance at a pixel sample the near field's grid missed
+    /// (a thin object), whose far field is `far`: one cosine ray, bringing a
+    /// surface's light within `reach`, the far field past it.
+    fn near_ray(&self, s: &Surface, far: Vec3, reach: f32, rng: &mut Pcg32) -> Vec3 {
+        let d = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
+        if d.dot(s.geometric) <= 0.0 {
+            return far;
+        }
+        let mut ray = Ray { t_max: reach, ..Ray::new(s.lifted(), d) };
+        match self.intersect(&mut ray) {
+            None => far,
+            Some(hit) => PI * self.leaving(&ray, &hit, rng),
+        }
+    }
+
+    /// Indirect irradiance for a pixel sample at (x, y) (pixel units) whose
+    /// surface is `s`, `depth` from the eye; `None` when no grid point is alike.
+    pub(super) fn indirect_from(&self, field: &Field, x: f32, y: f32, s: &Surface, depth: f32, rng: &mut Pcg32) -> Option<Vec3> {
+        let far = field.far.at(x, y, s, depth)?;
+        if !far.crowded {
+            return Some(far.far);
+        }
+        let reach = field.reach * field.far.pixel_angle * field.far.step as f32 * depth;
+        Some(match field.near.as_ref().and_then(|g| g.at(x, y, s, depth)) {
+            Some(near) => near.near + near.open * far.far,
+            None => self.near_ray(s, far.far, reach, rng),
+        })
     }
 }
 
-impl Field {
-    /// One edge-avoiding à-trous pass with taps `spacing` grid points apart.
-    fn filter(&mut self, spacing: u32) {
-        let (gw, gh) = (
-            self.width.div_ceil(self.step) as i64,
-            self.height.div_ceil(self.step) as i64,
-        );
+impl Grid {
+    fn size(&self) -> (u32, u32) {
+        (self.width.div_ceil(self.step), self.height.div_ceil(self.step))
+    }
+
+    /// The points of the (2 radius)² around pixel (x, y).
+    fn around(&self, x: f32, y: f32, radius: i64) -> impl Iterator<Item = &Point> {
+        let (gw, gh) = self.size();
+        let (u0, v0) = ((x / self.step as f32 - 0.5).floor() as i64, (y / self.step as f32 - 0.5).floor() as i64);
+        let ys = (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh as i64 - 1);
+        ys.flat_map(move |yy| {
+            let xs = (u0 + 1 - radius).max(0)..=(u0 + radius).min(gw as i64 - 1);
+            xs.filter_map(move |xx| self.points[(yy * gw as i64 + xx) as usize].as_ref())
+        })
+    }
+
+    /// One edge-avoiding à-trous pass with taps `spacing` grid points apart:
+    /// of the far field, each point weighed by its share of rays that reached
+    /// it; or of the near field and that share.
+    fn filter(&mut self, spacing: u32, near_field: bool) {
+        let (gw, gh) = self.size();
+        let (gw, gh) = (gw as i64, gh as i64);
         let footprint = self.pixel_angle * self.step as f32;
         let points = &self.points;
         let next: Vec<Option<Point>> = (0..points.len())
@@ -189,7 +312,7 @@ impl Field {
                 // did, and a ledge's face then blended with the wall behind
                 // it on the wider passes).
                 let tolerance = footprint * p.depth;
-                let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+                let (mut far, mut near, mut open, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32);
                 for (dy, ty) in TAPS.iter().enumerate() {
                     let yy = y + (dy as i64 - 2) * spacing as i64;
                     if yy < 0 || yy >= gh {
@@ -203,26 +326,34 @@ impl Field {
                         let Some(q) = points[(yy * gw + xx) as usize] else {
                             continue;
                         };
-                        let w = tx
-                            * ty
-                            * geometric_weight(
-                                p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER,
-                            );
-                        sum += q.irradiance * w;
+                        let mut w = tx * ty * geometric_weight(p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER);
+                        if !near_field {
+                            // A far field seen through few rays counts for little.
+                            w *= q.open;
+                        }
+                        far += q.far * w;
+                        near += q.near * w;
+                        open += q.open * w;
                         weight += w;
                     }
                 }
-                p.irradiance = sum / weight;
+                if weight > 0.0 {
+                    if near_field {
+                        (p.near, p.open) = (near / weight, open / weight);
+                    } else {
+                        p.far = far / weight;
+                    }
+                }
                 Some(p)
             })
             .collect();
         self.points = next;
     }
 
-    /// Indirect irradiance for a pixel sample at (x, y) (pixel units) whose
-    /// surface is `s`, `depth` from the eye: the grid points of the 4 × 4
-    /// around it, weighted by distance and likeness; `None` when none is alike.
-    pub fn irradiance(&self, x: f32, y: f32, s: &Surface, depth: f32) -> Option<Vec3> {
+    /// The light for a pixel sample at (x, y) (pixel units) whose surface is
+    /// `s`, `depth` from the eye: the grid points of the 4 × 4 around it,
+    /// weighted by distance and likeness; `None` when none is alike.
+    fn at(&self, x: f32, y: f32, s: &Surface, depth: f32) -> Option<Blend> {
         let (u, v) = (x / self.step as f32 - 0.5, y / self.step as f32 - 0.5);
         let tolerance = self.pixel_angle * self.step as f32 * depth;
         // The 2 × 2 around the sample (bilinear) almost always suffice; the
@@ -232,11 +363,13 @@ impl Field {
 
     /// Grid points within `radius` of (u, v) (grid units) under a tent of
     /// that radius times likeness to `s`; `None` when their weight is below `least`.
-    fn blend(&self, u: f32, v: f32, radius: i64, s: &Surface, tolerance: f32, least: f32) -> Option<Vec3> {
-        let (gw, gh) = (self.width.div_ceil(self.step) as i64, self.height.div_ceil(self.step) as i64);
+    fn blend(&self, u: f32, v: f32, radius: i64, s: &Surface, tolerance: f32, least: f32) -> Option<Blend> {
+        let (gw, gh) = self.size();
+        let (gw, gh) = (gw as i64, gh as i64);
         let (u0, v0) = (u.floor() as i64, v.floor() as i64);
         let r = radius as f32;
-        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        let mut sum = Blend { near: Vec3::ZERO, far: Vec3::ZERO, open: 0.0, crowded: false };
+        let mut weight = 0.0f32;
         for yy in (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh - 1) {
             let wy = (1.0 - (v - yy as f32).abs() / r).max(0.0);
             for xx in (u0 + 1 - radius).max(0)..=(u0 + radius).min(gw - 1) {
@@ -246,11 +379,14 @@ impl Field {
                     continue;
                 }
                 let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER);
-                sum += q.irradiance * w;
+                sum.near += q.near * w;
+                sum.far += q.far * w;
+                sum.open += q.open * w;
+                sum.crowded |= w > 0.0 && q.open < 1.0;
                 weight += w;
             }
         }
-        (weight >= least).then(|| sum / weight)
+        (weight >= least).then(|| Blend { near: sum.near / weight, far: sum.far / weight, open: sum.open / weight, crowded: sum.crowded })
     }
 }
 
@@ -265,20 +401,20 @@ mod tests {
     #[test]
     fn the_filter_smooths_a_plane_but_never_blends_a_ledge_with_the_wall_behind_it() {
         let (n, ledge) = (24u32, 11..13u32);
-        let mut field = Field { width: n, height: n, step: 1, pixel_angle: 0.005, points: Vec::new() };
+        let mut field = Grid { width: n, height: n, step: 1, pixel_angle: 0.005, points: Vec::new() };
         for y in 0..n {
             for x in 0..n {
                 let on_ledge = ledge.contains(&x);
                 // The wall's light alternates 0.9 / 1.1 (noise around 1.0).
                 let light = if on_ledge { 0.2 } else if (x + y) % 2 == 0 { 0.9 } else { 1.1 };
                 let z = if on_ledge { 0.15 } else { 0.0 };
-                field.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z), normal: Vec3::Z, depth: 10.0, irradiance: Vec3::splat(light) }));
+                field.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0 }));
             }
         }
         for pass in 0..3 {
-            field.filter(1 << pass);
+            field.filter(1 << pass, false);
         }
-        let at = |x: u32, y: u32| field.points[(y * n + x) as usize].unwrap().irradiance.x;
+        let at = |x: u32, y: u32| field.points[(y * n + x) as usize].unwrap().far.x;
         for y in 0..n {
             for x in ledge.clone() {
                 assert!((at(x, y) - 0.2).abs() < 0.01, "ledge point ({x}, {y}) took the wall's light: {}", at(x, y));

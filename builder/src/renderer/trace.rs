@@ -135,7 +135,7 @@ impl<'a> Tracer<'a> {
     /// and the path beyond it (cosine sampling: E ≈ π L).
     fn indirect(&self, params: &TraceParams, s: &Surface, at: Option<(&Field, f32, f32, f32)>, rng: &mut Pcg32) -> Vec3 {
         match (&self.cache, params.bounces) {
-            (Some(cache), 0) => match at.and_then(|(field, x, y, depth)| field.irradiance(x, y, s, depth)) {
+            (Some(cache), 0) => match at.and_then(|(field, x, y, depth)| self.indirect_from(field, x, y, s, depth, rng)) {
                 Some(e) if params.baked_points => e + cache.point_irradiance(s.position, s.geometric),
                 Some(e) => e,
                 None => cache.irradiance(s.position, s.geometric, params.baked_points),
