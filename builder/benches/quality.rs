@@ -29,7 +29,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights (to check each kind against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
+//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -140,6 +140,12 @@ fn main() {
             let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
             if let (Some(g), &[rays, step, ..]) = (params.gather.as_mut(), &n[..]) {
                 (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
+            }
+        }
+        // VIDEO_SPREAD / PANORAMA_SPREAD=x try another spread of a gather point's light.
+        for (var, params) in [("VIDEO_SPREAD", &mut settings.video), ("PANORAMA_SPREAD", &mut settings.panorama)] {
+            if let (Some(g), Some(x)) = (params.gather.as_mut(), std::env::var(var).ok().and_then(|v| v.parse().ok())) {
+                g.spread = x;
             }
         }
         let t = Instant::now();

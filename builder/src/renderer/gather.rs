@@ -22,6 +22,10 @@
 //! rays found surfaces within reach, a finer grid (every `NEAR_STEP` pixels,
 //! short rays) gathers the near field and the share of rays that get past
 //! it, filtered the same way; a sample then receives near + open × far.
+//! And a point's light spreads, in the filter and the upsampling, no farther
+//! than a quarter of the harmonic mean distance of the surfaces its rays hit
+//! (Ward's bound on how fast irradiance changes), so the open floor in front
+//! of a curtain does not light the strip behind its hem.
 //!
 //! Random numbers come from generators seeded by (render seed, image, grid
 //! point), so the result does not depend on the thread count.
@@ -53,7 +57,7 @@ const FILTER_NORMAL_POWER: i32 = 64;
 const NEAR_GRID: (u32, u32, u32) = (3, 4, 2);
 
 /// How a frame's indirect light is gathered.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GatherParams {
     /// Rays a grid point (rounded up to a square for stratification).
     pub rays: u32,
@@ -63,6 +67,9 @@ pub struct GatherParams {
     pub passes: u32,
     /// The near field's reach in grid footprints (0: no near field).
     pub near: u32,
+    /// How far a point's light may spread, in units of the harmonic mean
+    /// distance of the surfaces around it (0: no limit).
+    pub spread: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -78,6 +85,8 @@ struct Point {
     far: Vec3,
     /// The share of rays that went past it.
     open: f32,
+    /// Harmonic mean distance of the surfaces the rays hit (Ward's R).
+    harmonic: f32,
 }
 
 /// Gather points on a regular grid over a frame.
@@ -87,6 +96,8 @@ struct Grid {
     step: u32,
     /// Angle one pixel spans at the frame's centre, radians.
     pixel_angle: f32,
+    /// [`GatherParams::spread`].
+    spread: f32,
     points: Vec<Option<Point>>,
 }
 
@@ -121,6 +132,19 @@ pub(super) fn geometric_weight(q: Vec3, m: Vec3, p: Vec3, n: Vec3, tolerance: f3
     cos.powi(power) * (-plane * plane).exp()
 }
 
+/// How much a point's light stands for a point `d` away: irradiance
+/// changes across a distance d by about d / R, R the harmonic mean distance
+/// of the surfaces around (Ward et al. 1988), so beyond `spread` × R it
+/// stands for little (a floor's open part for the strip behind a curtain
+/// hanging close above it).
+fn ward(d: f32, harmonic: f32, spread: f32) -> f32 {
+    if spread == 0.0 {
+        return 1.0;
+    }
+    let x = d / (spread * harmonic);
+    (-x * x).exp()
+}
+
 impl Tracer<'_> {
     /// Gathers the indirect light seen through a `width` × `height` frame
     /// (as [`Tracer::render`] projects it) on a grid every `params.step`
@@ -137,11 +161,11 @@ impl Tracer<'_> {
         let step = params.step.max(1);
         let centre = project(0.5, 0.5);
         let pixel_angle = centre.angle_between(project(0.5 + 1.0 / width as f32, 0.5)).max(1e-6);
-        let mut far = Grid { width, height, step, pixel_angle, points: Vec::new() };
+        let mut far = Grid { width, height, step, pixel_angle, spread: params.spread, points: Vec::new() };
         let reach = params.near as f32;
         let reach_at = |depth: f32| reach * pixel_angle * step as f32 * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
-        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, project, |_, _| true);
+        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |_, _| true);
         for pass in 0..params.passes {
             far.filter(1 << pass, false);
         }
@@ -151,7 +175,7 @@ impl Tracer<'_> {
             let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
             // Only where a coarse point around had surfaces within reach.
             let crowded = |x: f32, y: f32| far.around(x, y, 1).any(|p| p.open < 1.0);
-            near.points = self.gather_grid(&near, seed, NEAR_STREAM ^ image, eye, side, &reach_at, project, crowded);
+            near.points = self.gather_grid(&near, seed, NEAR_STREAM ^ image, eye, side, &reach_at, false, project, crowded);
             for pass in 0..passes {
                 near.filter(1 << pass, true);
             }
@@ -161,7 +185,8 @@ impl Tracer<'_> {
     }
 
     /// The points of `grid` (where `wanted` at their pixel), each gathered by
-    /// side² rays split at `reach_at(depth)`.
+    /// side² rays split at `reach_at(depth)` (the light from beyond it only
+    /// when `far`).
     #[allow(clippy::too_many_arguments)]
     fn gather_grid(
         &self,
@@ -171,6 +196,7 @@ impl Tracer<'_> {
         eye: Vec3,
         side: u32,
         reach_at: &(impl Fn(f32) -> f32 + Sync),
+        far: bool,
         project: &(impl Fn(f32, f32) -> Vec3 + Sync),
         wanted: impl Fn(f32, f32) -> bool + Sync,
     ) -> Vec<Option<Point>> {
@@ -191,15 +217,15 @@ impl Tracer<'_> {
                 let s = self.materials.surface(&ray, &hit);
                 let mut rng = sampler(seed, stream, g as u64);
                 let depth = hit.t * ray.dir.length();
-                Some(self.gather_at(&s, depth, side, reach_at(depth), &mut rng))
+                Some(self.gather_at(&s, depth, side, reach_at(depth), far, &mut rng))
             })
             .collect()
     }
 
     /// Indirect irradiance at `s` by side² stratified cosine-weighted rays,
-    /// split at `reach`.
-    fn gather_at(&self, s: &Surface, depth: f32, side: u32, reach: f32, rng: &mut Pcg32) -> Point {
-        let (mut near, mut far, mut escaped) = (Vec3::ZERO, Vec3::ZERO, 0u32);
+    /// split at `reach`; only what lies within it unless `beyond`.
+    fn gather_at(&self, s: &Surface, depth: f32, side: u32, reach: f32, beyond: bool, rng: &mut Pcg32) -> Point {
+        let (mut near, mut far, mut escaped, mut inverse) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0.0f32);
         let from = s.lifted();
         for j in 0..side * side {
             let u = Vec2::new(
@@ -212,17 +238,23 @@ impl Tracer<'_> {
                 escaped += 1;
                 continue;
             }
-            let mut ray = Ray::new(from, d);
+            let mut ray = Ray { t_max: if beyond { f32::INFINITY } else { reach }, ..Ray::new(from, d) };
             match self.intersect(&mut ray) {
                 None => {
-                    far += self.lighting.sky.radiance(d);
+                    if beyond {
+                        far += self.lighting.sky.radiance(d);
+                    }
                     escaped += 1;
                 }
                 Some(hit) if hit.t >= reach => {
+                    inverse += 1.0 / hit.t.max(1e-6);
                     far += self.leaving(&ray, &hit, rng);
                     escaped += 1;
                 }
-                Some(hit) => near += self.leaving(&ray, &hit, rng),
+                Some(hit) => {
+                    inverse += 1.0 / hit.t.max(1e-6);
+                    near += self.leaving(&ray, &hit, rng)
+                }
             }
         }
         // Cosine sampling: E = π · mean radiance.
@@ -234,6 +266,7 @@ impl Tracer<'_> {
             near: near * (PI / n),
             far: if escaped > 0 { far * (PI / escaped as f32) } else { Vec3::ZERO },
             open: escaped as f32 / n,
+            harmonic: if inverse > 0.0 { n / inverse } else { f32::INFINITY },
         }
     }
 
@@ -326,7 +359,7 @@ impl Grid {
                         let Some(q) = points[(yy * gw + xx) as usize] else {
                             continue;
                         };
-                        let mut w = tx * ty * geometric_weight(p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER);
+                        let mut w = tx * ty * geometric_weight(p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER) * ward((p.position - q.position).length(), p.harmonic.min(q.harmonic), self.spread);
                         if !near_field {
                             // A far field seen through few rays counts for little.
                             w *= q.open;
@@ -378,7 +411,7 @@ impl Grid {
                 if wx * wy == 0.0 {
                     continue;
                 }
-                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER);
+                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER) * ward((s.position - q.position).length(), q.harmonic, self.spread);
                 sum.near += q.near * w;
                 sum.far += q.far * w;
                 sum.open += q.open * w;
@@ -401,14 +434,14 @@ mod tests {
     #[test]
     fn the_filter_smooths_a_plane_but_never_blends_a_ledge_with_the_wall_behind_it() {
         let (n, ledge) = (24u32, 11..13u32);
-        let mut field = Grid { width: n, height: n, step: 1, pixel_angle: 0.005, points: Vec::new() };
+        let mut field = Grid { width: n, height: n, step: 1, pixel_angle: 0.005, spread: 0.0, points: Vec::new() };
         for y in 0..n {
             for x in 0..n {
                 let on_ledge = ledge.contains(&x);
                 // The wall's light alternates 0.9 / 1.1 (noise around 1.0).
                 let light = if on_ledge { 0.2 } else if (x + y) % 2 == 0 { 0.9 } else { 1.1 };
                 let z = if on_ledge { 0.15 } else { 0.0 };
-                field.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0 }));
+                field.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic: f32::INFINITY }));
             }
         }
         for pass in 0..3 {
@@ -423,5 +456,31 @@ mod tests {
                 assert!((at(x, y) - 1.0).abs() < 0.03, "wall point ({x}, {y}) kept its noise: {}", at(x, y));
             }
         }
+    }
+
+    /// One plane, with a strip whose points have surfaces 0.05 units away
+    /// (under a shelf) and get a fifth of the light: the strip keeps its own
+    /// light when a point's light spreads at most a few times that distance,
+    /// and takes the open floor's when it spreads freely.
+    #[test]
+    fn light_spreads_no_farther_than_the_surfaces_around_allow() {
+        let n = 24u32;
+        let filtered = |spread: f32| {
+            let mut grid = Grid { width: n, height: n, step: 1, pixel_angle: 0.005, spread, points: Vec::new() };
+            for y in 0..n {
+                for x in 0..n {
+                    let under = (11..13).contains(&x);
+                    let (light, harmonic) = if under { (0.2, 0.05) } else { (1.0, f32::INFINITY) };
+                    grid.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, 0.0), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic }));
+                }
+            }
+            for pass in 0..3 {
+                grid.filter(1 << pass, false);
+            }
+            grid.points[(5 * n + 11) as usize].unwrap().far.x
+        };
+        let (limited, free) = (filtered(0.25), filtered(0.0));
+        assert!((limited - 0.2).abs() < 0.01, "the strip took the open floor's light: {limited}");
+        assert!(free > 0.4, "a freely spreading filter should blend the strip: {free}");
     }
 }

@@ -133,8 +133,8 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8 }), antialias: false, sun_rays: SUN_RAYS, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3, near: 0 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3, near: 0, spread: 0.0 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,

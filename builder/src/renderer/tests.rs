@@ -437,8 +437,9 @@ fn several_sun_rays_smooth_a_soft_shadow_edge() {
 fn the_floor_darkens_at_a_boxs_foot_as_the_reference_does() {
     // A unit box on a wide floor under the sky alone: the sky is hidden
     // from the floor near the box's foot, a band a few gather grid points
-    // wide. The grid alone blends that band with the open floor beyond it;
-    // with the near field, pixels there gather their own nearby occlusion.
+    // wide. A plain grid blends that band with the open floor beyond it;
+    // `final` limits how far a point's light spreads by the distance of the
+    // surfaces around it, and gathers the near field on a finer grid.
     let mut m = MeshBuilder::new("box on a floor");
     m.add_material(Material::diffuse("grey", [0.6; 3]));
     m.cuboid(Vec3::new(-20.0, -0.1, -20.0), Vec3::new(20.0, 0.0, 20.0));
@@ -455,20 +456,20 @@ fn the_floor_darkens_at_a_boxs_foot_as_the_reference_does() {
     let view = |tracer: &Tracer, params: &TraceParams| tracer.render(params, eye, size, size, 0, |s, t| (Vec3::new(-1.0, -0.9, 0.0) + Vec3::new(0.0, 0.0, 0.8 * (2.0 * s - 1.0)) + Vec3::new(-0.45, 0.5, 0.0) * 0.8 * (1.0 - 2.0 * t)).normalize()).color;
     let reference = view(&Tracer::path_traced(&scene, &rays, lighting, &[eye]), &TraceParams { samples: 256, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 2 });
     let panorama = Settings::new(Quality::Final, 1).panorama;
-    let with_near = view(&tracer, &panorama);
-    let gather = panorama.gather.map(|g| GatherParams { near: 0, ..g });
-    let grid_only = view(&tracer, &TraceParams { gather, ..panorama });
-    let (near_error, grid_error) = (relative_difference(&with_near, &reference), relative_difference(&grid_only, &reference));
-    let (m_near, m_grid, m_ref) = (luminance(mean(&with_near)), luminance(mean(&grid_only)), luminance(mean(&reference)));
+    let ours = view(&tracer, &panorama);
+    let plain = view(&tracer, &TraceParams { gather: panorama.gather.map(|g| GatherParams { near: 0, spread: 0.0, ..g }), ..panorama });
+    let (error, plain_error) = (relative_difference(&ours, &reference), relative_difference(&plain, &reference));
+    let (m_ours, m_ref) = (luminance(mean(&ours)), luminance(mean(&reference)));
     if std::env::var("SHOW").is_ok() {
         let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
         std::fs::create_dir_all(&out).unwrap();
-        let exposure = 0.5 / luminance(mean(&reference));
-        for (name, f) in [("reference", &reference), ("near", &with_near), ("grid", &grid_only)] {
+        let exposure = 0.5 / m_ref;
+        for (name, f) in [("reference", &reference), ("final", &ours), ("plain", &plain)] {
             to_image(size, size, f, exposure).save(out.join(format!("box_foot_{name}.png"))).unwrap();
         }
     }
-    println!("box's foot: mean error {near_error:.4} with the near field, {grid_error:.4} from the grid alone; mean {m_near:.4} / {m_grid:.4} against {m_ref:.4}");
-    assert!(near_error < 0.8 * grid_error, "near field {near_error:.4}, grid alone {grid_error:.4}");
-    assert!((m_near / m_ref - 1.0).abs() < 0.03, "mean {m_near} against the reference's {m_ref}");
+    println!("box's foot: mean error {error:.4} in final, {plain_error:.4} from a plain grid; mean {m_ours:.4} against {m_ref:.4}");
+    // Measured: 0.0231 against 0.0346 (the reference's own noise is part of both).
+    assert!(error < 0.8 * plain_error, "final {error:.4}, plain grid {plain_error:.4}");
+    assert!((m_ours / m_ref - 1.0).abs() < 0.03, "mean {m_ours} against the reference's {m_ref}");
 }
