@@ -90,11 +90,12 @@ pub struct Settings {
     pub video_width: u32,
     /// Frames from one video key frame to the next; the frames between reuse
     /// the keys' lighting ([`Renderer::path_frames`]); 1 renders every frame in full.
-    /// `final` takes 24 (about a second of walking): against 16, the quality
-    /// bench's frame farthest from both keys scores 0.0954 against 0.0953
-    /// FLIP on the Crytek Sponza and 0.0590 against 0.0579 on the sunroom,
-    /// hits neither key saw on two gallery paths go from 0.38-0.40 % to
-    /// 0.41-0.46 % (32: 0.53-0.65 %), and frames cost about a tenth less.
+    /// `final` takes 32 with 16 rays at every pixel of a key: the quality
+    /// bench's frame farthest from both keys scores 0.0777 FLIP on the Crytek
+    /// Sponza (24 with 4 rays: 0.0955; 24 with 16: 0.0772; 48 with 16:
+    /// 0.0807) at about 0.17 s a frame over a long path, keys included
+    /// (0.124 s before); hits neither key saw on two gallery paths were
+    /// 0.41-0.46 % of a frame at 24 and 0.53-0.65 % at 32.
     pub video_keys: u32,
     /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
     /// real bounces or few samples; the cache alone leaves little noise).
@@ -134,13 +135,13 @@ impl Settings {
             Quality::Final => Settings {
                 quality,
                 panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25 }), antialias: false, sun_rays: SUN_RAYS, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 4, step: 1, passes: 3, near: 0, spread: 0.0 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
                 face: 2048,
                 video_width: 1024,
-                video_keys: 24,
+                video_keys: 32,
                 denoise: false,
                 proxy: crate::proxy::ProxyParams::default(),
                 seed,
