@@ -163,7 +163,8 @@ impl Tracer<'_> {
         let pixel_angle = centre.angle_between(project(0.5 + 1.0 / width as f32, 0.5)).max(1e-6);
         let mut far = Grid { width, height, step, pixel_angle, spread: params.spread, points: Vec::new() };
         let reach = params.near as f32;
-        let reach_at = |depth: f32| reach * pixel_angle * step as f32 * depth;
+        let unit = far.footprint(1.0);
+        let reach_at = |depth: f32| reach * unit * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
         far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |_, _| true);
         for pass in 0..params.passes {
@@ -303,7 +304,7 @@ impl Tracer<'_> {
         if !far.crowded {
             return Some(far.far);
         }
-        let reach = field.reach * field.far.pixel_angle * field.far.step as f32 * depth;
+        let reach = field.reach * field.far.footprint(depth);
         Some(match field.near.as_ref().and_then(|g| g.at(x, y, s, depth)) {
             Some(near) => near.near + near.open * far.far,
             None => self.near_ray(s, far.far, reach, rng),
@@ -312,6 +313,11 @@ impl Tracer<'_> {
 }
 
 impl Grid {
+    /// The width of a grid cell `depth` from the eye (the geometric tolerances' unit).
+    fn footprint(&self, depth: f32) -> f32 {
+        self.pixel_angle * self.step as f32 * depth
+    }
+
     fn size(&self) -> (u32, u32) {
         (self.width.div_ceil(self.step), self.height.div_ceil(self.step))
     }
@@ -333,7 +339,6 @@ impl Grid {
     fn filter(&mut self, spacing: u32, near_field: bool) {
         let (gw, gh) = self.size();
         let (gw, gh) = (gw as i64, gh as i64);
-        let footprint = self.pixel_angle * self.step as f32;
         let points = &self.points;
         let next: Vec<Option<Point>> = (0..points.len())
             .into_par_iter()
@@ -344,7 +349,7 @@ impl Grid {
                 // apart: the tolerance does not grow with the spacing (it
                 // did, and a ledge's face then blended with the wall behind
                 // it on the wider passes).
-                let tolerance = footprint * p.depth;
+                let tolerance = self.footprint(p.depth);
                 let (mut far, mut near, mut open, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32);
                 for (dy, ty) in TAPS.iter().enumerate() {
                     let yy = y + (dy as i64 - 2) * spacing as i64;
@@ -388,7 +393,7 @@ impl Grid {
     /// weighted by distance and likeness; `None` when none is alike.
     fn at(&self, x: f32, y: f32, s: &Surface, depth: f32) -> Option<Blend> {
         let (u, v) = (x / self.step as f32 - 0.5, y / self.step as f32 - 0.5);
-        let tolerance = self.pixel_angle * self.step as f32 * depth;
+        let tolerance = self.footprint(depth);
         // The 2 × 2 around the sample (bilinear) almost always suffice; the
         // 4 × 4 (a tent twice as wide) where they lie on other surfaces.
         self.blend(u, v, 1, s, tolerance, 0.25).or_else(|| self.blend(u, v, 2, s, tolerance, 1e-3))
