@@ -11,8 +11,10 @@
 //!   images themselves is printed too (a far stricter figure: noise against noise);
 //! - `final` panoramas (cube faces rendered at 2048², compared at 1024² as the
 //!   viewer's 1024 level), `final` video frames (1024 × 512 equirectangular,
-//!   resampled to 256² faces, their resolution), and the cache read at the first
-//!   hit (the renderer before the final gather) for comparison;
+//!   resampled to 256² faces, their resolution), the frame farthest from both
+//!   key frames on a walk four keys long (back and forth through the eye, so
+//!   keys carry the history of the keys before), and the cache read at the
+//!   first hit (the renderer before the final gather) for comparison;
 //! - mean FLIP (NVIDIA's flip-evaluator, LDR, 67 pixels a degree) over the six
 //!   faces, PSNR beside it, and seconds. Goals: panoramas ≤ 0.05, video ≤ 0.08.
 //!
@@ -29,7 +31,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights (to check each kind against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
+//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -142,6 +144,10 @@ fn main() {
                 (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
             }
         }
+        // VIDEO_HISTORY=n: rays of video keys that average with the key before (0: keys gather alone).
+        if let (Some(g), Some(n)) = (settings.video.gather.as_mut(), std::env::var("VIDEO_HISTORY").ok().and_then(|v| v.parse().ok())) {
+            g.history_rays = n;
+        }
         // VIDEO_SPREAD / PANORAMA_SPREAD=x try another spread of a gather point's light.
         for (var, params) in [("VIDEO_SPREAD", &mut settings.video), ("PANORAMA_SPREAD", &mut settings.panorama)] {
             if let (Some(g), Some(x)) = (params.gather.as_mut(), std::env::var(var).ok().and_then(|v| v.parse().ok())) {
@@ -245,23 +251,31 @@ fn main() {
             ));
         }
         {
-            // A walk through the eye at 1.4 m/s, 25 frames a second: the frame
-            // at the eye is the one farthest from both key frames.
+            // A walk back and forth through the eye at 1.4 m/s, 25 frames a
+            // second, four key frames long (so keys carry the history of the
+            // keys before, as along a real path): the frame at the eye in the
+            // last stretch is the one farthest from both key frames.
             let interval = settings.video_keys as usize;
             let walk = Vec3::X * (1.4 / 25.0 / scene.metres_per_unit);
-            let eyes: Vec<Vec3> = (0..=interval).map(|i| eye + walk * (i as f32 - (interval / 2) as f32)).collect();
+            let along = |i: usize| {
+                let p = i % (2 * interval);
+                (if p <= interval { p } else { 2 * interval - p }) as f32 - (interval / 2) as f32
+            };
+            let eyes: Vec<Vec3> = (0..=3 * interval).map(|i| eye + walk * along(i)).collect();
             let t = Instant::now();
             let mut middle = None;
             let mut done = vec![];
             renderer.path_frames(&settings.video, &eyes, settings.video_width, 0, settings.video_keys, |i, frame| {
                 done.push(t.elapsed().as_secs_f64());
-                if i == interval / 2 {
+                if i == 2 * interval + interval / 2 {
                     middle = Some(frame);
                 }
             });
             let seconds = t.elapsed().as_secs_f64() / eyes.len() as f64;
-            // Frames 2.. are handed over as each is rendered (frame 1 waits for the second key).
-            let between = (done[done.len() - 2] - done[1]) / (done.len() - 3) as f64;
+            // Frames between keys are handed over as each is rendered: the median gap is one's cost.
+            let mut gaps: Vec<f64> = done.windows(2).map(|w| w[1] - w[0]).collect();
+            gaps.sort_by(f64::total_cmp);
+            let between = gaps[gaps.len() / 2];
             let frame = middle.expect("the middle frame");
             let faces: Vec<Vec<Vec3>> = (0..6).map(|f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
             let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());

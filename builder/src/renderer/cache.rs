@@ -50,13 +50,19 @@ pub struct CacheStats {
 pub struct RadianceCache {
     cell: f32,
     index: HashMap<u64, u32>,
+    /// The cells at the four corners of each square between cell centres (in
+    /// the plane across the normal bin's axis, keyed as the square's lowest
+    /// corner cell), `u32::MAX` where none: interpolation costs one hash
+    /// lookup instead of four (a final gather makes one at every ray's hit).
+    corners: std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>>,
     /// Indirect irradiance per cell (everything but the directly sampled lights).
     irradiance: Vec<Vec3>,
     /// Direct irradiance from point lights per cell, for renders that bake them.
     points: Vec<Vec3>,
-    /// Direct irradiance from the suns per cell: with `points`, what a final
-    /// gather's second hits take instead of a shadow ray each.
-    suns: Vec<Vec3>,
+    /// Everything per cell: indirect, point lights and suns (direct light
+    /// blurred to cells, what a final gather's second hits take instead of a
+    /// shadow ray each).
+    total: Vec<Vec3>,
     mean: Vec3,
     pub stats: CacheStats,
 }
@@ -73,10 +79,68 @@ fn normal_bin(n: Vec3) -> u64 {
     }
 }
 
+/// 20 bits an axis of a key (a million cells across; coordinates wrap).
+const AXIS_BITS: u64 = 0xF_FFFF;
+const AXIS_SHIFTS: [u64; 3] = [44, 24, 4];
+
 fn key(cell: IVec3, bin: u64) -> u64 {
-    // 20 bits an axis (a million cells across) and 3 for the normal.
-    let c = |v: i32| (v as u64) & 0xF_FFFF;
-    (c(cell.x) << 44) | (c(cell.y) << 24) | (c(cell.z) << 4) | bin
+    let c = |v: i32| (v as u64) & AXIS_BITS;
+    (c(cell.x) << AXIS_SHIFTS[0]) | (c(cell.y) << AXIS_SHIFTS[1]) | (c(cell.z) << AXIS_SHIFTS[2]) | bin
+}
+
+/// The two axes across a normal bin's axis, in increasing order.
+fn across(bin: u64) -> (usize, usize) {
+    match bin / 2 {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
+/// A hash of cell keys that keeps the cells of a 4 × 4 × 4 block (all
+/// normal bins) in neighbouring buckets: a gather's rays from neighbouring
+/// pixels hit near each other, so their lookups share cache lines and pages
+/// instead of each missing (the table outgrows the caches).
+#[derive(Default)]
+struct Nearby(u64);
+
+impl std::hash::Hasher for Nearby {
+    fn write(&mut self, _: &[u8]) {
+        unreachable!("cell keys are hashed as u64")
+    }
+    fn write_u64(&mut self, k: u64) {
+        // A block's cells take buckets in a run from where its hash puts the
+        // block: the offset is each axis's two low bits and the bin.
+        let fine = |s: u64| (k >> s) & 3;
+        let low = fine(AXIS_SHIFTS[0]) | fine(AXIS_SHIFTS[1]) << 2 | fine(AXIS_SHIFTS[2]) << 4 | (k & 7) << 6;
+        let block = k & !(0x3 << AXIS_SHIFTS[0] | 0x3 << AXIS_SHIFTS[1] | 0x3 << AXIS_SHIFTS[2] | 0xF);
+        let h = block.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(26);
+        // The top 7 bits tell entries apart within a probed group: mix the offset in.
+        self.0 = h.wrapping_add(low) ^ (low << 57);
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// [`RadianceCache::corners`] of an index of cells.
+fn corners(index: &HashMap<u64, u32>) -> std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>> {
+    let mut corners: std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>> = Default::default();
+    corners.reserve(2 * index.len());
+    for (&k, &i) in index {
+        let bin = k & 0xF;
+        let (a, b) = across(bin);
+        let mut c = AXIS_SHIFTS.map(|s| (k >> s) & AXIS_BITS);
+        let (ca, cb) = (c[a], c[b]);
+        // The cell is corner (da, db) of the square whose lowest corner is da, db below it.
+        for slot in 0..4 {
+            c[a] = ca.wrapping_sub(slot & 1) & AXIS_BITS;
+            c[b] = cb.wrapping_sub(slot >> 1) & AXIS_BITS;
+            let square = (c[0] << AXIS_SHIFTS[0]) | (c[1] << AXIS_SHIFTS[1]) | (c[2] << AXIS_SHIFTS[2]) | bin;
+            corners.entry(square).or_insert([u32::MAX; 4])[slot as usize] = i;
+        }
+    }
+    corners
 }
 
 /// One cell while the cache is built: the surface points its gathers start from.
@@ -106,7 +170,7 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), irradiance: Vec::new(), points: Vec::new(), suns: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
+        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), corners: Default::default(), irradiance: Vec::new(), points: Vec::new(), total: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
         let mut cells: Vec<Cell> = Vec::new();
         let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
             let k = key(cache.cell_of(p), normal_bin(n));
@@ -221,12 +285,13 @@ impl RadianceCache {
         if !tracer.lighting.points.is_empty() {
             cache.points = direct(Which::Points, 0xD1EC7);
         }
-        if !tracer.lighting.suns.is_empty() {
-            cache.suns = direct(Which::Suns, 0x5A45);
-        }
+        let suns = if tracer.lighting.suns.is_empty() { Vec::new() } else { direct(Which::Suns, 0x5A45) };
+        let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
+        cache.total = (0..n).map(|i| e[i] + at(&cache.points, i) + at(&suns, i)).collect();
         cache.mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
         cache.irradiance = e;
         cache.index.shrink_to_fit();
+        cache.corners = corners(&cache.index);
         cache.stats.seconds = started.elapsed().as_secs_f64();
         cache
     }
@@ -252,8 +317,7 @@ impl RadianceCache {
     /// light included (blurred to cells: right for a final gather's second
     /// hits, where the gather averages it); `None` where no cell is near.
     pub fn total_irradiance(&self, p: Vec3, n: Vec3) -> Option<Vec3> {
-        let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
-        let value = |i: usize| self.irradiance[i] + at(&self.points, i) + at(&self.suns, i);
+        let value = |i: usize| self.total[i];
         self.interpolate(p, n, value).or_else(|| self.find(p, n).map(|i| value(i as usize)))
     }
 
@@ -267,15 +331,12 @@ impl RadianceCache {
         g[axis] = (p[axis] / self.cell).floor();
         let base = g.floor();
         let f = g - base;
-        let base = base.as_ivec3();
+        let cells = self.corners.get(&key(base.as_ivec3(), bin))?;
+        let (a, b) = across(bin);
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
-        for corner in 0..8 {
-            let o = IVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let w = (if o.x == 1 { f.x } else { 1.0 - f.x }) * (if o.y == 1 { f.y } else { 1.0 - f.y }) * (if o.z == 1 { f.z } else { 1.0 - f.z });
-            if w <= 0.0 {
-                continue;
-            }
-            if let Some(&i) = self.index.get(&key(base + o, bin)) {
+        for (slot, &i) in cells.iter().enumerate() {
+            let w = (if slot & 1 == 1 { f[a] } else { 1.0 - f[a] }) * (if slot >> 1 == 1 { f[b] } else { 1.0 - f[b] });
+            if w > 0.0 && i != u32::MAX {
                 sum += value(i as usize) * w;
                 weight += w;
             }

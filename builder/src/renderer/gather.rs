@@ -70,6 +70,10 @@ pub struct GatherParams {
     /// How far a point's light may spread, in units of the harmonic mean
     /// distance of the surfaces around it (0: no limit).
     pub spread: f32,
+    /// Video key frames after a path's first: average their gather with the
+    /// previous key's where it saw the same point ([`super::reuse`]), and
+    /// gather with this many rays a point (0: each key gathers alone, with `rays`).
+    pub history_rays: u32,
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -95,7 +95,11 @@ pub struct Settings {
     /// Sponza (24 with 4 rays: 0.0955; 24 with 16: 0.0772; 48 with 16:
     /// 0.0807) at about 0.17 s a frame over a long path, keys included
     /// (0.124 s before); hits neither key saw on two gallery paths were
-    /// 0.41-0.46 % of a frame at 24 and 0.53-0.65 % at 32.
+    /// 0.41-0.46 % of a frame at 24 and 0.53-0.65 % at 32. Keys after a
+    /// path's first gather 9 rays and average with the keys before
+    /// (`GatherParams::history_rays`): on the bench's walk four keys long,
+    /// 0.0777 at 0.20 s a frame against 0.0782 at 0.23 s with 16 rays alone
+    /// (4 rays and history: 0.0900 at 0.17 s).
     pub video_keys: u32,
     /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
     /// real bounces or few samples; the cache alone leaves little noise).
@@ -134,8 +138,8 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25 }), antialias: false, sun_rays: SUN_RAYS, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, history_rays: 0 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, history_rays: 9 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
@@ -226,29 +230,34 @@ impl<'a> Renderer<'a> {
     /// The equirectangular frames of a path seen from `eyes`, `width` wide,
     /// handed to `each` in order; frame i uses random stream `image + i`.
     /// With one sample a pixel, only every `interval`-th frame and the last are
-    /// lit in full; the frames between take their lighting from those two
-    /// ([`reuse`]).
+    /// lit in full (after the first, averaged with the key before where
+    /// `GatherParams::history_rays` says); the frames between take their
+    /// lighting from those two ([`reuse`]).
     pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame)) {
         let n = eyes.len();
-        let render = |i: usize, between: Option<&reuse::Between>, keep: bool| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, between, keep);
+        let render = |i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse);
         if params.samples != 1 || interval <= 1 || n < 3 {
-            (0..n).for_each(|i| each(i, render(i, None, false).0));
+            (0..n).for_each(|i| each(i, render(i, reuse::Reuse::Off).0));
             return;
         }
         let mut keys: Vec<usize> = (0..n).step_by(interval as usize).collect();
         if keys.last() != Some(&(n - 1)) {
             keys.push(n - 1);
         }
-        let (first, lit) = render(0, None, true);
+        let (first, lit) = render(0, reuse::Reuse::Key { history: None });
         each(0, first);
         let mut previous = lit.expect("key frames keep their lighting");
         for w in keys.windows(2) {
             let (a, b) = (w[0], w[1]);
-            let (key, lit) = render(b, None, true);
+            let later = params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
+            let (key, lit) = match &later {
+                Some(later) => self.tracer.render_reusing(later, eyes[b], (width, width / 2), image + b as u64, equirect_direction, reuse::Reuse::Key { history: Some(&previous) }),
+                None => render(b, reuse::Reuse::Key { history: None }),
+            };
             let next = lit.expect("key frames keep their lighting");
             for i in a + 1..b {
                 let between = reuse::Between { keys: [&previous, &next], t: (i - a) as f32 / (b - a) as f32 };
-                each(i, render(i, Some(&between), false).0);
+                each(i, render(i, reuse::Reuse::Between(&between)).0);
             }
             each(b, key);
             previous = next;

@@ -15,23 +15,59 @@
 //! as a frame without reuse would light them outside the gather: shadow rays
 //! and the cache.
 //!
+//! A key frame also takes the previous key's gathered indirect light where
+//! that key saw the same point (its *history*) and averages it with its own
+//! gather, up to [`HISTORY`] keys deep: the same quantity estimated again,
+//! so the noise falls as keys go by, and later keys can gather with fewer
+//! rays. Direct light stays each key's own (sharp shadow edges).
+//!
 //! Only single-sample frames keep their hits (a pixel's samples hit
 //! different points); a path rendered with more samples renders every frame
 //! in full.
 
 use super::gather::{geometric_weight, NORMAL_POWER};
 use super::surface::Surface;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::ops::{Add, Div, Mul};
 
+/// Keys a key frame's gathered light averages over at most (the weight of
+/// its own gather is at least 1 / HISTORY): more would keep older, more
+/// blurred estimates (each reprojection mixes 2 × 2 pixels) longer.
+pub const HISTORY: f32 = 4.0;
+
+/// What a key frame saw at one pixel.
+#[derive(Clone, Copy, Debug)]
+pub struct Seen {
+    pub position: Vec3,
+    /// The shading normal.
+    pub normal: Vec3,
+    /// All of it: direct and indirect.
+    pub irradiance: Vec3,
+}
 
 /// A key frame's first hits and the irradiance found there.
 pub struct Lit {
     pub(super) eye: Vec3,
     pub(super) width: u32,
     pub(super) height: u32,
-    /// (position, shading normal, irradiance) per pixel; `None` for the sky.
-    pub(super) points: Vec<Option<(Vec3, Vec3, Vec3)>>,
+    /// Per pixel; `None` for the sky.
+    pub(super) points: Vec<Option<Seen>>,
+    /// Per pixel: the gathered indirect light and how many keys' gathers it
+    /// averages (apart: frames between keys need only `points`).
+    pub(super) history: Vec<Vec4>,
+}
+
+/// How a frame reuses light along a path.
+#[derive(Clone, Copy)]
+pub enum Reuse<'a> {
+    /// Lit alone, nothing kept.
+    Off,
+    /// A key frame: keep what each pixel saw; average its gather with the
+    /// previous key's where that saw the same point.
+    Key { history: Option<&'a Lit> },
+    /// A frame between two keys: their light where they saw the point.
+    Between(&'a Between<'a>),
 }
 
 /// The key frames around a frame and how far the frame is from the first (0..1).
@@ -41,9 +77,10 @@ pub struct Between<'a> {
 }
 
 impl Lit {
-    /// Irradiance at `s` as this key frame saw it, or `None` where the key
-    /// frame saw something else there.
-    fn irradiance(&self, s: &Surface) -> Option<Vec3> {
+    /// The mean of `value` over the pixels (at most four) that saw the point
+    /// of `s`, weighted by nearness and likeness; `None` where this key saw
+    /// something else there.
+    fn blend<T: Copy + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, zero: T, value: impl Fn(usize, &Seen) -> T) -> Option<T> {
         let d = s.position - self.eye;
         let across = (d.x * d.x + d.z * d.z).sqrt();
         let distance = (across * across + d.y * d.y).sqrt();
@@ -61,25 +98,36 @@ impl Lit {
         // x, y ≥ −0.5, so truncating x + 1 floors it (without a libm call).
         let (x0, y0) = ((x + 1.0) as i32 - 1, (y + 1.0) as i32 - 1);
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        let (mut sum, mut weight) = (zero, 0.0f32);
         for (yy, wy) in [(y0, 1.0 - fy), (y0 + 1, fy)] {
             if yy < 0 || yy >= height {
                 continue;
             }
             for (xx, wx) in [(x0, 1.0 - fx), (x0 + 1, fx)] {
                 let xx = if xx < 0 { xx + width } else if xx >= width { xx - width } else { xx };
-                let Some((p, n, e)) = self.points[(yy * width + xx) as usize] else { continue };
+                let i = (yy * width + xx) as usize;
+                let Some(seen) = &self.points[i] else { continue };
                 // Neighbouring pixels' hits lie about a footprint apart; farther
                 // means another surface (an occluder in front, or beyond an edge).
-                if (p - s.position).length_squared() > 4.0 * footprint * footprint {
+                if (seen.position - s.position).length_squared() > 4.0 * footprint * footprint {
                     continue;
                 }
-                let w = wx * wy * geometric_weight(s.position, s.normal, p, n, footprint, NORMAL_POWER);
-                sum += e * w;
+                let w = wx * wy * geometric_weight(s.position, s.normal, seen.position, seen.normal, footprint, NORMAL_POWER);
+                sum = sum + value(i, seen) * w;
                 weight += w;
             }
         }
         (weight >= 0.25).then(|| sum / weight)
+    }
+
+    /// Irradiance at `s` as this key frame saw it.
+    fn irradiance(&self, s: &Surface) -> Option<Vec3> {
+        self.blend(s, Vec3::ZERO, |_, seen| seen.irradiance)
+    }
+
+    /// This key's gathered indirect light at `s` and how many keys it averages.
+    pub fn history(&self, s: &Surface) -> Option<Vec4> {
+        self.blend(s, Vec4::ZERO, |i, _| self.history[i])
     }
 }
 

@@ -335,8 +335,33 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     // Measured: 0.029 and 1.1 % of pixels; with the likeness and closeness
     // checks removed, 0.039 and 2.7 %.
     assert!(!failed, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04), {f_between:.4} of pixels 25 % off (at most 0.018); images in target/render-failures");
-    // The key frames are the frames lit in full.
-    assert_eq!(frames[8].1.color, renderer.equirect(&video, eyes[8], width, 8).color);
+    // The first key frame is the frame lit in full (later ones average in the key before).
+    assert_eq!(frames[0].1.color, renderer.equirect(&video, eyes[0], width, 0).color);
+}
+
+#[test]
+fn key_frames_averaged_with_the_keys_before_come_closer_to_the_answer() {
+    // A slow walk through the sunroom, a key every other frame, each key
+    // gathering 4 rays a pixel: alone, the last key keeps that noise; averaged
+    // with the keys before (where they saw the same points) it should come
+    // closer to a gather with many rays, and its first key is the same.
+    let scene = exploremaps_scenes::BuiltIn::Sunroom.generate(1);
+    let rays = ray_scene(&scene);
+    let eyes: Vec<Vec3> = (0..9).map(|i| Vec3::new(2.0 + 0.05 * i as f32, 1.6, 3.5)).collect();
+    let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Final, 1));
+    let width = 256;
+    let with = |rays: u32, history_rays: u32| TraceParams { gather: renderer.settings.video.gather.map(|g| GatherParams { rays, history_rays, ..g }), ..renderer.settings.video };
+    let keys = |params: &TraceParams| {
+        let mut frames = Vec::new();
+        renderer.path_frames(params, &eyes, width, 0, 2, |_, f| frames.push(f));
+        frames
+    };
+    let (alone, averaged) = (keys(&with(4, 0)), keys(&with(4, 4)));
+    let answer = renderer.equirect(&with(256, 0), eyes[8], width, 8);
+    let (e_alone, e_averaged) = (relative_difference(&alone[8].color, &answer.color), relative_difference(&averaged[8].color, &answer.color));
+    println!("last key against a 256-ray gather: alone {e_alone:.4}, averaged with the keys before {e_averaged:.4}");
+    assert_eq!(alone[0].color, averaged[0].color, "the first key has no keys before");
+    assert!(e_averaged < 0.8 * e_alone, "averaged {e_averaged:.4}, alone {e_alone:.4}");
 }
 
 #[test]

@@ -10,11 +10,11 @@
 use super::cache::RadianceCache;
 use super::gather::{Field, GatherParams};
 use super::lights::LightSampler;
-use super::reuse::{Between, Lit};
+use super::reuse::{Lit, Reuse, Seen, HISTORY};
 use super::surface::{cosine_direction, Lighting, Materials, Surface, Which};
 use crate::raycast::{FlushDenormals, Hit, Ray, RayScene};
 use exploremaps_scenes::Scene;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use rand::Rng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
@@ -79,7 +79,8 @@ struct Pixel {
     color: Vec3,
     albedo: Vec3,
     normal: Vec3,
-    hit: Option<(Vec3, Vec3, Vec3)>,
+    /// A key frame's: what it saw, and its gathered light's history.
+    hit: Option<(Seen, Vec4)>,
 }
 /// Paths end here at the latest (Russian roulette ends nearly all long before).
 const MAX_DEPTH: u32 = 64;
@@ -214,22 +215,22 @@ impl<'a> Tracer<'a> {
     /// direction through image coordinates in [0, 1]² (t down). `image`
     /// separates the random streams of different images.
     pub fn render(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync) -> Frame {
-        self.render_reusing(params, eye, (width, height), image, project, None, false).0
+        self.render_reusing(params, eye, (width, height), image, project, Reuse::Off).0
     }
 
-    /// [`Tracer::render`], taking the irradiance from key frames where
-    /// `between` has it ([`super::reuse`]), and keeping this frame's hits and
-    /// irradiance when `keep` (meaningful with one sample a pixel).
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, between: Option<&Between>, keep: bool) -> (Frame, Option<Lit>) {
+    /// [`Tracer::render`], reusing light along a path as `reuse` says
+    /// ([`super::reuse`]); a key frame also returns what its pixels saw
+    /// (meaningful with one sample a pixel).
+    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, reuse: Reuse) -> (Frame, Option<Lit>) {
+        let keep = matches!(reuse, Reuse::Key { .. });
         let tiles_x = width.div_ceil(TILE);
         let tiles = tiles_x * height.div_ceil(TILE);
         let n = (width * height) as usize;
         let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
-        let mut lit = keep.then(|| Lit { eye, width, height, points: vec![None; n] });
+        let mut lit = keep.then(|| Lit { eye, width, height, points: vec![None; n], history: vec![Vec4::ZERO; n] });
         // Frames between key frames gather nothing: the keys did.
-        let field = match (&params.gather, &self.cache, params.bounces, between) {
-            (Some(g), Some(_), 0, None) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
+        let field = match (&params.gather, &self.cache, params.bounces, reuse) {
+            (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
             _ => None,
         };
         let done: Vec<Vec<Pixel>> = (0..tiles)
@@ -245,19 +246,20 @@ impl<'a> Tracer<'a> {
                     })
                     .filter(|&(x, y)| x < width && y < height)
                     .collect();
-                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), between, keep, None)
+                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), reuse, None)
             })
             .collect();
         for p in done.into_iter().flatten() {
             frame.color[p.index] = p.color;
             frame.albedo[p.index] = p.albedo;
             frame.normal[p.index] = p.normal;
-            if let Some(lit) = &mut lit {
-                lit.points[p.index] = p.hit;
+            if let (Some(lit), Some((seen, history))) = (&mut lit, p.hit) {
+                lit.points[p.index] = Some(seen);
+                lit.history[p.index] = history;
             }
         }
         if params.antialias && params.samples == 1 {
-            self.antialias(params, eye, image, &project, field.as_ref(), between, &mut frame);
+            self.antialias(params, eye, image, &project, field.as_ref(), reuse, &mut frame);
         }
         (frame, lit)
     }
@@ -269,7 +271,7 @@ impl<'a> Tracer<'a> {
     /// rotated grid, lit as the centre was (the same gather field, the same key
     /// frames), and keep the mean of the five; flat regions cost nothing more.
     #[allow(clippy::too_many_arguments)]
-    fn antialias(&self, params: &TraceParams, eye: Vec3, image: u64, project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, between: Option<&Between>, frame: &mut Frame) {
+    fn antialias(&self, params: &TraceParams, eye: Vec3, image: u64, project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, reuse: Reuse, frame: &mut Frame) {
         const GRID: [(f32, f32); 4] = [(0.375, 0.125), (0.875, 0.375), (0.625, 0.875), (0.125, 0.625)];
         let (width, height) = (frame.width, frame.height);
         let edges = contrast_edges(frame);
@@ -286,7 +288,7 @@ impl<'a> Tracer<'a> {
                 let pixels: Vec<(u32, u32)> = chunk.iter().map(|j| j.0).collect();
                 let jitter: Vec<(f32, f32)> = chunk.iter().map(|j| j.1).collect();
                 let single = TraceParams { samples: 1, ..*params };
-                self.render_tile(&single, eye, (width, height), image, &pixels, project, field, between, false, Some((&jitter, n + 64 * c as u64)))
+                self.render_tile(&single, eye, (width, height), image, &pixels, project, field, reuse, Some((&jitter, n + 64 * c as u64)))
             })
             .collect();
         for p in more.into_iter().flatten() {
@@ -300,7 +302,9 @@ impl<'a> Tracer<'a> {
     /// `jitter`: where in each pixel its one sample goes, and the random
     /// stream of the first (the rest follow), instead of pixel centres.
     #[allow(clippy::too_many_arguments)]
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, between: Option<&Between>, keep: bool, jitter: Option<(&[(f32, f32)], u64)>) -> Vec<Pixel> {
+    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, reuse: Reuse, jitter: Option<(&[(f32, f32)], u64)>) -> Vec<Pixel> {
+        // Antialiasing's extra samples (jittered) keep nothing.
+        let keep = matches!(reuse, Reuse::Key { .. }) && jitter.is_none();
         let spp = params.samples.max(1);
         let mut rngs: Vec<Pcg32> = match jitter {
             None => pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect(),
@@ -352,7 +356,10 @@ impl<'a> Tracer<'a> {
                     Some(s) => {
                         sums[i].1 += s.albedo;
                         sums[i].2 += s.normal;
-                        reused[i] = between.and_then(|b| b.irradiance(s));
+                        reused[i] = match reuse {
+                            Reuse::Between(b) => b.irradiance(s),
+                            _ => None,
+                        };
                         if reused[i].is_some() {
                             surfaces.push(Some(*s));
                             continue;
@@ -386,12 +393,24 @@ impl<'a> Tracer<'a> {
             for (i, rng) in rngs.iter_mut().enumerate() {
                 let Some(s) = &surfaces[i] else { continue };
                 let field_at = field.zip(hits[i]).map(|(f, h)| (f, at[i].0, at[i].1, h.t * rays[i].dir.length()));
-                let e = match reused[i] {
-                    Some(e) => e,
-                    None => direct[i] + self.indirect(params, s, field_at, rng),
+                let (e, history) = match reused[i] {
+                    Some(e) => (e, Vec4::ZERO),
+                    None => {
+                        let own = self.indirect(params, s, field_at, rng);
+                        // A running mean over keys (up to HISTORY) where the previous key saw this point.
+                        let history = match reuse {
+                            Reuse::Key { history: Some(before) } => before.history(s).map(|h| {
+                                let keys = (h.w + 1.0).min(HISTORY);
+                                (h.truncate() + (own - h.truncate()) / keys).extend(keys)
+                            }),
+                            _ => None,
+                        };
+                        let history = history.unwrap_or(own.extend(1.0));
+                        (direct[i] + history.truncate(), history)
+                    }
                 };
                 if keep {
-                    last_hit[i] = Some((s.position, s.normal, e));
+                    last_hit[i] = Some((Seen { position: s.position, normal: s.normal, irradiance: e }, history));
                 }
                 let c = s.emission + s.albedo / PI * e;
                 // A stray NaN or infinity must not poison a pixel (or a denoiser).
