@@ -46,7 +46,7 @@ use crate::raycast::RayScene;
 use exploremaps_format::{cube_direction, cube_face_of, direction};
 use exploremaps_scenes::Scene;
 use glam::Vec3;
-use image::{Rgb, RgbImage};
+use image::RgbImage;
 use rayon::prelude::*;
 
 /// How much work a render puts in.
@@ -382,10 +382,15 @@ fn tone_map(x: Vec3) -> Vec3 {
 
 /// Exposed, tone-mapped and sRGB-encoded radiance.
 pub fn to_image(width: u32, height: u32, radiance: &[Vec3], exposure: f32) -> RgbImage {
-    RgbImage::from_fn(width, height, |x, y| {
-        let c = tone_map(radiance[(y * width + x) as usize] * exposure);
-        Rgb([linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z)])
-    })
+    let mut raw = vec![0u8; 3 * (width * height) as usize];
+    // Row by row on every core: a path's frames are toned one at a time.
+    raw.par_chunks_mut(3 * width.max(1) as usize).zip(radiance.par_chunks(width.max(1) as usize)).for_each(|(row, colours)| {
+        for (px, &c) in row.chunks_exact_mut(3).zip(colours) {
+            let c = tone_map(c * exposure);
+            px.copy_from_slice(&[linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z)]);
+        }
+    });
+    RgbImage::from_raw(width, height, raw).expect("three bytes a pixel")
 }
 
 /// Peak signal-to-noise ratio of two 8-bit images of the same size, in dB.

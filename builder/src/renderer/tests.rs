@@ -1,4 +1,5 @@
 use super::*;
+use image::Rgb;
 use exploremaps_scenes::mesh::MeshBuilder;
 use exploremaps_scenes::{AlphaMode, Material, Texture};
 

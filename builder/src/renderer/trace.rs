@@ -306,10 +306,13 @@ impl<'a> Tracer<'a> {
         // Antialiasing's extra samples (jittered) keep nothing.
         let keep = matches!(reuse, Reuse::Key { .. }) && jitter.is_none();
         let spp = params.samples.max(1);
-        let mut rngs: Vec<Pcg32> = match jitter {
-            None => pixels.iter().map(|&(x, y)| sampler(params.seed, image, (y * width + x) as u64)).collect(),
-            Some((_, first)) => (0..pixels.len()).map(|k| sampler(params.seed, image, first + k as u64)).collect(),
+        // Each pixel's random stream, made when first drawn from (frames
+        // between video keys draw only where neither key saw the point).
+        let stream = |k: usize| match jitter {
+            None => sampler(params.seed, image, (pixels[k].1 * width + pixels[k].0) as u64),
+            Some((_, first)) => sampler(params.seed, image, first + k as u64),
         };
+        let mut rngs: Vec<Option<Pcg32>> = vec![None; pixels.len()];
         let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
         let mut rays = Vec::with_capacity(pixels.len());
         let mut at = Vec::with_capacity(pixels.len());
@@ -324,12 +327,15 @@ impl<'a> Tracer<'a> {
         for sample in 0..spp {
             rays.clear();
             at.clear();
-            for (k, (&(x, y), rng)) in pixels.iter().zip(&mut rngs).enumerate() {
+            for (k, &(x, y)) in pixels.iter().enumerate() {
                 // Stratified in rows of the pixel when there are several samples.
                 let (jx, jy) = match jitter {
                     Some((at, _)) => at[k],
                     None if spp == 1 => (0.5, 0.5),
-                    None => (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32),
+                    None => {
+                        let rng = rngs[k].get_or_insert_with(|| stream(k));
+                        (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32)
+                    }
                 };
                 let d = project((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
                 rays.push(Ray::new(eye, d));
@@ -342,7 +348,7 @@ impl<'a> Tracer<'a> {
             let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
             surfaces.clear();
             shadows.iter_mut().for_each(Vec::clear);
-            for (i, rng) in rngs.iter_mut().enumerate() {
+            for i in 0..pixels.len() {
                 let mut ray = rays[i];
                 let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
                 // The field's tolerances need the distance along the ray.
@@ -364,6 +370,7 @@ impl<'a> Tracer<'a> {
                             surfaces.push(Some(*s));
                             continue;
                         }
+                        let rng = rngs[i].get_or_insert_with(|| stream(i));
                         let u = Vec2::new(rng.random(), rng.random());
                         self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| shadows[k].push((i, r, e)));
                     }
@@ -390,13 +397,13 @@ impl<'a> Tracer<'a> {
                     }
                 }
             }
-            for (i, rng) in rngs.iter_mut().enumerate() {
+            for i in 0..pixels.len() {
                 let Some(s) = &surfaces[i] else { continue };
                 let field_at = field.zip(hits[i]).map(|(f, h)| (f, at[i].0, at[i].1, h.t * rays[i].dir.length()));
                 let (e, history) = match reused[i] {
                     Some(e) => (e, Vec4::ZERO),
                     None => {
-                        let own = self.indirect(params, s, field_at, rng);
+                        let own = self.indirect(params, s, field_at, rngs[i].get_or_insert_with(|| stream(i)));
                         // A running mean over keys (up to HISTORY) where the previous key saw this point.
                         let history = match reuse {
                             Reuse::Key { history: Some(before) } => before.history(s).map(|h| {
