@@ -279,10 +279,12 @@ impl Tracer<'_> {
     /// cache's light (all of it: direct from every sampled light and indirect).
     fn leaving(&self, ray: &Ray, hit: &Hit, rng: &mut Pcg32) -> Vec3 {
         let cache = self.cache.as_ref().expect("a final gather needs the radiance cache");
-        let h = self.materials.surface(ray, hit);
-        let e = cache
-            .total_irradiance(h.position, h.geometric)
-            .unwrap_or_else(|| cache.irradiance(h.position, h.geometric, false) + self.direct(&h, Which::All, rng));
+        let h = self.materials.surface_flat(ray, hit);
+        let e = match cache.total_irradiance(h.position, h.geometric) {
+            Some(e) => e,
+            // No cell here: direct light by shadow rays, which need the shading normal.
+            None => cache.irradiance(h.position, h.geometric, false) + self.direct(&self.materials.surface(ray, hit), Which::All, rng),
+        };
         h.emission + h.albedo / PI * e
     }
 
