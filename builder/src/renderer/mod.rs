@@ -235,29 +235,30 @@ impl<'a> Renderer<'a> {
     /// lighting from those two ([`reuse`]).
     pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame)) {
         let n = eyes.len();
-        let render = |i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse);
+        let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse);
         if params.samples != 1 || interval <= 1 || n < 3 {
-            (0..n).for_each(|i| each(i, render(i, reuse::Reuse::Off).0));
+            (0..n).for_each(|i| each(i, render(params, i, reuse::Reuse::Off).0));
             return;
         }
         let mut keys: Vec<usize> = (0..n).step_by(interval as usize).collect();
         if keys.last() != Some(&(n - 1)) {
             keys.push(n - 1);
         }
-        let (first, lit) = render(0, reuse::Reuse::Key { history: None });
+        // Keys after the first: fewer rays, averaged with the keys before.
+        let later = params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
+        let (first, lit) = render(params, 0, reuse::Reuse::Key { history: None });
         each(0, first);
         let mut previous = lit.expect("key frames keep their lighting");
         for w in keys.windows(2) {
             let (a, b) = (w[0], w[1]);
-            let later = params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
             let (key, lit) = match &later {
-                Some(later) => self.tracer.render_reusing(later, eyes[b], (width, width / 2), image + b as u64, equirect_direction, reuse::Reuse::Key { history: Some(&previous) }),
-                None => render(b, reuse::Reuse::Key { history: None }),
+                Some(later) => render(later, b, reuse::Reuse::Key { history: Some(&previous) }),
+                None => render(params, b, reuse::Reuse::Key { history: None }),
             };
             let next = lit.expect("key frames keep their lighting");
             for i in a + 1..b {
                 let between = reuse::Between { keys: [&previous, &next], t: (i - a) as f32 / (b - a) as f32 };
-                each(i, render(i, reuse::Reuse::Between(&between)).0);
+                each(i, render(params, i, reuse::Reuse::Between(&between)).0);
             }
             each(b, key);
             previous = next;
