@@ -54,7 +54,7 @@ pub struct RadianceCache {
     /// the plane across the normal bin's axis, keyed as the square's lowest
     /// corner cell), `u32::MAX` where none: interpolation costs one hash
     /// lookup instead of four (a final gather makes one at every ray's hit).
-    corners: std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>>,
+    corners: Squares,
     /// Indirect irradiance per cell (everything but the directly sampled lights).
     irradiance: Vec<Vec3>,
     /// Direct irradiance from point lights per cell, for renders that bake them.
@@ -84,9 +84,17 @@ const AXIS_BITS: u64 = 0xF_FFFF;
 const AXIS_SHIFTS: [u64; 3] = [44, 24, 4];
 
 fn key(cell: IVec3, bin: u64) -> u64 {
-    let c = |v: i32| (v as u64) & AXIS_BITS;
-    (c(cell.x) << AXIS_SHIFTS[0]) | (c(cell.y) << AXIS_SHIFTS[1]) | (c(cell.z) << AXIS_SHIFTS[2]) | bin
+    pack(cell.to_array().map(|v| v as u64), bin)
 }
+
+/// A key from three cell coordinates (each taken modulo 2^20) and a bin.
+fn pack(c: [u64; 3], bin: u64) -> u64 {
+    let c = c.map(|v| v & AXIS_BITS);
+    (c[0] << AXIS_SHIFTS[0]) | (c[1] << AXIS_SHIFTS[1]) | (c[2] << AXIS_SHIFTS[2]) | bin
+}
+
+/// [`RadianceCache::corners`]' table.
+type Squares = std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>>;
 
 /// The two axes across a normal bin's axis, in increasing order.
 fn across(bin: u64) -> (usize, usize) {
@@ -124,8 +132,8 @@ impl std::hash::Hasher for Nearby {
 }
 
 /// [`RadianceCache::corners`] of an index of cells.
-fn corners(index: &HashMap<u64, u32>) -> std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>> {
-    let mut corners: std::collections::HashMap<u64, [u32; 4], std::hash::BuildHasherDefault<Nearby>> = Default::default();
+fn corners(index: &HashMap<u64, u32>) -> Squares {
+    let mut corners = Squares::default();
     corners.reserve(2 * index.len());
     for (&k, &i) in index {
         let bin = k & 0xF;
@@ -134,10 +142,9 @@ fn corners(index: &HashMap<u64, u32>) -> std::collections::HashMap<u64, [u32; 4]
         let (ca, cb) = (c[a], c[b]);
         // The cell is corner (da, db) of the square whose lowest corner is da, db below it.
         for slot in 0..4 {
-            c[a] = ca.wrapping_sub(slot & 1) & AXIS_BITS;
-            c[b] = cb.wrapping_sub(slot >> 1) & AXIS_BITS;
-            let square = (c[0] << AXIS_SHIFTS[0]) | (c[1] << AXIS_SHIFTS[1]) | (c[2] << AXIS_SHIFTS[2]) | bin;
-            corners.entry(square).or_insert([u32::MAX; 4])[slot as usize] = i;
+            c[a] = ca.wrapping_sub(slot & 1);
+            c[b] = cb.wrapping_sub(slot >> 1);
+            corners.entry(pack(c, bin)).or_insert([u32::MAX; 4])[slot as usize] = i;
         }
     }
     corners
