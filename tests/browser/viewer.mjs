@@ -55,7 +55,7 @@ try {
     // Clicks the path bar's only tile, centred above the probe bar, and shows the travel under way.
     const takePath = async (step) => {
       await page.mouse.click(640, 581);
-      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 30000 });
       await page.waitForTimeout(700);
       await page.screenshot({ path: `${out}/${step}.png` });
       report(step, await status(page));
@@ -196,11 +196,12 @@ try {
       report('floor', await status(page));
     }
   } else if (mode === 'panorama_tap') {
-    // A click at the centre of the first panorama, once its depth map is in.
+    // A click at the centre of the first panorama, once its depth map is in (a fixed
+    // wait was too short on a slow machine).
     const { page } = await open(url);
-    await page.waitForTimeout(800);
+    await page.waitForFunction(() => window.exploremaps.point_to_go === true, null, { timeout: 30000 });
     await page.mouse.click(640, 360);
-    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 30000 });
     await page.waitForFunction(() => window.exploremaps.moving === false, null, { timeout: 30000 });
     await page.waitForTimeout(300);
     report('arrived', await status(page));
@@ -228,7 +229,7 @@ try {
     // Frame times along a path, and how many distinct video frames reach the screen a second.
     const travel = async (step) => {
       await page.keyboard.press('Enter');
-      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 5000 });
+      await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 30000 });
       const before = (await status(page)).video_frames || 0;
       const t0 = Date.now();
       const frames_ms = await frameTimes(page, 30);

@@ -413,6 +413,11 @@ impl App {
         Link { dollhouse: self.mode == Mode::Dollhouse, ..Link::of(&self.nav) }
     }
 
+    /// Whether a tap on the panorama can go somewhere: this probe's depth map is in.
+    pub fn point_to_go_ready(&self) -> bool {
+        self.depth_maps.contains_key(&self.nav.probe())
+    }
+
     /// Whether a flight over the dollhouse is under way.
     pub fn flying(&self) -> bool {
         self.flight.is_some()

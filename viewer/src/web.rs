@@ -503,6 +503,7 @@ impl State {
         let dollhouse = self.app.mode == Mode::Dollhouse;
         set_status("dollhouse", &dollhouse.into());
         set_status("flying", &self.app.flying().into());
+        set_status("point_to_go", &self.app.point_to_go_ready().into());
         // The first dollhouse frame with a proxy, and the first with its finest level.
         let level = self.app.proxy.as_ref().map(|m| m.level);
         if dollhouse && level.is_some() && level != self.dollhouse_level {
