@@ -198,8 +198,11 @@ mod tests {
     /// The full stream rebuilds the input triangle for triangle, and every
     /// level in between has as many triangles as the simplification had there.
     fn check_round_trip(input: &Mesh, target: usize) {
-        let s = simplify(input, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
-        let pm = Progressive::new(input, &s);
+        check_round_trip_of(input, &simplify(input, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY }));
+    }
+
+    fn check_round_trip_of(input: &Mesh, s: &Simplified) {
+        let pm = Progressive::new(input, s);
         assert_eq!(pm.base.triangles.len(), s.triangles().len());
         let full = pm.level(usize::MAX);
         assert_eq!(full.triangles.len(), input.triangles.len());
@@ -234,6 +237,9 @@ mod tests {
         bumpy.triangles.push([b, b + 1, b + 2]);
         bumpy.groups.push(0);
         check_round_trip(&bumpy, 20);
+        // Simplified in two halves at once (as large meshes are).
+        let large = super::super::simplify::tests::bumpy();
+        check_round_trip_of(&large, &super::super::simplify::tests::in_halves(&large, 300));
     }
 
     /// A stream coded as the bundle codes it: the base through Edgebreaker
