@@ -53,6 +53,20 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
+/// Runs `f` three times: its last result and the median time (this machine's
+/// speed drifts by ±10 % between runs).
+fn median_of_3<T>(mut f: impl FnMut() -> T) -> (T, f64) {
+    let mut times = Vec::new();
+    let mut out = None;
+    for _ in 0..3 {
+        let t = Instant::now();
+        out = Some(f());
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    (out.expect("three runs"), times[1])
+}
+
 const SAMPLES: usize = 100_000;
 
 fn main() {
@@ -67,7 +81,7 @@ fn main() {
     }
     let mut coding = Vec::new();
     let mut streams = Vec::new();
-    println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way)");
+    println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way; seconds: median of 3 runs)");
     println!("{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8}", "scene", "ratio", "input", "reached", "seconds", "Hausdorff", "RMS", "flip", "reached", "seconds", "Hausdorff", "RMS");
     for (name, scene) in &scenes {
         let t = Instant::now();
@@ -82,9 +96,7 @@ fn main() {
         streams.push((name.clone(), mesh.clone(), diagonal));
         for ratio in [0.5, 0.1, 0.02, 0.01] {
             let target = (mesh.triangles.len() as f64 * ratio) as usize;
-            let t = Instant::now();
-            let s = simplify(&mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY });
-            let ours_seconds = t.elapsed().as_secs_f64();
+            let (s, ours_seconds) = median_of_3(|| simplify(&mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY }));
             let normal = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
             let flipped = (0..mesh.triangles.len())
                 .filter(|&t| s.alive[t])
@@ -93,9 +105,7 @@ fn main() {
             let ours = s.compact();
             let (oh, or) = distances(&input_tree, &input_samples, &ours.positions, &ours.triangles);
 
-            let t = Instant::now();
-            let simplified = meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None);
-            let theirs_seconds = t.elapsed().as_secs_f64();
+            let (simplified, theirs_seconds) = median_of_3(|| meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None));
             let theirs: Vec<[u32; 3]> = simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             let (th, tr) = distances(&input_tree, &input_samples, &mesh.positions, &theirs);
             let pct = |x: f32| 100.0 * x / diagonal;
@@ -136,9 +146,7 @@ fn main() {
             let pct = |x: f32| 100.0 * x / diagonal;
             let mut row = format!("{name:<16} {:>4.0}%", ratio * 100.0);
             for with in [false, true] {
-                let t = Instant::now();
-                let s = simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params);
-                let seconds = t.elapsed().as_secs_f64();
+                let (s, seconds) = median_of_3(|| simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params));
                 let (out, out_colours) = if with {
                     s.compact_with_colours()
                 } else {
