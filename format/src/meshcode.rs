@@ -13,7 +13,9 @@
 //!
 //! Layout (all integers LEB128 unless said): magic `EMMC`, version byte,
 //! counts, box (6 × f32 LE), then length-prefixed sections: connectivity,
-//! positions, groups, colours; then the CRC-32 (u32 LE) of all that precedes.
+//! positions, groups (runs in decoded order: length − 1 as a value, then the
+//! group in raw bits; empty with one group), colours; then the CRC-32 (u32
+//! LE) of all that precedes.
 
 use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order};
 use constriction::stream::model::{SmallContiguousCategoricalEntropyModel, SmallContiguousLookupDecoderModel};
@@ -23,8 +25,10 @@ use std::ops::RangeInclusive;
 
 const MAGIC: &[u8; 4] = b"EMMC";
 /// Version 2 leaves out the dummies that start components (version 1 files,
-/// which list every dummy, are still read).
-const VERSION: u8 = 2;
+/// which list every dummy, are still read); version 3 codes groups as runs
+/// (before, a flag a triangle: a fifth of the symbols to decode, for as
+/// many bits).
+const VERSION: u8 = 3;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset, which
 /// allows table lookups when decoding).
@@ -142,13 +146,11 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 
     let mut sink = Sink::new(1);
     let group_bits = bit_length(group_count - 1);
-    let mut previous = 0;
-    for &t in &order.triangles {
-        let g = mesh.groups.get(t as usize).copied().unwrap_or(0);
-        sink.symbol(0, (g != previous) as usize);
-        if g != previous {
-            sink.raw(g, group_bits);
-            previous = g;
+    if group_count > 1 {
+        let groups: Vec<u32> = order.triangles.iter().map(|&t| mesh.groups[t as usize]).collect();
+        for run in groups.chunk_by(|a, b| a == b) {
+            sink.value(0, run.len() as u32 - 1);
+            sink.raw(run[0], group_bits);
         }
     }
     sizes.groups = out.section(sink);
@@ -231,15 +233,34 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let mut source = Source::new(&mut input, 1)?;
     let group_bits = bit_length(group_count - 1);
     let mut groups = Vec::with_capacity(triangles.len());
-    let mut group = 0;
-    for _ in 0..triangles.len() {
-        if source.symbol(0)? == 1 {
-            group = source.raw(group_bits)?;
+    let n = triangles.len();
+    if version < 3 {
+        // A flag a triangle: whether a new group (raw) follows.
+        let mut group = 0;
+        for _ in 0..n {
+            if source.symbol(0)? == 1 {
+                group = source.raw(group_bits)?;
+                if group >= group_count {
+                    return Err(corrupt("group out of range"));
+                }
+            }
+            groups.push(group);
+        }
+    } else if group_count == 1 {
+        groups.resize(n, 0);
+    } else {
+        while groups.len() < n {
+            let run = source.value(0)? as usize;
+            let group = source.raw(group_bits)?;
+            // (run + 1 triangles; the loop leaves at least one to go.)
+            if run >= n - groups.len() {
+                return Err(corrupt("group run past the last triangle"));
+            }
             if group >= group_count {
                 return Err(corrupt("group out of range"));
             }
+            groups.resize(groups.len() + run + 1, group);
         }
-        groups.push(group);
     }
 
     let mut source = Source::new(&mut input, 3)?;
@@ -733,7 +754,7 @@ mod tests {
     /// Files that pass the checksum but lie: every field rewritten, the CRC
     /// recomputed. Errors or a mesh; never a panic.
     #[test]
-    fn dummies_that_start_components_are_left_out_and_version_1_files_still_decode() {
+    fn dummies_that_start_components_are_left_out_and_version_1_and_2_files_still_decode() {
         // Two open grids: each starts at its boundary's dummy, so no dummy is listed.
         let one = wavy_grid(4);
         let mut two = one.clone();
@@ -758,24 +779,27 @@ mod tests {
         let crc = crc32fast::hash(&bad);
         bad.extend_from_slice(&crc.to_le_bytes());
         assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a dummy")), "{:?}", decode(&bad));
-        // Version 1 (every dummy listed): the fuzzing seed, written before version 2.
-        let v1 = include_bytes!("../../fuzz/seeds/proxy/0.emmc");
-        assert_eq!(v1[4], 1);
-        let old = decode(v1).expect("a version 1 file decodes");
-        assert!(!old.triangles.is_empty());
-        let again = decode(&encode(&old, 14).unwrap().bytes).unwrap();
-        // The same triangles (by their corners' positions, each rotated to
-        // start at its least corner), in any order.
-        let set = |m: &MeshData| {
-            let mut out: Vec<[[u32; 3]; 3]> = m.triangles.iter().map(|t| {
-                let c = t.map(|v| m.positions[v as usize].map(f32::to_bits));
-                let r = (0..3).min_by_key(|&i| c[i]).unwrap();
-                [c[r], c[(r + 1) % 3], c[(r + 2) % 3]]
-            }).collect();
-            out.sort_unstable();
-            out
-        };
-        assert_eq!(set(&again), set(&old));
+        // Version 1 (every dummy listed) and version 2 (a group flag a
+        // triangle): the fuzzing seeds, written before the next version.
+        for (seed, version) in [(&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1), (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2)] {
+            assert_eq!(seed[4], version);
+            let old = decode(seed).unwrap_or_else(|e| panic!("a version {version} file decodes: {e}"));
+            assert!(!old.triangles.is_empty());
+            assert!(version == 1 || old.groups.iter().any(|&g| g != old.groups[0]), "several groups");
+            let again = decode(&encode(&old, 14).unwrap().bytes).unwrap();
+            // The same triangles (by their corners' positions, each rotated
+            // to start at its least corner) with their groups, in any order.
+            let set = |m: &MeshData| {
+                let mut out: Vec<([[u32; 3]; 3], u32)> = m.triangles.iter().zip(&m.groups).map(|(t, &g)| {
+                    let c = t.map(|v| m.positions[v as usize].map(f32::to_bits));
+                    let r = (0..3).min_by_key(|&i| c[i]).unwrap();
+                    ([c[r], c[(r + 1) % 3], c[(r + 2) % 3]], g)
+                }).collect();
+                out.sort_unstable();
+                out
+            };
+            assert_eq!(set(&again), set(&old), "version {version}");
+        }
     }
 
     #[test]
