@@ -385,6 +385,9 @@ pub fn simplify(mesh: &Mesh, params: &SimplifyParams) -> Simplified {
 /// Meshes at least this large are first simplified as two halves at once
 /// (see [`halves`]); below it the second core would not pay for itself.
 const HALVES_ABOVE: usize = 20_000;
+/// ... and at most this large: each half has its own copy of the state,
+/// about 450 bytes a vertex with colour (1 GB more at 4 M triangles).
+const HALVES_UP_TO: usize = 4_000_000;
 
 /// [`simplify`], keeping colour too when `colours` are given (one a vertex).
 pub fn simplify_with_colours(mesh: &Mesh, colours: Option<Colours>, params: &SimplifyParams) -> Simplified {
@@ -405,7 +408,7 @@ fn simplify_halves_above(mesh: &Mesh, colours: Option<Colours>, params: &Simplif
         largest: (0..parts.len()).max_by(|&a, &b| parts[a].0.total_cmp(&parts[b].0)),
         frozen: Vec::new(),
     };
-    if mesh.triangles.len() >= halves_above {
+    if (halves_above..=HALVES_UP_TO).contains(&mesh.triangles.len()) {
         s = halves(s, &greedy, params, &mut done);
     }
     // A refused collapse may become possible once its neighbours change: a
