@@ -624,16 +624,27 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let mut ends = Vec::new();
     let mut depth = 0u32;
     let mut merges = 0usize;
-    let mut implied = Vec::with_capacity((code.dummy_starts as usize).min(symbols.len()));
+    let dummy_starts = code.dummy_starts as usize;
+    let mut implied = Vec::with_capacity(dummy_starts.min(symbols.len()));
+    if dummy_starts > 0 && !symbols.is_empty() {
+        implied.push(0);
+    }
     let mut new_vertices = 0u32;
     for (i, &s) in symbols.iter().enumerate() {
-        if implied.len() == ends.len() && implied.len() < code.dummy_starts as usize {
-            implied.push(new_vertices + 3 * ends.len() as u32);
+        // C, L and R, most symbols, only count new vertices (no branch on which).
+        if s <= R {
+            new_vertices += u32::from(s == C);
+            continue;
         }
         match s {
-            C => new_vertices += 1,
             S => depth += 1,
-            E if depth == 0 => ends.push(i),
+            E if depth == 0 => {
+                ends.push(i);
+                // The next component's first vertex (a dummy for the first `dummy_starts`).
+                if implied.len() < dummy_starts && i + 1 < symbols.len() {
+                    implied.push(new_vertices + 3 * ends.len() as u32);
+                }
+            }
             E => depth -= 1,
             M => {
                 let Some(m) = code.merges.get(merges) else { return corrupt("more M symbols than merge records") };
@@ -643,7 +654,6 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 depth -= 1;
                 merges += 1;
             }
-            L | R => {}
             _ => return corrupt(format!("symbol {s}")),
         }
     }
@@ -658,6 +668,8 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let mut stack: Vec<u32> = Vec::new();
     let mut merge_index = code.merges.len();
     let mut end = symbols.len();
+    // No loop is longer than every vertex twice over (a bound for hostile input).
+    let limit = code.vertex_count.saturating_mul(2).saturating_add(3);
     for (k, &last) in ends.iter().enumerate().rev() {
         let begin = if k == 0 { 0 } else { ends[k - 1] + 1 };
         debug_assert_eq!(last + 1, end);
@@ -665,7 +677,18 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         stack.clear();
         for i in (begin..end).rev() {
             let bad = || corrupt::<()>(format!("loop lengths do not add up at symbol {i}"));
-            match (symbols[i], cur) {
+            // C shortens the loop by one (of more than three), L and R lengthen
+            // it: most symbols, done without a branch on which.
+            let s = symbols[i];
+            if let Some(x) = cur.filter(|&x| s <= R && x >= 2 + u32::from(s == C)) {
+                let x = x + 1 - 2 * u32::from(s == C);
+                if x > limit {
+                    bad()?;
+                }
+                cur = Some(x);
+                continue;
+            }
+            match (s, cur) {
                 (E, _) => {
                     if let Some(x) = cur {
                         stack.push(x);
@@ -692,7 +715,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 }
                 _ => bad()?,
             }
-            if cur.is_some_and(|x| x > code.vertex_count.saturating_mul(2) + 3) {
+            if cur.is_some_and(|x| x > limit) {
                 bad()?;
             }
         }
