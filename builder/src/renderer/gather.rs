@@ -228,7 +228,9 @@ impl Tracer<'_> {
     }
 
     /// Indirect irradiance at `s` by side² stratified cosine-weighted rays,
-    /// split at `reach`; only what lies within it unless `beyond`.
+    /// split at `reach`: only what lies within it unless `beyond`, then only
+    /// what lies past it (with how open the view is, and the harmonic mean
+    /// distance of all hits).
     fn gather_at(&self, s: &Surface, depth: f32, side: u32, reach: f32, beyond: bool, rng: &mut Pcg32) -> Point {
         let (mut near, mut far, mut escaped, mut inverse) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0.0f32);
         let from = s.lifted();
@@ -258,7 +260,11 @@ impl Tracer<'_> {
                 }
                 Some(hit) => {
                     inverse += 1.0 / hit.t.max(1e-6);
-                    near += self.leaving(&ray, &hit, rng)
+                    // The far grid's near light is never read (the near grid
+                    // gathers it where it matters): not looked up.
+                    if !beyond {
+                        near += self.leaving(&ray, &hit, rng);
+                    }
                 }
             }
         }
