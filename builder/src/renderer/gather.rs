@@ -38,6 +38,7 @@ use rand::Rng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::f32::consts::PI;
+use std::ops::RangeInclusive;
 
 /// Random streams of gather points, apart from the pixels' own.
 const STREAM: u64 = 0x6A7E_0000_0000;
@@ -334,15 +335,19 @@ impl Grid {
         (self.width.div_ceil(self.step), self.height.div_ceil(self.step))
     }
 
+    /// The columns and rows of the (2 radius)² grid points around grid
+    /// position (u, v), within the grid.
+    fn window(&self, u: f32, v: f32, radius: i64) -> (RangeInclusive<i64>, RangeInclusive<i64>) {
+        let (gw, gh) = self.size();
+        let (u0, v0) = (u.floor() as i64, v.floor() as i64);
+        ((u0 + 1 - radius).max(0)..=(u0 + radius).min(gw as i64 - 1), (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh as i64 - 1))
+    }
+
     /// The points of the (2 radius)² around pixel (x, y).
     fn around(&self, x: f32, y: f32, radius: i64) -> impl Iterator<Item = &Point> {
-        let (gw, gh) = self.size();
-        let (u0, v0) = ((x / self.step as f32 - 0.5).floor() as i64, (y / self.step as f32 - 0.5).floor() as i64);
-        let ys = (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh as i64 - 1);
-        ys.flat_map(move |yy| {
-            let xs = (u0 + 1 - radius).max(0)..=(u0 + radius).min(gw as i64 - 1);
-            xs.filter_map(move |xx| self.points[(yy * gw as i64 + xx) as usize].as_ref())
-        })
+        let gw = self.size().0 as i64;
+        let (xs, ys) = self.window(x / self.step as f32 - 0.5, y / self.step as f32 - 0.5, radius);
+        ys.flat_map(move |yy| xs.clone().filter_map(move |xx| self.points[(yy * gw + xx) as usize].as_ref()))
     }
 
     /// One edge-avoiding à-trous pass with taps `spacing` grid points apart:
@@ -414,15 +419,14 @@ impl Grid {
     /// Grid points within `radius` of (u, v) (grid units) under a tent of
     /// that radius times likeness to `s`; `None` when their weight is below `least`.
     fn blend(&self, u: f32, v: f32, radius: i64, s: &Surface, tolerance: f32, least: f32) -> Option<Blend> {
-        let (gw, gh) = self.size();
-        let (gw, gh) = (gw as i64, gh as i64);
-        let (u0, v0) = (u.floor() as i64, v.floor() as i64);
+        let gw = self.size().0 as i64;
+        let (xs, ys) = self.window(u, v, radius);
         let r = radius as f32;
         let mut sum = Blend { near: Vec3::ZERO, far: Vec3::ZERO, open: 0.0, crowded: false };
         let mut weight = 0.0f32;
-        for yy in (v0 + 1 - radius).max(0)..=(v0 + radius).min(gh - 1) {
+        for yy in ys {
             let wy = (1.0 - (v - yy as f32).abs() / r).max(0.0);
-            for xx in (u0 + 1 - radius).max(0)..=(u0 + radius).min(gw - 1) {
+            for xx in xs.clone() {
                 let wx = (1.0 - (u - xx as f32).abs() / r).max(0.0);
                 let Some(q) = self.points[(yy * gw + xx) as usize] else { continue };
                 if wx * wy == 0.0 {

@@ -80,7 +80,7 @@ impl Lit {
     /// The mean of `value` over the pixels (at most four) that saw the point
     /// of `s`, weighted by nearness and likeness; `None` where this key saw
     /// something else there.
-    fn blend<T: Copy + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, zero: T, value: impl Fn(usize, &Seen) -> T) -> Option<T> {
+    fn blend<T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, value: impl Fn(usize, &Seen) -> T) -> Option<T> {
         let d = s.position - self.eye;
         let across = (d.x * d.x + d.z * d.z).sqrt();
         let distance = (across * across + d.y * d.y).sqrt();
@@ -98,7 +98,7 @@ impl Lit {
         // x, y ≥ −0.5, so truncating x + 1 floors it (without a libm call).
         let (x0, y0) = ((x + 1.0) as i32 - 1, (y + 1.0) as i32 - 1);
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let (mut sum, mut weight) = (zero, 0.0f32);
+        let (mut sum, mut weight) = (T::default(), 0.0f32);
         for (yy, wy) in [(y0, 1.0 - fy), (y0 + 1, fy)] {
             if yy < 0 || yy >= height {
                 continue;
@@ -122,12 +122,12 @@ impl Lit {
 
     /// Irradiance at `s` as this key frame saw it.
     fn irradiance(&self, s: &Surface) -> Option<Vec3> {
-        self.blend(s, Vec3::ZERO, |_, seen| seen.irradiance)
+        self.blend(s, |_, seen| seen.irradiance)
     }
 
     /// This key's gathered indirect light at `s` and how many keys it averages.
     pub fn history(&self, s: &Surface) -> Option<Vec4> {
-        self.blend(s, Vec4::ZERO, |i, _| self.history[i])
+        self.blend(s, |i, _| self.history[i])
     }
 }
 
