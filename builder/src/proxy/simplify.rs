@@ -612,18 +612,16 @@ fn halves<'a>(s: State<'a>, greedy: &Greedy, params: &SimplifyParams, done: &mut
     }
     // The second half's vertices and triangles join the first half's state.
     let [(mut s, _, _), (mut b, _, _)] = halves;
-    for v in 0..s.positions.len() {
-        if side[v] {
-            s.positions[v] = b.positions[v];
-            s.around[v] = std::mem::take(&mut b.around[v]);
-            s.quadrics[v] = b.quadrics[v];
-            s.stamp[v] = b.stamp[v];
-            s.dead_vertex[v] = b.dead_vertex[v];
-            if !s.colours.is_empty() {
-                s.colour_quadrics[v] = b.colour_quadrics[v];
-                s.with_colour[v] = b.with_colour[v];
-                s.colours[v] = b.colours[v];
-            }
+    for v in (0..s.positions.len()).filter(|&v| side[v]) {
+        s.positions[v] = b.positions[v];
+        s.around[v] = std::mem::take(&mut b.around[v]);
+        s.quadrics[v] = b.quadrics[v];
+        s.stamp[v] = b.stamp[v];
+        s.dead_vertex[v] = b.dead_vertex[v];
+        if !s.colours.is_empty() {
+            s.colour_quadrics[v] = b.colour_quadrics[v];
+            s.with_colour[v] = b.with_colour[v];
+            s.colours[v] = b.colours[v];
         }
     }
     for t in 0..s.triangles.len() {
