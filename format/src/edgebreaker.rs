@@ -663,6 +663,9 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if symbols.len() + ends.len() != code.triangle_count as usize {
         return corrupt(format!("{} symbols and {} components for {} triangles", symbols.len(), ends.len(), code.triangle_count));
     }
+    if new_vertices as u64 + 3 * ends.len() as u64 != code.vertex_count as u64 {
+        return corrupt(format!("{} vertices decoded, {} declared", new_vertices as u64 + 3 * ends.len() as u64, code.vertex_count));
+    }
     // Backwards over each component: lengths of the loops, so of each S's right loop.
     let mut right_len = vec![0u32; symbols.len()];
     let mut stack: Vec<u32> = Vec::new();
@@ -740,17 +743,15 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let mut waiting: Vec<(u32, u32)> = Vec::new(); // (gate node, length)
     let mut i = 0usize;
     let mut merge_index = 0usize;
-    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> Result<u32, CodingError> {
-        if out.predictors.len() as u32 >= code.vertex_count {
-            return corrupt(format!("more than {} vertices", code.vertex_count));
-        }
+    // Three vertices a component and one a C, as declared (checked above).
+    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> u32 {
         out.predictors.push(predictor);
-        Ok(out.predictors.len() as u32 - 1)
+        out.predictors.len() as u32 - 1
     };
     for &last in &ends {
-        let v0 = new_vertex(&mut out, [NONE; 3])?;
-        let v1 = new_vertex(&mut out, [v0, NONE, NONE])?;
-        let v2 = new_vertex(&mut out, [v0, v1, NONE])?;
+        let v0 = new_vertex(&mut out, [NONE; 3]);
+        let v1 = new_vertex(&mut out, [v0, NONE, NONE]);
+        let v2 = new_vertex(&mut out, [v0, v1, NONE]);
         out.triangles.push([v0, v1, v2]);
         let mut gate = loops.triangle([v0, v1, v2], [v2, v0, v1], 0);
         let mut len = 3u32;
@@ -761,7 +762,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
             let (va, vb) = (loops.vertex(a), loops.vertex(b));
             let w = match s {
                 C => {
-                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing])?;
+                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing]);
                     loops.nodes[a as usize].facing = vb;
                     gate = loops.add(w, a, b, va, 0);
                     len += 1;
@@ -819,9 +820,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
             i += 1;
         }
     }
-    if out.predictors.len() as u32 != code.vertex_count {
-        return corrupt(format!("{} vertices decoded, {} declared", out.predictors.len(), code.vertex_count));
-    }
+    debug_assert_eq!(out.predictors.len() as u32, code.vertex_count);
     Ok(out)
 }
 
