@@ -425,15 +425,14 @@ fn simplify_halves_above(mesh: &Mesh, colours: Option<Colours>, params: &Simplif
         }
     }
     let colours = colours.map(|c| s.colours.iter().map(|v| (*v / c.weight as f64).as_vec3()).collect()).unwrap_or_default();
-    let steps = done.steps.into_iter().map(|(_, step)| step).collect();
-    Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps, error: done.error, colours }
+    Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps: done.steps, error: done.error, colours }
 }
 
-/// What the collapses so far did: live triangles, the steps (with the cost
-/// each was taken at) and the largest geometric error.
+/// What the collapses so far did: live triangles, the steps and the
+/// largest geometric error.
 struct Done {
     live: usize,
-    steps: Vec<(f32, Step)>,
+    steps: Vec<Step>,
     error: f32,
 }
 
@@ -500,7 +499,7 @@ impl Greedy<'_> {
                     done.error = done.error.max(if s.with_colour.is_empty() { cost } else { s.cost_at(kept, removed, target, false) });
                     let c = s.collapse(kept, removed, target);
                     done.live -= c.deleted.len();
-                    done.steps.push((cost, Step::Collapse(c)));
+                    done.steps.push(Step::Collapse(c));
                     for w in s.neighbours(kept) {
                         if self.frozen(w) {
                             continue;
@@ -521,7 +520,7 @@ impl Greedy<'_> {
                     }
                     if !pruned.is_empty() {
                         done.live -= pruned.len();
-                        done.steps.push((cost, Step::Prune(pruned)));
+                        done.steps.push(Step::Prune(pruned));
                         done.error = done.error.max(cost);
                     }
                 }
