@@ -1036,6 +1036,12 @@ pub(crate) mod tests {
                 assert!(decode(&bad).is_err(), "field {field} + {delta}");
             }
         }
+        // One vertex fewer or more than three a component and one a C: refused
+        // before the rebuild, by name.
+        for count in [code.vertex_count - 1, code.vertex_count + 1] {
+            let bad = Connectivity { vertex_count: count, ..code.clone() };
+            assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.ends_with(&format!("vertices decoded, {count} declared"))), "{count}");
+        }
         let mut bad = code.clone();
         bad.dummies.push(3);
         bad.copies.push([2, 7]);
