@@ -663,8 +663,9 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if symbols.len() + ends.len() != code.triangle_count as usize {
         return corrupt(format!("{} symbols and {} components for {} triangles", symbols.len(), ends.len(), code.triangle_count));
     }
-    if new_vertices as u64 + 3 * ends.len() as u64 != code.vertex_count as u64 {
-        return corrupt(format!("{} vertices decoded, {} declared", new_vertices as u64 + 3 * ends.len() as u64, code.vertex_count));
+    let vertices = new_vertices as u64 + 3 * ends.len() as u64;
+    if vertices != code.vertex_count as u64 {
+        return corrupt(format!("{vertices} vertices decoded, {} declared", code.vertex_count));
     }
     // Backwards over each component: lengths of the loops, so of each S's right loop.
     let mut right_len = vec![0u32; symbols.len()];

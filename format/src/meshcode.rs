@@ -751,8 +751,6 @@ mod tests {
         assert!(message.contains(&format!("version {} (this reader knows 1 to {VERSION})", VERSION + 1)), "{message}");
     }
 
-    /// Files that pass the checksum but lie: every field rewritten, the CRC
-    /// recomputed. Errors or a mesh; never a panic.
     #[test]
     fn dummies_that_start_components_are_left_out_and_version_1_and_2_files_still_decode() {
         // Two open grids: each starts at its boundary's dummy, so no dummy is listed.
@@ -802,6 +800,8 @@ mod tests {
         }
     }
 
+    /// Files that pass the checksum but lie: every field rewritten, the CRC
+    /// recomputed. Errors or a mesh; never a panic.
     #[test]
     fn hostile_files_do_not_panic() {
         let mesh = wavy_grid(5);
