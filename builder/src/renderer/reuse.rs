@@ -130,7 +130,6 @@ impl Lit {
         let c2 = cos * cos;
         let c4 = c2 * c2;
         let c16 = (c4 * c4) * (c4 * c4);
-        debug_assert_eq!(NORMAL_POWER, 16);
         let w = Vec4::from_array(bilinear) * c16 * exp_minus((plane * plane).min(Vec4::splat(4.0)));
         let w = Vec4::select(near & cos.cmpgt(Vec4::splat(0.5)), w, Vec4::ZERO);
         let weight = w.element_sum();
@@ -166,6 +165,9 @@ impl Between<'_> {
         }
     }
 }
+
+// `blend` raises the normals' cosine to this power by squaring four times.
+const _: () = assert!(NORMAL_POWER == 16);
 
 /// A stand-in for the sky's and off-image pixels (their weight is 0).
 const NOWHERE: Seen = Seen { position: Vec3::ZERO, normal: Vec3::ZERO, irradiance: Vec3::ZERO };
@@ -206,6 +208,83 @@ fn atan2(y: f32, x: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::renderer::gather::geometric_weight;
+
+    /// `Lit::blend` as it was written before its lanes: one pixel at a time
+    /// with `geometric_weight` and libm's exponential.
+    /// Also the sum of the weights.
+    fn blend_one_by_one(lit: &Lit, s: &Surface) -> (Option<Vec3>, f32) {
+        let d = s.position - lit.eye;
+        let distance = d.length();
+        let yaw = d.x.atan2(-d.z) / TAU;
+        let x = yaw.rem_euclid(1.0) * lit.width as f32 - 0.5;
+        let y = (d.x * d.x + d.z * d.z).sqrt().atan2(d.y) / PI * lit.height as f32 - 0.5;
+        let footprint = TAU / lit.width as f32 * distance;
+        let (x0, y0) = (x.floor() as i32, y.floor() as i32);
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0);
+        for (yy, wy) in [(y0, 1.0 - fy), (y0 + 1, fy)] {
+            for (xx, wx) in [(x0, 1.0 - fx), (x0 + 1, fx)] {
+                if yy < 0 || yy >= lit.height as i32 {
+                    continue;
+                }
+                let i = (yy * lit.width as i32 + xx.rem_euclid(lit.width as i32)) as usize;
+                let Some(seen) = &lit.points[i] else { continue };
+                if (seen.position - s.position).length_squared() > 4.0 * footprint * footprint {
+                    continue;
+                }
+                let w = wx * wy * geometric_weight(s.position, s.normal, seen.position, seen.normal, footprint, NORMAL_POWER);
+                sum += seen.irradiance * w;
+                weight += w;
+            }
+        }
+        ((weight >= 0.25).then(|| sum / weight), weight)
+    }
+
+    #[test]
+    fn lanes_weigh_a_keys_pixels_as_one_by_one() {
+        // A key of a bumpy room: every pixel sees a point near a sphere of
+        // radius 3 with a tilted normal and its own light; some see the sky.
+        let (width, height) = (64u32, 32u32);
+        let eye = Vec3::new(0.5, 1.5, -0.25);
+        let mut rng = crate::seeds::sampler(3, 0, 0);
+        let mut r = || rand::Rng::random::<f32>(&mut rng);
+        let mut points = Vec::new();
+        for y in 0..height {
+            for x in 0..width {
+                let (yaw, down) = ((x as f32 + 0.5) / width as f32 * TAU, (y as f32 + 0.5) / height as f32 * PI);
+                let dir = Vec3::new(down.sin() * yaw.sin(), down.cos(), -down.sin() * yaw.cos());
+                let sky = r() < 0.05;
+                let position = eye + dir * (3.0 + 0.05 * r());
+                let normal = (-dir + Vec3::new(r(), r(), r()) * 0.6 - 0.3).normalize();
+                let irradiance = Vec3::new(r(), r(), r()) * 5.0;
+                points.push((!sky).then_some(Seen { position, normal, irradiance }));
+            }
+        }
+        let lit = Lit { eye, width, height, points, history: vec![Vec4::ZERO; (width * height) as usize] };
+        let (mut found, mut compared) = (0, 0);
+        for _ in 0..4000 {
+            let dir = (Vec3::new(r(), r(), r()) * 2.0 - 1.0).normalize_or(Vec3::X);
+            let normal = (-dir + Vec3::new(r(), r(), r()) * 0.6 - 0.3).normalize();
+            let s = Surface { position: eye + dir * (3.0 + 0.05 * r()), normal, geometric: normal, albedo: Vec3::ONE, emission: Vec3::ZERO };
+            let (lanes, (one_by_one, weight)) = (lit.irradiance(&s), blend_one_by_one(&lit, &s));
+            // (Within rounding of the threshold either answer is right.)
+            if (weight - 0.25).abs() < 1e-3 {
+                continue;
+            }
+            compared += 1;
+            match (lanes, one_by_one) {
+                (Some(a), Some(b)) => {
+                    found += 1;
+                    assert!((a - b).abs().max_element() <= 1e-3 * b.max_element().max(1.0), "{a} against {b}");
+                }
+                (a, b) => assert_eq!(a.is_some(), b.is_some(), "one found light, the other not: {a:?}, {b:?}"),
+            }
+        }
+        assert!(found > compared / 4, "only {found} of {compared} points found a key's light");
+    }
+
     #[test]
     fn lane_exponential_agrees_with_libm() {
         for i in 0..=4000 {
