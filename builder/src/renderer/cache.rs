@@ -59,6 +59,10 @@ pub struct RadianceCache {
     irradiance: Vec<Vec3>,
     /// Direct irradiance from point lights per cell, for renders that bake them.
     points: Vec<Vec3>,
+    /// Which point lights each cell's points saw: `lamp_words` bits a cell,
+    /// one a light ([`Self::lamps_seen`]).
+    lamps: Vec<u64>,
+    lamp_words: usize,
     /// Everything per cell: indirect, point lights and suns (direct light
     /// blurred to cells, what a final gather's second hits take instead of a
     /// shadow ray each).
@@ -177,7 +181,7 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), corners: Default::default(), irradiance: Vec::new(), points: Vec::new(), total: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
+        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), corners: Default::default(), irradiance: Vec::new(), points: Vec::new(), lamps: Vec::new(), lamp_words: 0, total: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
         let mut cells: Vec<Cell> = Vec::new();
         let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
             let k = key(cache.cell_of(p), normal_bin(n));
@@ -273,7 +277,8 @@ impl RadianceCache {
             }
         }
         // Direct light per cell, averaged over its points: point lights (for
-        // renders that bake them) and suns (for a final gather's second hits).
+        // renders that bake them, with which lights each point saw) and suns
+        // (for a final gather's second hits).
         let direct = |which: Which, stream: u64| -> Vec<Vec3> {
             cells
                 .par_iter()
@@ -289,8 +294,31 @@ impl RadianceCache {
                 })
                 .collect()
         };
-        if !tracer.lighting.points.is_empty() {
-            cache.points = direct(Which::Points, 0xD1EC7);
+        let lamps = tracer.lighting.points.len();
+        if lamps > 0 {
+            let words = lamps.div_ceil(64);
+            let suns = tracer.lighting.suns.len();
+            let per_cell: Vec<(Vec3, Vec<u64>)> = cells
+                .par_iter()
+                .map(|cell| {
+                    let (mut sum, mut seen) = (Vec3::ZERO, vec![0u64; words]);
+                    for &(p, n) in &cell.points {
+                        // (Point lights draw no random numbers.)
+                        let here = Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO };
+                        tracer.lighting.shadow_rays(&here, Vec2::ZERO, Which::Points, 1, |k, ray, e| {
+                            if tracer.visible(&ray) {
+                                sum += e;
+                                let lamp = k - suns;
+                                seen[lamp / 64] |= 1 << (lamp % 64);
+                            }
+                        });
+                    }
+                    (sum / cell.points.len() as f32, seen)
+                })
+                .collect();
+            cache.points = per_cell.iter().map(|c| c.0).collect();
+            cache.lamps = per_cell.into_iter().flat_map(|c| c.1).collect();
+            cache.lamp_words = words;
         }
         let suns = if tracer.lighting.suns.is_empty() { Vec::new() } else { direct(Which::Suns, 0x5A45) };
         let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
@@ -320,6 +348,24 @@ impl RadianceCache {
         self.interpolate(p, n, |i| self.points[i]).or_else(|| self.find(p, n).map(|i| self.points[i as usize])).unwrap_or_default()
     }
 
+    /// Which point lights the cache's points around `p` saw (those of the
+    /// 2 × 2 cells nearest, so a light is seen a little beyond where a
+    /// point saw it); `None` where no cell is near.
+    pub fn lamps_seen(&self, p: Vec3, n: Vec3) -> Option<LampsSeen<'_>> {
+        if self.lamp_words == 0 {
+            return None;
+        }
+        let (g, bin) = self.square(p, n);
+        let cells = self.corners.get(&key(g.floor().as_ivec3(), bin)).copied().or_else(|| self.find(p, n).map(|i| [i, u32::MAX, u32::MAX, u32::MAX]))?;
+        Some(LampsSeen { cache: self, cells })
+    }
+
+    /// Marks every point light as seen, or none, from every cell (tests).
+    #[cfg(test)]
+    pub(super) fn see_every_lamp(&mut self, seen: bool) {
+        self.lamps.fill(if seen { u64::MAX } else { 0 });
+    }
+
     /// Everything a surface point receives, direct light of every sampled
     /// light included (blurred to cells: right for a final gather's second
     /// hits, where the gather averages it); `None` where no cell is near.
@@ -328,14 +374,22 @@ impl RadianceCache {
         self.interpolate(p, n, value).or_else(|| self.find(p, n).map(|i| value(i as usize)))
     }
 
-    /// Bilinear interpolation across the surface of a per-cell value between
-    /// the centres of the cells around `p` that exist; along the normal, the
-    /// cell `p` is in.
-    fn interpolate(&self, p: Vec3, n: Vec3, value: impl Fn(usize) -> Vec3) -> Option<Vec3> {
+    /// `p` in units of cells from the centre of the lowest cell of the
+    /// square of cell centres around it (in the plane across the normal
+    /// bin's axis; along it, the cell `p` is in), and the bin.
+    fn square(&self, p: Vec3, n: Vec3) -> (Vec3, u64) {
         let bin = normal_bin(n);
         let axis = (bin / 2) as usize;
         let mut g = p / self.cell - 0.5;
         g[axis] = (p[axis] / self.cell).floor();
+        (g, bin)
+    }
+
+    /// Bilinear interpolation across the surface of a per-cell value between
+    /// the centres of the cells around `p` that exist; along the normal, the
+    /// cell `p` is in.
+    fn interpolate(&self, p: Vec3, n: Vec3, value: impl Fn(usize) -> Vec3) -> Option<Vec3> {
+        let (g, bin) = self.square(p, n);
         let base = g.floor();
         let f = g - base;
         let cells = self.corners.get(&key(base.as_ivec3(), bin))?;
@@ -357,6 +411,20 @@ impl RadianceCache {
         let jitter = Vec3::new(rng.random(), rng.random(), rng.random()) - 0.5;
         let q = p + (jitter - n * n.dot(jitter)) * self.cell;
         self.find(q, n).or_else(|| self.find(p, n)).map_or(self.mean, |i| self.irradiance[i as usize])
+    }
+}
+
+/// The point lights seen around a surface point ([`RadianceCache::lamps_seen`]).
+pub struct LampsSeen<'a> {
+    cache: &'a RadianceCache,
+    cells: [u32; 4],
+}
+
+impl LampsSeen<'_> {
+    /// Whether a point of these cells saw point light `lamp`.
+    pub fn sees(&self, lamp: usize) -> bool {
+        let words = self.cache.lamp_words;
+        self.cells.iter().any(|&c| c != u32::MAX && self.cache.lamps[c as usize * words + lamp / 64] & 1 << (lamp % 64) != 0)
     }
 }
 

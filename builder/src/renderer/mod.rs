@@ -23,7 +23,8 @@
 //! `preview` looks the cache up at the first hit (one sample through each
 //! pixel centre): cheap, but its cells show as soft blotches on plain walls.
 //! `final` gathers instead (no blotches; the sunroom ceiling test), antialiases
-//! panoramas with 2 samples and samples point lights exactly. A real bounce
+//! panoramas adaptively (one sample through each pixel centre, four more
+//! where a pixel differs from a neighbour) and samples point lights exactly. A real bounce
 //! at every pixel (`TraceParams::bounces`) cost 173 s for a 6×2048² cube at
 //! 16 samples on the Crytek Sponza. Without a cache the tracer is a plain
 //! path tracer (the furnace test and the benches' references).
@@ -138,7 +139,7 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 2, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, history_rays: 0 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, history_rays: 0 }), antialias: true, sun_rays: SUN_RAYS, seed },
                 video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, history_rays: 9 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,

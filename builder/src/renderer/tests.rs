@@ -406,6 +406,41 @@ fn sampling_the_lights_changes_the_noise_not_the_answer() {
 }
 
 #[test]
+fn lamps_no_cache_point_saw_are_rouletted_and_the_light_stays_the_same() {
+    // Two rooms joined by a door, a ceiling lamp above each viewpoint.
+    let scene = textured_rooms();
+    let rays = ray_scene(&scene);
+    let eyes = [Vec3::new(3.0, 1.6, 2.5), Vec3::new(9.0, 1.6, 2.5)];
+    let mut renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Final, 1));
+    let lamps = renderer.tracer.lighting.points.clone();
+    assert_eq!(lamps.len(), 2, "{}", renderer.tracer.lighting.description);
+    // A floor corner of the first room sees its own lamp; the other's light
+    // passes the door 0.1 units to the side.
+    let cache = renderer.tracer.cache.as_ref().unwrap();
+    let seen = cache.lamps_seen(Vec3::new(0.5, 0.0, 0.5), Vec3::Y).expect("a cell on the floor");
+    for (k, &(position, _)) in lamps.iter().enumerate() {
+        assert_eq!(seen.sees(k), position.x < 6.0, "lamp {k} at {position}");
+    }
+    let params = renderer.settings.panorama;
+    assert!(params.gather.is_some() && !params.baked_points);
+    let frame = |renderer: &Renderer| renderer.equirect(&params, eyes[0], 384, 0).color;
+    let as_built = frame(&renderer);
+    let cache = renderer.tracer.cache.as_mut().unwrap();
+    cache.see_every_lamp(true);
+    let every_lamp = frame(&renderer);
+    renderer.tracer.cache.as_mut().unwrap().see_every_lamp(false);
+    let no_lamp = frame(&renderer);
+    // Rouletting every lamp (as if the cache were wrong everywhere) keeps the
+    // mean and adds noise; the cache's own choice adds almost none.
+    let (m_all, m_none, m_built) = (mean(&every_lamp).element_sum(), mean(&no_lamp).element_sum(), mean(&as_built).element_sum());
+    let (noise_none, noise_built) = (relative_difference(&no_lamp, &every_lamp), relative_difference(&as_built, &every_lamp));
+    println!("mean light: every lamp traced {m_all:.4}, none {m_none:.4}, as the cache saw them {m_built:.4}; difference from every lamp traced: none {noise_none:.4}, as built {noise_built:.4}");
+    assert!((m_none / m_all - 1.0).abs() < 0.03, "rouletting every lamp moved the mean: {m_none} against {m_all}");
+    assert!((m_built / m_all - 1.0).abs() < 0.01, "the cache's choice moved the mean: {m_built} against {m_all}");
+    assert!(noise_built < 0.2 * noise_none, "the cache's choice added noise: {noise_built} against {noise_none} rouletting every lamp");
+}
+
+#[test]
 fn antialiasing_brings_one_sample_frames_close_to_many_samples() {
     // The sunroom seen from a corner: the block's silhouette, its shadow, the
     // window's frame and the sun patch are the edges a pixel centre jags.
@@ -417,7 +452,7 @@ fn antialiasing_brings_one_sample_frames_close_to_many_samples() {
     let width = 256;
     let frame = |params: TraceParams| renderer.to_image(width, width / 2, &renderer.equirect(&params, eye, width, 0).color);
     let centres = renderer.equirect(&TraceParams { antialias: false, ..video }, eye, width, 0);
-    let refined = trace::contrast_edges(&centres).len() as f32 / centres.color.len() as f32;
+    let refined = trace::contrast_edges(&centres.color, centres.width, centres.height).len() as f32 / centres.color.len() as f32;
     let (plain, smooth, many) = (renderer.to_image(width, width / 2, &centres.color), frame(video), frame(TraceParams { samples: 32, antialias: false, ..video }));
     let error = |a: &RgbImage| a.as_raw().iter().zip(many.as_raw()).map(|(&x, &y)| f32::from(x.abs_diff(y))).sum::<f32>() / a.as_raw().len() as f32;
     let (e_plain, e_smooth) = (error(&plain), error(&smooth));
