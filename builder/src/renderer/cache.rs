@@ -279,21 +279,6 @@ impl RadianceCache {
         // Direct light per cell, averaged over its points: point lights (for
         // renders that bake them, with which lights each point saw) and suns
         // (for a final gather's second hits).
-        let direct = |which: Which, stream: u64| -> Vec<Vec3> {
-            cells
-                .par_iter()
-                .enumerate()
-                .map(|(c, cell)| {
-                    let mut rng = sampler(params.seed, stream, c as u64);
-                    let sum: Vec3 = cell
-                        .points
-                        .iter()
-                        .map(|&(p, n)| tracer.direct(&Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO }, which, &mut rng))
-                        .sum();
-                    sum / cell.points.len() as f32
-                })
-                .collect()
-        };
         let lamps = tracer.lighting.points.len();
         if lamps > 0 {
             let words = lamps.div_ceil(64);
@@ -304,8 +289,7 @@ impl RadianceCache {
                     let (mut sum, mut seen) = (Vec3::ZERO, vec![0u64; words]);
                     for &(p, n) in &cell.points {
                         // (Point lights draw no random numbers.)
-                        let here = Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO };
-                        tracer.lighting.shadow_rays(&here, Vec2::ZERO, Which::Points, 1, |k, ray, e| {
+                        tracer.lighting.shadow_rays(&cell_surface(p, n), Vec2::ZERO, Which::Points, 1, |k, ray, e| {
                             if tracer.visible(&ray) {
                                 sum += e;
                                 let lamp = k - suns;
@@ -320,7 +304,18 @@ impl RadianceCache {
             cache.lamps = per_cell.into_iter().flat_map(|c| c.1).collect();
             cache.lamp_words = words;
         }
-        let suns = if tracer.lighting.suns.is_empty() { Vec::new() } else { direct(Which::Suns, 0x5A45) };
+        let suns: Vec<Vec3> = if tracer.lighting.suns.is_empty() {
+            Vec::new()
+        } else {
+            cells
+                .par_iter()
+                .enumerate()
+                .map(|(c, cell)| {
+                    let mut rng = sampler(params.seed, 0x5A45, c as u64);
+                    cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>() / cell.points.len() as f32
+                })
+                .collect()
+        };
         let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
         cache.total = (0..n).map(|i| e[i] + at(&cache.points, i) + at(&suns, i)).collect();
         cache.mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
@@ -356,7 +351,8 @@ impl RadianceCache {
             return None;
         }
         let (g, bin) = self.square(p, n);
-        let cells = self.corners.get(&key(g.floor().as_ivec3(), bin)).copied().or_else(|| self.find(p, n).map(|i| [i, u32::MAX, u32::MAX, u32::MAX]))?;
+        // (The square holds the cell `p` is in, so it exists wherever that cell does.)
+        let cells = *self.corners.get(&key(g.floor().as_ivec3(), bin))?;
         Some(LampsSeen { cache: self, cells })
     }
 
@@ -428,6 +424,11 @@ impl LampsSeen<'_> {
     }
 }
 
+/// One of a cell's points as a surface to light (its normal both ways).
+fn cell_surface(position: Vec3, normal: Vec3) -> Surface {
+    Surface { position, normal, geometric: normal, albedo: Vec3::ZERO, emission: Vec3::ZERO }
+}
+
 /// A cell's gather: stratified cosine-weighted rays from its points.
 fn gather(tracer: &Tracer, cell: &Cell, index: u64, params: &CacheParams) -> Gathered {
     let mut rng = sampler(params.seed, 0xCAC4E, index);
@@ -436,7 +437,7 @@ fn gather(tracer: &Tracer, cell: &Cell, index: u64, params: &CacheParams) -> Gat
     let side = (k as f32).sqrt().ceil() as usize;
     for j in 0..k {
         let (p, n) = cell.points[j % cell.points.len()];
-        let here = Surface { position: p, normal: n, geometric: n, albedo: Vec3::ZERO, emission: Vec3::ZERO };
+        let here = cell_surface(p, n);
         let u = Vec2::new(((j % side) as f32 + rng.random::<f32>()) / side as f32, ((j / side % side) as f32 + rng.random::<f32>()) / side as f32);
         let mut ray = Ray::new(here.lifted(), cosine_direction(n, u));
         match tracer.intersect(&mut ray) {

@@ -340,6 +340,9 @@ impl<'a> Tracer<'a> {
         let mut direct = vec![(Vec3::ZERO, Vec3::ZERO); pixels.len()];
         let mut reused: Vec<Option<Vec3>> = vec![None; pixels.len()];
         let mut last_hit = vec![None; pixels.len()];
+        let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
+        let lamps = self.cache.as_ref().filter(|_| which == Which::All);
+        let suns = self.lighting.suns.len();
         for sample in 0..spp {
             rays.clear();
             at.clear();
@@ -361,9 +364,6 @@ impl<'a> Tracer<'a> {
                 self.rays.intersect8(r8, h8, true);
             }
             // First hits; direct light at them with shadow rays in packets.
-            let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
-            let lamps = self.cache.as_ref().filter(|_| which == Which::All);
-            let suns = self.lighting.suns.len();
             surfaces.clear();
             shadows.iter_mut().for_each(Vec::clear);
             for i in 0..pixels.len() {
