@@ -558,9 +558,16 @@ fn the_native_window_turns_with_keys_under_xvfb() {
     synthetic_bundle(&bundle);
     let (before, after, log) = (dir.path().join("before.png"), dir.path().join("after.png"), dir.path().join("view.log"));
     // Open the window, look, press Right 20 times (20 × 0.08 rad ≈ 92°), look again.
+    // On a loaded CI machine the viewer once found no X server although
+    // xvfb-run had started one (a screenshot taken later worked): so wait until
+    // the display answers, and start the viewer again if it exits without a window.
     let script = format!(
-        "{exe} view {b} > {log} 2>&1 & pid=$!\n\
-         for i in $(seq 100); do wid=$(xdotool search --name ExploreMaps 2>/dev/null | head -1); [ -n \"$wid\" ] && break; sleep 0.1; done\n\
+        "for i in $(seq 100); do xdotool getdisplaygeometry >/dev/null 2>&1 && break; sleep 0.1; done\n\
+         for try in 1 2 3; do\n\
+           {exe} view {b} > {log} 2>&1 & pid=$!; wid=\n\
+           for i in $(seq 150); do wid=$(xdotool search --name ExploreMaps 2>/dev/null | head -1); [ -n \"$wid\" ] && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done\n\
+           [ -n \"$wid\" ] && break; echo \"attempt $try opened no window\" >&2; kill $pid 2>/dev/null; wait $pid; sleep 1\n\
+         done\n\
          sleep 2; import -window root {before}\n\
          xdotool windowfocus --sync $wid; xdotool key --delay 30 {keys}\n\
          sleep 1; import -window root {after}\n\
