@@ -35,7 +35,9 @@
 //!    of the vertices' surface colours (as the simplifier sees them) between
 //!    input points and the nearest points of the simplified mesh.
 //!
-//! `PROXY_BENCH=simplify` stops after sections 1 and 1b.
+//! `PROXY_BENCH=simplify` stops after sections 1 and 1b; `ONLY=dabrovic`
+//! (a part of a shared scene's path) keeps the gallery and that scene;
+//! `ONE_GROUP=1` simplifies without material borders, as meshoptimizer does.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, simplify_with_colours, Colours, SimplifyParams, Simplified};
@@ -74,6 +76,9 @@ fn main() {
     let mut scenes: Vec<(String, Scene)> = vec![("gallery".into(), BuiltIn::Gallery.generate(1))];
     for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj"] {
         let path = shared.join(file);
+        if std::env::var("ONLY").is_ok_and(|o| !file.contains(&o)) {
+            continue;
+        }
         match load(&path, &LoadOptions::default()) {
             Ok(scene) => scenes.push((file.split('/').next().unwrap().to_string(), scene)),
             Err(e) => println!("skipped {}: {e}", path.display()),
@@ -86,7 +91,11 @@ fn main() {
     for (name, scene) in &scenes {
         let t = Instant::now();
         let diagonal = scene.bounds().diagonal();
-        let (mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
+        let (mut mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
+        if std::env::var("ONE_GROUP").is_ok() {
+            // As meshoptimizer sees it: no material borders to keep.
+            mesh.groups.fill(0);
+        }
         println!("{name}: welded {} -> {} vertices, {} degenerate and {} repeated triangles dropped ({:.2} s)", stats.vertices_before, stats.vertices_after, stats.degenerate, stats.duplicates, t.elapsed().as_secs_f64());
         let input_tree = tree(&mesh.positions, &mesh.triangles);
         let input_samples = sample(&mesh.positions, &mesh.triangles);

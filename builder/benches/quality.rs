@@ -28,7 +28,7 @@
 //!
 //! Needs `scripts/bench-env.sh` once (FLIP and bpy); without it the table
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
-//! SCENES=sunroom,gallery,crytek narrows it, FACE sets the compared face size,
+//! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...), FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights (to check each kind against Cycles); VIDEO_GATHER and
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
@@ -71,10 +71,9 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(1024);
     let mut scenes: Vec<(&str, Scene)> = Vec::new();
-    for name in ["sunroom", "gallery", "crytek"] {
-        if only.as_ref().is_some_and(|o| !o.iter().any(|w| w == name)) {
-            continue;
-        }
+    // The three scenes of the protocol, or any built-in scene SCENES names.
+    let names: Vec<&str> = only.as_ref().map_or(vec!["sunroom", "gallery", "crytek"], |o| o.iter().map(String::as_str).collect());
+    for name in names {
         if name == "crytek" {
             match load(
                 &root.join("../shared/scenes/sponza_crytek/sponza_crytek.obj"),
@@ -87,7 +86,10 @@ fn main() {
                 Err(e) => println!("SKIPPED crytek: {e}"),
             }
         } else {
-            scenes.push((name, BuiltIn::parse(name).unwrap().generate(1)));
+            match BuiltIn::parse(name) {
+                Some(b) => scenes.push((name, b.generate(1))),
+                None => println!("SKIPPED {name}: not a built-in scene"),
+            }
         }
     }
     let mut table = Vec::new();
