@@ -30,7 +30,7 @@
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
 //! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...), FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
-//! those lights (to check each kind against Cycles); VIDEO_GATHER and
+//! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
 //! other settings.
 
@@ -111,7 +111,14 @@ fn main() {
             scene.materials.iter_mut().for_each(|m| m.emissive = Vec3::ZERO);
         }
     }
-    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+")));
+    // NO_TEXTURES=1: materials keep their factors alone (to check textures' part against Cycles).
+    let untextured = std::env::var("NO_TEXTURES").is_ok();
+    if untextured {
+        for (_, scene) in &mut scenes {
+            scene.materials.iter_mut().for_each(|m| m.base_color_texture = None);
+        }
+    }
+    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+"))) + if untextured { "-untextured" } else { "" };
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
