@@ -99,23 +99,23 @@ fn main() {
     let cycles_face: u32 = std::env::var("CYCLES_FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(if has_bpy { 2048 } else { 0 });
     let cycles_ref: u32 = std::env::var("CYCLES_REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
     let cycles_spp: Vec<u32> = std::env::var("CYCLES_SPP").unwrap_or("1,4,16,64".into()).split(',').filter_map(|n| n.trim().parse().ok()).collect();
-    // LIGHTS=sun,sky,points,emitters keeps only those lights (to check each kind against Cycles).
+    // LIGHTS=sun,sky,points,emitters keeps only those lights, NO_TEXTURES=1
+    // only the materials' factors (to check each against Cycles).
     let lights = std::env::var("LIGHTS").ok();
     let keep = |kind: &str| lights.as_ref().is_none_or(|l| l.split(',').any(|k| k == kind));
+    let untextured = std::env::var("NO_TEXTURES").is_ok_and(|v| v == "1");
     for (_, scene) in &mut scenes {
         scene.lights.retain(|l| match l {
             exploremaps_scenes::Light::Sun { .. } => keep("sun"),
             exploremaps_scenes::Light::Point { .. } => keep("points"),
         });
-        if !keep("emitters") {
-            scene.materials.iter_mut().for_each(|m| m.emissive = Vec3::ZERO);
-        }
-    }
-    // NO_TEXTURES=1: materials keep their factors alone (to check textures' part against Cycles).
-    let untextured = std::env::var("NO_TEXTURES").is_ok();
-    if untextured {
-        for (_, scene) in &mut scenes {
-            scene.materials.iter_mut().for_each(|m| m.base_color_texture = None);
+        for m in &mut scene.materials {
+            if !keep("emitters") {
+                m.emissive = Vec3::ZERO;
+            }
+            if untextured {
+                m.base_color_texture = None;
+            }
         }
     }
     let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+"))) + if untextured { "-untextured" } else { "" };
