@@ -240,6 +240,8 @@ mod tests {
         // Simplified in two halves at once (as large meshes are).
         let large = super::super::simplify::tests::bumpy();
         check_round_trip_of(&large, &super::super::simplify::tests::in_halves(&large, 300));
+        // Collapses that delete three triangles (along a non-manifold edge).
+        check_round_trip(&super::super::simplify::tests::fin(), 6);
     }
 
     /// A stream coded as the bundle codes it: the base through Edgebreaker
@@ -282,8 +284,14 @@ mod tests {
     /// grid's step), its group, and each vertex its colour.
     #[test]
     fn coded_packets_rebuild_the_input() {
-        let input = bumpy();
-        let (decoded, pm, packets, colours) = coded(&input, 40, 150);
+        // (The fin's splits along its shared edge bring back three triangles.)
+        for (input, target, packet) in [(bumpy(), 40, 150), (super::super::simplify::tests::fin(), 6, 30)] {
+            packets_rebuild(&input, target, packet);
+        }
+    }
+
+    fn packets_rebuild(input: &Mesh, target: usize, packet: usize) {
+        let (decoded, pm, packets, colours) = coded(input, target, packet);
         assert!(packets.len() >= 3, "{} packets", packets.len());
         // Packets in one file come apart again; a damaged one is named.
         let file: Vec<u8> = packets.iter().flat_map(|p| p.bytes.iter().copied()).collect();
