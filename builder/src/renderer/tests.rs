@@ -204,9 +204,15 @@ fn preview_and_final_renders_match_their_references() {
     for quality in [Quality::Preview, Quality::Final] {
         let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(quality, 1));
         let f = renderer.perspective(&renderer.settings.panorama, eyes[0], 1.2, -0.1, 1.2, 96, 64, 0);
-        // Preview is noise-free, so only floating-point differences between CPUs remain;
-        // final quality adds a few samples' noise on top.
-        let min_db = if quality == Quality::Preview { 40.0 } else { 32.0 };
+        // Renders differ between CPUs: Embree traces with other kernels on
+        // AVX2 than on AVX-512, so hit points differ in their last bits.
+        // Preview reads the radiance cache at the eye ray's hit, and there a
+        // wall lying on a cell boundary (these rooms' walls are at whole
+        // metres) falls into one layer of cells or the next by those bits:
+        // the references (made on an AVX-512 Xeon) score 37.2 dB on an AVX2
+        // EPYC. Final quality gathers over many cells (57.9 dB there) but
+        // adds a few samples' noise, hence its lower bound.
+        let min_db = if quality == Quality::Preview { 35.0 } else { 32.0 };
         check_reference(&format!("rooms_{}", quality.name()), &renderer.to_image(96, 64, &f.color), min_db);
     }
 }
