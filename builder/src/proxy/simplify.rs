@@ -835,12 +835,16 @@ impl State<'_> {
             return false;
         }
         // No triangle may land on another: (removed, x, y) becoming a
-        // triangle (kept, x, y) that already exists (x and y both third
-        // corners of the edge's triangles, which the link condition allows).
-        for t in self.live_around(removed) {
-            let tri = self.triangles[t as usize];
-            if !shared_triangles.contains(&t) && self.live_around(kept).any(|u| !shared_triangles.contains(&u) && tri.iter().all(|&w| w == removed || self.triangles[u as usize].contains(&w))) {
-                return false;
+        // triangle (kept, x, y) that already exists. Then x and y are common
+        // neighbours, so (by the link condition) third corners of the edge's
+        // triangles: only triangles with two such corners need the search.
+        if shared_triangles.len() >= 2 {
+            let third = |w: u32| w != removed && shared_triangles.iter().any(|&t| self.triangles[t as usize].contains(&w) && w != kept);
+            for t in self.live_around(removed) {
+                let tri = self.triangles[t as usize];
+                if !shared_triangles.contains(&t) && tri.iter().all(|&w| w == removed || third(w)) && self.live_around(kept).any(|u| !shared_triangles.contains(&u) && tri.iter().all(|&w| w == removed || self.triangles[u as usize].contains(&w))) {
+                    return false;
+                }
             }
         }
         // No vertex may lose its last triangle (a part collapsing to nothing
