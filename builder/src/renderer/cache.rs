@@ -169,9 +169,22 @@ struct Gathered {
 
 const MAX_POINTS: usize = 4;
 
+/// The cell grid's shift, in cells (see [`RadianceCache::grid`]): a fraction
+/// no round coordinate lands on.
+const GRID_OFFSET: Vec3 = Vec3::splat(0.3719);
+
 impl RadianceCache {
+    /// `p` in units of cells, on a grid shifted off round coordinates: walls
+    /// at whole metres (or any multiple of the cell) would otherwise lie on
+    /// a boundary between two layers of cells, and which layer a hit on them
+    /// reads would hang on the last bits of its coordinates (they differ
+    /// between Embree's AVX2 and AVX-512 kernels).
+    fn grid(&self, p: Vec3) -> Vec3 {
+        p / self.cell + GRID_OFFSET
+    }
+
     fn cell_of(&self, p: Vec3) -> IVec3 {
-        (p / self.cell).floor().as_ivec3()
+        self.grid(p).floor().as_ivec3()
     }
 
     fn find(&self, p: Vec3, n: Vec3) -> Option<u32> {
@@ -376,8 +389,9 @@ impl RadianceCache {
     fn square(&self, p: Vec3, n: Vec3) -> (Vec3, u64) {
         let bin = normal_bin(n);
         let axis = (bin / 2) as usize;
-        let mut g = p / self.cell - 0.5;
-        g[axis] = (p[axis] / self.cell).floor();
+        let u = self.grid(p);
+        let mut g = u - 0.5;
+        g[axis] = u[axis].floor();
         (g, bin)
     }
 

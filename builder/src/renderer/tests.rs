@@ -204,17 +204,39 @@ fn preview_and_final_renders_match_their_references() {
     for quality in [Quality::Preview, Quality::Final] {
         let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(quality, 1));
         let f = renderer.perspective(&renderer.settings.panorama, eyes[0], 1.2, -0.1, 1.2, 96, 64, 0);
-        // Renders differ between CPUs: Embree traces with other kernels on
-        // AVX2 than on AVX-512, so hit points differ in their last bits.
-        // Preview reads the radiance cache at the eye ray's hit, and there a
-        // wall lying on a cell boundary (these rooms' walls are at whole
-        // metres) falls into one layer of cells or the next by those bits:
-        // the references (made on an AVX-512 Xeon) score 37.2 dB on an AVX2
-        // EPYC. Final quality gathers over many cells (57.9 dB there) but
-        // adds a few samples' noise, hence its lower bound.
-        let min_db = if quality == Quality::Preview { 35.0 } else { 32.0 };
+        // Renders differ slightly between CPUs (Embree's AVX2 and AVX-512
+        // kernels give hit points that differ in their last bits; see the
+        // test below for what that did to previews before the cache's grid
+        // was shifted). Final quality adds a few samples' noise, hence its
+        // lower bound.
+        let min_db = if quality == Quality::Preview { 40.0 } else { 32.0 };
         check_reference(&format!("rooms_{}", quality.name()), &renderer.to_image(96, 64, &f.color), min_db);
     }
+}
+
+#[test]
+fn a_preview_does_not_change_when_the_scene_moves_by_a_hair() {
+    // Preview reads the radiance cache where the eye ray lands. A wall on a
+    // boundary between two layers of cells would read one layer or the other
+    // by the last bits of its hit points (which differ between CPUs): moving
+    // the scene and the eye by a ten-thousandth of a metre must leave the
+    // image as it was. These rooms' walls lie at whole metres. Measured:
+    // 47.3 dB; 37.3 dB with the cell grid unshifted (as between an AVX2 and
+    // an AVX-512 machine before the shift).
+    let scene = textured_rooms();
+    let shift = Vec3::splat(1e-4);
+    let mut moved = scene.clone();
+    moved.positions.iter_mut().for_each(|p| *p += shift);
+    let eyes = [Vec3::new(3.0, 1.6, 2.5), Vec3::new(9.0, 1.6, 2.5)];
+    let render = |scene: &Scene, offset: Vec3| {
+        let rays = ray_scene(scene);
+        let eyes = eyes.map(|e| e + offset);
+        let renderer = Renderer::new(scene, &rays, &eyes, Settings::new(Quality::Preview, 1));
+        let f = renderer.perspective(&renderer.settings.panorama, eyes[0], 1.2, -0.1, 1.2, 96, 64, 0);
+        renderer.to_image(96, 64, &f.color)
+    };
+    let db = psnr(&render(&scene, Vec3::ZERO), &render(&moved, shift));
+    assert!(db > 45.0, "{db:.1} dB between the scene and the scene moved by 0.1 mm");
 }
 
 #[test]
