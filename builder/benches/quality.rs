@@ -31,7 +31,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...), FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0 and SUN_RAYS=n try
+//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -145,6 +145,10 @@ fn main() {
         // SUN_RAYS=n tries another count of shadow rays toward the sun (panoramas and video keys).
         if let Some(n) = std::env::var("SUN_RAYS").ok().and_then(|v| v.parse().ok()) {
             (settings.panorama.sun_rays, settings.video.sun_rays) = (n, n);
+        }
+        // CACHE_GATHER=n tries another count of gather rays a radiance cache cell.
+        if let Some(n) = std::env::var("CACHE_GATHER").ok().and_then(|v| v.parse().ok()) {
+            settings.gather_rays = n;
         }
         // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes[,near]] try another gather.
         for (var, params) in [("VIDEO_GATHER", &mut settings.video), ("PANORAMA_GATHER", &mut settings.panorama)] {

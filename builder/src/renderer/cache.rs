@@ -438,6 +438,11 @@ impl LampsSeen<'_> {
     }
 }
 
+/// Point `j` of a `k`-point Fibonacci lattice in [0, 1)², shifted by `shift`.
+pub(super) fn lattice(j: usize, k: usize, shift: Vec2) -> Vec2 {
+    (Vec2::new(j as f32 / k as f32, j as f32 * 0.618_034) + shift).fract()
+}
+
 /// One of a cell's points as a surface to light (its normal both ways).
 fn cell_surface(position: Vec3, normal: Vec3) -> Surface {
     Surface { position, normal, geometric: normal, albedo: Vec3::ZERO, emission: Vec3::ZERO }
@@ -448,11 +453,15 @@ fn gather(tracer: &Tracer, cell: &Cell, index: u64, params: &CacheParams) -> Gat
     let mut rng = sampler(params.seed, 0xCAC4E, index);
     let mut out = Gathered::default();
     let k = params.gather_rays;
-    let side = (k as f32).sqrt().ceil() as usize;
+    // A Fibonacci lattice shifted at random: even over the hemisphere for any
+    // count. (A jittered square grid left its last row part empty when the
+    // count was no square, 32 in preview: a whole band of directions
+    // under-sampled, and the cache biased by it.)
+    let shift = Vec2::new(rng.random(), rng.random());
     for j in 0..k {
         let (p, n) = cell.points[j % cell.points.len()];
         let here = cell_surface(p, n);
-        let u = Vec2::new(((j % side) as f32 + rng.random::<f32>()) / side as f32, ((j / side % side) as f32 + rng.random::<f32>()) / side as f32);
+        let u = lattice(j, k, shift);
         let mut ray = Ray::new(here.lifted(), cosine_direction(n, u));
         match tracer.intersect(&mut ray) {
             None => out.fixed += tracer.lighting.sky.radiance(ray.dir),
