@@ -179,8 +179,8 @@ impl Quadric {
         if scale <= 0.0 || det.abs() <= 1e-9 * scale * scale * scale {
             return None;
         }
-        let inverse = DMat3::from_cols(c, DVec3::new(c.y, a[0] * a[5] - a[2] * a[2], a[1] * a[2] - a[0] * a[4]), DVec3::new(c.z, a[1] * a[2] - a[0] * a[4], a[0] * a[3] - a[1] * a[1]));
-        let p = inverse * -self.b / det;
+        let adjugate = DMat3::from_cols(c, DVec3::new(c.y, a[0] * a[5] - a[2] * a[2], a[1] * a[2] - a[0] * a[4]), DVec3::new(c.z, a[1] * a[2] - a[0] * a[4], a[0] * a[3] - a[1] * a[1]));
+        let p = adjugate * -self.b / det;
         p.is_finite().then_some(p)
     }
 }

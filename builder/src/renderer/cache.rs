@@ -14,7 +14,7 @@
 //! solved by Jacobi iteration, which gives every bounce for the price of one
 //! gather: E(c) = π/K · Σ_j [A_j + ρ_j/π · E(target_j)].
 
-use super::surface::{cosine_direction, fibonacci_sphere, Surface, Which};
+use super::surface::{cosine_direction, fibonacci_sphere, lattice, Surface, Which};
 use super::trace::{sampler, Tracer};
 use crate::raycast::Ray;
 use glam::{IVec3, Vec2, Vec3};
@@ -436,11 +436,6 @@ impl LampsSeen<'_> {
         let words = self.cache.lamp_words;
         self.cells.iter().any(|&c| c != u32::MAX && self.cache.lamps[c as usize * words + lamp / 64] & 1 << (lamp % 64) != 0)
     }
-}
-
-/// Point `j` of a `k`-point Fibonacci lattice in [0, 1)², shifted by `shift`.
-pub(super) fn lattice(j: usize, k: usize, shift: Vec2) -> Vec2 {
-    (Vec2::new(j as f32 / k as f32, j as f32 * 0.618_034) + shift).fract()
 }
 
 /// One of a cell's points as a surface to light (its normal both ways).

@@ -295,8 +295,7 @@ impl Lighting {
         let share = 1.0 / sun_rays as f32;
         for (k, &(dir, irradiance)) in suns.iter().enumerate() {
             for j in 0..sun_rays {
-                // Fibonacci lattice: j/n along one axis, j times the golden ratio's fraction along the other.
-                let v = (u + Vec2::new(j as f32 * share, j as f32 * 0.618_034)).fract();
+                let v = lattice(j as usize, sun_rays as usize, u);
                 let d = Lighting::sun_direction(dir, v);
                 let cos = s.normal.dot(d);
                 if cos > 0.0 && s.geometric.dot(d) > 0.0 {
@@ -402,6 +401,13 @@ fn ceiling_lights(scene: &Scene, rays: &RayScene, viewpoints: &[Vec3]) -> Vec<(V
             (at, Vec3::new(4.0, 3.7, 3.2) * metre * metre)
         })
         .collect()
+}
+
+/// Point `j` of a `k`-point Fibonacci lattice in [0, 1)², shifted by `shift`
+/// (j/k along one axis, j times the golden ratio's fraction along the
+/// other): even over the square for any count.
+pub fn lattice(j: usize, k: usize, shift: Vec2) -> Vec2 {
+    (Vec2::new(j as f32 / k as f32, j as f32 * 0.618_034) + shift).fract()
 }
 
 /// `n` nearly uniform unit directions (a Fibonacci spiral).

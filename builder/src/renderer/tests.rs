@@ -249,7 +249,7 @@ fn the_cache_gathers_evenly_over_azimuths_for_any_ray_count() {
             let shift = glam::Vec2::new((s as f32 * 0.754_877_7).fract(), (s as f32 * 0.569_840_3).fract());
             let mut quarters = [0usize; 4];
             for j in 0..k {
-                quarters[(super::cache::lattice(j, k, shift).y * 4.0) as usize % 4] += 1;
+                quarters[(super::surface::lattice(j, k, shift).y * 4.0) as usize % 4] += 1;
             }
             assert!(quarters.iter().all(|&q| q.abs_diff(k / 4) <= 2), "{k} rays, shift {s}: {quarters:?}");
         }
