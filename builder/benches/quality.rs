@@ -31,7 +31,7 @@
 //! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...), FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
-//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
+//! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
 //! other settings.
 
 use exploremaps_builder::load::{load, LoadOptions};
@@ -155,6 +155,13 @@ fn main() {
             let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
             if let (Some(g), &[rays, step, ..]) = (params.gather.as_mut(), &n[..]) {
                 (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
+            }
+        }
+        // VIDEO_WIDEN / PANORAMA_WIDEN=passes,x: at most that many more passes where the filter reaches less than x R.
+        for (var, params) in [("VIDEO_WIDEN", &mut settings.video), ("PANORAMA_WIDEN", &mut settings.panorama)] {
+            let widen = std::env::var(var).ok().and_then(|v| v.split_once(',').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))));
+            if let (Some(g), Some(widen)) = (params.gather.as_mut(), widen) {
+                g.widen = widen;
             }
         }
         // VIDEO_HISTORY=n: rays of video keys that average with the key before (0: keys gather alone).

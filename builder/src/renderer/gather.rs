@@ -27,6 +27,13 @@
 //! (Ward's bound on how fast irradiance changes), so the open floor in front
 //! of a curtain does not light the strip behind its hem.
 //!
+//! The grid is spaced in pixels, so on a surface close to the eye its points
+//! crowd a few centimetres where the light hardly changes, and the usual
+//! passes average too few independent rays: the noise they leave showed as
+//! soft blotches on a pillar next to the eye. There up to two more passes run,
+//! each only at the points whose filter still reaches less than a tenth of
+//! their harmonic distance across the scene.
+//!
 //! Random numbers come from generators seeded by (render seed, image, grid
 //! point), so the result does not depend on the thread count.
 
@@ -71,6 +78,10 @@ pub struct GatherParams {
     /// How far a point's light may spread, in units of the harmonic mean
     /// distance of the surfaces around it (0: no limit).
     pub spread: f32,
+    /// Surfaces close to the eye: at most this many more passes, each only
+    /// at the points whose filter still reaches less than this share of R
+    /// (Ward's harmonic distance) across the scene ((0, _): none).
+    pub widen: (u32, f32),
     /// Video key frames after a path's first: average their gather with the
     /// previous key's where it saw the same point ([`super::reuse`]), and
     /// gather with this many rays a point (0: each key gathers alone, with `rays`).
@@ -173,7 +184,12 @@ impl Tracer<'_> {
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
         far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |_, _| true);
         for pass in 0..params.passes {
-            far.filter(1 << pass, false);
+            far.filter(1 << pass, false, None);
+        }
+        let (more, widen) = params.widen;
+        for pass in params.passes..params.passes + more {
+            // The reach so far: two taps of every pass's spacing.
+            far.filter(1 << pass, false, Some(2.0 * ((1u32 << pass) - 1) as f32 / widen));
         }
         let near = (params.near > 0 && far.points.iter().flatten().any(|p| p.open < 1.0)).then(|| {
             let (near_step, rays, passes) = NEAR_GRID;
@@ -183,7 +199,7 @@ impl Tracer<'_> {
             let crowded = |x: f32, y: f32| far.around(x, y, 1).any(|p| p.open < 1.0);
             near.points = self.gather_grid(&near, seed, NEAR_STREAM ^ image, eye, side, &reach_at, false, project, crowded);
             for pass in 0..passes {
-                near.filter(1 << pass, true);
+                near.filter(1 << pass, true, None);
             }
             near
         });
@@ -352,8 +368,9 @@ impl Grid {
 
     /// One edge-avoiding à-trous pass with taps `spacing` grid points apart:
     /// of the far field, each point weighed by its share of rays that reached
-    /// it; or of the near field and that share.
-    fn filter(&mut self, spacing: u32, near_field: bool) {
+    /// it; or of the near field and that share. With `only_below` = k, only
+    /// points whose harmonic distance R exceeds k grid footprints change.
+    fn filter(&mut self, spacing: u32, near_field: bool, only_below: Option<f32>) {
         let (gw, gh) = self.size();
         let (gw, gh) = (gw as i64, gh as i64);
         let points = &self.points;
@@ -361,6 +378,9 @@ impl Grid {
             .into_par_iter()
             .map(|i| {
                 let mut p = points[i]?;
+                if only_below.is_some_and(|k| k * self.footprint(p.depth) >= p.harmonic) {
+                    return Some(p);
+                }
                 let (x, y) = (i as i64 % gw, i as i64 / gw);
                 // A plane's points stay on its tangent plane however far
                 // apart: the tolerance does not grow with the spacing (it
@@ -466,7 +486,7 @@ mod tests {
             }
         }
         for pass in 0..3 {
-            field.filter(1 << pass, false);
+            field.filter(1 << pass, false, None);
         }
         let at = |x: u32, y: u32| field.points[(y * n + x) as usize].unwrap().far.x;
         for y in 0..n {
@@ -496,12 +516,46 @@ mod tests {
                 }
             }
             for pass in 0..3 {
-                grid.filter(1 << pass, false);
+                grid.filter(1 << pass, false, None);
             }
             grid.points[(5 * n + 11) as usize].unwrap().far.x
         };
         let (limited, free) = (filtered(0.25), filtered(0.0));
         assert!((limited - 0.2).abs() < 0.01, "the strip took the open floor's light: {limited}");
         assert!(free > 0.4, "a freely spreading filter should blend the strip: {free}");
+    }
+
+    /// The same noisy plane seen close (its grid points 1.25 mm apart, the
+    /// surfaces around 1 unit away) and far (10 cm apart): the wider passes
+    /// take the close plane's noise down to less than half of what the usual
+    /// three passes leave, and leave the far plane as it was.
+    #[test]
+    fn a_plane_close_to_the_eye_is_filtered_wider_and_a_far_one_as_before() {
+        let n = 96u32;
+        let filtered = |depth: f32, widen: u32| {
+            let mut grid = Grid { width: n, height: n, step: 1, pixel_angle: 0.005, spread: 0.25, points: Vec::new() };
+            let spacing = grid.footprint(depth);
+            let mut rng = Pcg32::new(7, 11);
+            for y in 0..n {
+                for x in 0..n {
+                    let light = 1.0 + 0.2 * (rng.random::<f32>() - 0.5);
+                    grid.points.push(Some(Point { position: Vec3::new(x as f32 * spacing, y as f32 * spacing, 0.0), normal: Vec3::Z, depth, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic: 1.0 }));
+                }
+            }
+            for pass in 0..3 {
+                grid.filter(1 << pass, false, None);
+            }
+            for pass in 3..3 + widen {
+                grid.filter(1 << pass, false, Some(2.0 * ((1u32 << pass) - 1) as f32 / 0.05));
+            }
+            // The spread of the light over the middle (away from the borders).
+            let middle: Vec<f32> = (24..72).flat_map(|y| (24..72).map(move |x| (x, y))).map(|(x, y)| grid.points[(y * n + x) as usize].unwrap().far.x).collect();
+            let mean = middle.iter().sum::<f32>() / middle.len() as f32;
+            (middle.iter().map(|v| (v - mean) * (v - mean)).sum::<f32>() / middle.len() as f32).sqrt()
+        };
+        let (close, close_wide) = (filtered(0.25, 0), filtered(0.25, 2));
+        assert!(close_wide < 0.5 * close, "the close plane kept its noise: {close_wide} after the wider passes, {close} before");
+        let (far, far_wide) = (filtered(20.0, 0), filtered(20.0, 2));
+        assert_eq!(far, far_wide, "the far plane changed");
     }
 }

@@ -100,7 +100,9 @@ pub struct Settings {
     /// path's first gather 9 rays and average with the keys before
     /// (`GatherParams::history_rays`): on the bench's walk four keys long,
     /// 0.0777 at 0.20 s a frame against 0.0782 at 0.23 s with 16 rays alone
-    /// (4 rays and history: 0.0900 at 0.17 s).
+    /// (4 rays and history: 0.0900 at 0.17 s). Those figures predate the
+    /// wider passes near the eye (`GatherParams::widen`), which took the
+    /// frame between keys to 0.0742.
     pub video_keys: u32,
     /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
     /// real bounces or few samples; the cache alone leaves little noise).
@@ -139,8 +141,8 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, history_rays: 0 }), antialias: true, sun_rays: SUN_RAYS, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, history_rays: 9 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                panorama: TraceParams { samples: 1, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, widen: (2, 0.1), history_rays: 0 }), antialias: true, sun_rays: SUN_RAYS, seed },
+                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, widen: (2, 0.1), history_rays: 9 }), antialias: false, sun_rays: SUN_RAYS, seed },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
