@@ -186,11 +186,7 @@ impl Tracer<'_> {
         for pass in 0..params.passes {
             far.filter(1 << pass, false, None);
         }
-        let (more, widen) = params.widen;
-        for pass in params.passes..params.passes + more {
-            // The reach so far: two taps of every pass's spacing.
-            far.filter(1 << pass, false, Some(2.0 * ((1u32 << pass) - 1) as f32 / widen));
-        }
+        far.widen(params.passes, params.widen);
         let near = (params.near > 0 && far.points.iter().flatten().any(|p| p.open < 1.0)).then(|| {
             let (near_step, rays, passes) = NEAR_GRID;
             let mut near = Grid { step: near_step, points: Vec::new(), ..far };
@@ -364,6 +360,17 @@ impl Grid {
         let gw = self.size().0 as i64;
         let (xs, ys) = self.window(x / self.step as f32 - 0.5, y / self.step as f32 - 0.5, radius);
         ys.flat_map(move |yy| xs.clone().filter_map(move |xx| self.points[(yy * gw + xx) as usize].as_ref()))
+    }
+
+    /// After `passes` à-trous passes of the far field, up to `more` wider ones,
+    /// each only at the points whose filter still reaches less than `share`
+    /// of their harmonic distance R ([`GatherParams::widen`]).
+    fn widen(&mut self, passes: u32, (more, share): (u32, f32)) {
+        for pass in passes..passes + more {
+            // The reach so far, in grid footprints: two taps of every pass's spacing.
+            let reach = 2.0 * ((1u32 << pass) - 1) as f32;
+            self.filter(1 << pass, false, Some(reach / share));
+        }
     }
 
     /// One edge-avoiding à-trous pass with taps `spacing` grid points apart:
@@ -545,9 +552,7 @@ mod tests {
             for pass in 0..3 {
                 grid.filter(1 << pass, false, None);
             }
-            for pass in 3..3 + widen {
-                grid.filter(1 << pass, false, Some(2.0 * ((1u32 << pass) - 1) as f32 / 0.05));
-            }
+            grid.widen(3, (widen, 0.05));
             // The spread of the light over the middle (away from the borders).
             let middle: Vec<f32> = (24..72).flat_map(|y| (24..72).map(move |x| (x, y))).map(|(x, y)| grid.points[(y * n + x) as usize].unwrap().far.x).collect();
             let mean = middle.iter().sum::<f32>() / middle.len() as f32;
