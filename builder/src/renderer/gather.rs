@@ -173,6 +173,7 @@ impl Tracer<'_> {
         (width, height): (u32, u32),
         image: u64,
         project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+        traced: &(impl Fn(u32, u32) -> bool + Sync),
     ) -> Field {
         let step = params.step.max(1);
         let centre = project(0.5, 0.5);
@@ -182,7 +183,8 @@ impl Tracer<'_> {
         let unit = far.footprint(1.0);
         let reach_at = |depth: f32| reach * unit * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
-        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |_, _| true);
+        // Only at pixels the frame traces.
+        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |x, y| traced(x as u32, y as u32));
         for pass in 0..params.passes {
             far.filter(1 << pass, false, None);
         }

@@ -235,10 +235,12 @@ impl<'a> Renderer<'a> {
     /// With one sample a pixel, only every `interval`-th frame and the last are
     /// lit in full (after the first, averaged with the key before where
     /// `GatherParams::history_rays` says); the frames between take their
-    /// lighting from those two ([`reuse`]).
+    /// lighting from those two ([`reuse`]). Rows toward the poles trace
+    /// fewer pixels ([`equirect_columns`]): a fifth less work a frame.
     pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame)) {
         let n = eyes.len();
-        let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse);
+        let columns = equirect_rows(width);
+        let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse, &columns);
         if params.samples != 1 || interval <= 1 || n < 3 {
             (0..n).for_each(|i| each(i, render(params, i, reuse::Reuse::Off).0));
             return;
@@ -329,6 +331,27 @@ pub fn equirect_direction(s: f32, t: f32) -> Vec3 {
     let yaw = s * std::f32::consts::TAU;
     let pitch = std::f32::consts::FRAC_PI_2 - t * std::f32::consts::PI;
     Vec3::from(direction(yaw, pitch))
+}
+
+/// Every how many pixels row `y` of an equirectangular frame is traced (the
+/// rest interpolated along the row): a row at latitude φ is a circle cos φ
+/// the equator's length, so its pixels lie cos φ as far apart as the rows
+/// do. Tracing every s-th where s cos φ ≤ 1 keeps them no farther apart
+/// than the rows, the equator's density that a view shows everywhere, and
+/// skips about a fifth of the pixels. Powers of two up to 16 that divide
+/// `width`.
+pub fn equirect_columns(width: u32, height: u32, y: u32) -> u32 {
+    let latitude = (0.5 - (y as f32 + 0.5) / height as f32) * std::f32::consts::PI;
+    let mut columns = 1;
+    while columns < 16 && 2.0 * columns as f32 * latitude.cos() <= 1.0 && width % (2 * columns) == 0 {
+        columns *= 2;
+    }
+    columns
+}
+
+/// [`equirect_columns`] of each row of a frame `width` wide.
+pub(super) fn equirect_rows(width: u32) -> Vec<u32> {
+    (0..width / 2).map(|y| equirect_columns(width, width / 2, y)).collect()
 }
 
 /// Halves a square frame's radiance by 2×2 averaging (the next cube level down).

@@ -51,6 +51,9 @@ pub struct Lit {
     pub(super) eye: Vec3,
     pub(super) width: u32,
     pub(super) height: u32,
+    /// Per row, every how many pixels it was traced (empty: every pixel);
+    /// `None` in `points` for those skipped.
+    pub(super) columns: Vec<u32>,
     /// Per pixel; `None` for the sky.
     pub(super) points: Vec<Option<Seen>>,
     /// Per pixel: the gathered indirect light and how many keys' gathers it
@@ -93,27 +96,37 @@ impl Lit {
         let (width, height) = (self.width as i32, self.height as i32);
         let x = (if yaw < 0.0 { yaw + 1.0 } else { yaw }) * width as f32 - 0.5;
         let y = down / PI * height as f32 - 0.5;
-        // One pixel's footprint at that distance (the equator's, the largest).
+        // One pixel's footprint at that distance (the equator's, the largest;
+        // a thinned row's traced pixels are no farther apart).
         let footprint = TAU / self.width as f32 * distance;
-        // x, y ≥ −0.5, so truncating x + 1 floors it (without a libm call).
-        let (x0, y0) = ((x + 1.0) as i32 - 1, (y + 1.0) as i32 - 1);
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        // The 2 × 2 pixels around and their bilinear weights (0 off the image or on the sky).
+        // x, y ≥ −0.5, so truncating y + 1 floors it (without a libm call).
+        let y0 = (y + 1.0) as i32 - 1;
+        let fy = y - y0 as f32;
+        // The 2 × 2 traced pixels around and their bilinear weights (0 off
+        // the image or on the sky): the two rows' pixels on each side.
         let mut index = [0usize; 4];
         let mut bilinear = [0.0f32; 4];
         let mut seen = [&NOWHERE; 4];
-        for (j, (dy, dx)) in [(0, 0), (0, 1), (1, 0), (1, 1)].into_iter().enumerate() {
+        for dy in 0..2 {
             let yy = y0 + dy;
             if yy < 0 || yy >= height {
                 continue;
             }
-            let xx = x0 + dx;
-            let xx = if xx < 0 { xx + width } else if xx >= width { xx - width } else { xx };
-            let i = (yy * width + xx) as usize;
-            if let Some(p) = &self.points[i] {
-                index[j] = i;
-                bilinear[j] = (if dx == 1 { fx } else { 1.0 - fx }) * (if dy == 1 { fy } else { 1.0 - fy });
-                seen[j] = p;
+            let columns = self.columns.get(yy as usize).map_or(1, |&c| c as i32);
+            let u = x / columns as f32;
+            let u0 = (u + 1.0) as i32 - 1;
+            let fx = u - u0 as f32;
+            let wy = if dy == 1 { fy } else { 1.0 - fy };
+            for dx in 0..2 {
+                let xx = (u0 + dx) * columns;
+                let xx = if xx < 0 { xx + width } else if xx >= width { xx - width } else { xx };
+                let i = (yy * width + xx) as usize;
+                if let Some(p) = &self.points[i] {
+                    let j = (2 * dy + dx) as usize;
+                    index[j] = i;
+                    bilinear[j] = (if dx == 1 { fx } else { 1.0 - fx }) * wy;
+                    seen[j] = p;
+                }
             }
         }
         // The four likenesses side by side in SIMD lanes (this runs twice a
@@ -262,7 +275,7 @@ mod tests {
                 points.push((!sky).then_some(Seen { position, normal, irradiance }));
             }
         }
-        let lit = Lit { eye, width, height, points, history: vec![Vec4::ZERO; (width * height) as usize] };
+        let lit = Lit { eye, width, height, columns: Vec::new(), points, history: vec![Vec4::ZERO; (width * height) as usize] };
         let (mut found, mut compared) = (0, 0);
         for _ in 0..4000 {
             let dir = (Vec3::new(r(), r(), r()) * 2.0 - 1.0).normalize_or(Vec3::X);

@@ -81,6 +81,66 @@ fn equirect_columns_follow_the_yaw_convention() {
 }
 
 #[test]
+fn equirect_rows_toward_the_poles_trace_pixels_no_farther_apart_than_the_rows() {
+    for width in [64u32, 256, 1024, 4096] {
+        let height = width / 2;
+        let mut traced = 0;
+        for y in 0..height {
+            let columns = equirect_columns(width, height, y);
+            let cos = ((0.5 - (y as f32 + 0.5) / height as f32) * std::f32::consts::PI).cos();
+            assert!(columns.is_power_of_two() && width % columns == 0, "{width} wide, row {y}: every {columns}");
+            // Traced pixels no farther apart than the rows, and as far as that allows (up to 16).
+            assert!(columns as f32 * cos <= 1.0, "{width} wide, row {y}: every {columns} at cos φ {cos}");
+            assert!(columns == 16 || 2.0 * columns as f32 * cos > 1.0, "{width} wide, row {y}: every {columns} could be {}", 2 * columns);
+            traced += width / columns;
+        }
+        let share = traced as f32 / (width * height) as f32;
+        println!("{width} wide: {:.1} % of pixels traced", 100.0 * share);
+        assert!((0.77..0.80).contains(&share), "{width} wide: {share}");
+    }
+}
+
+#[test]
+fn a_thinned_equirect_frame_keeps_its_traced_pixels_and_interpolates_the_rest() {
+    // Plain rooms lit by ceiling lamps (smooth light, sharp corners), every
+    // pixel traced against rows thinned toward the poles.
+    let scene = crate::testing::rooms(2, 6.0, 3.0, 5.0, &[1]);
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(3.0, 1.6, 2.5);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
+    let (width, height) = (256u32, 128u32);
+    let params = renderer.settings.video;
+    let full = renderer.tracer.render(&params, eye, width, height, 0, equirect_direction);
+    let thinned = renderer.tracer.render_reusing(&params, eye, (width, height), 0, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0;
+    let (mut traced, mut skipped) = (Vec::new(), Vec::new());
+    for y in 0..height {
+        let columns = equirect_columns(width, height, y);
+        for x in 0..width {
+            let i = (y * width + x) as usize;
+            if x % columns == 0 {
+                assert_eq!(thinned.color[i], full.color[i], "traced pixel ({x}, {y})");
+                traced.push(i);
+            } else {
+                // With the nearest traced pixel's index.
+                let r = x % columns;
+                let nearest = y * width + if 2 * r < columns { x - r } else { (x - r + columns) % width };
+                skipped.push((i, nearest as usize));
+            }
+        }
+    }
+    // The skipped pixels, interpolated along their rows, against the same
+    // pixels traced: closer than the nearest traced pixel's value, which
+    // interpolating the wrong columns (or not wrapping) would not be.
+    let truth: Vec<Vec3> = skipped.iter().map(|&(i, _)| full.color[i]).collect();
+    let interpolated: Vec<Vec3> = skipped.iter().map(|&(i, _)| thinned.color[i]).collect();
+    let nearest: Vec<Vec3> = skipped.iter().map(|&(_, j)| full.color[j]).collect();
+    let (d, d_nearest) = (relative_difference(&interpolated, &truth), relative_difference(&nearest, &truth));
+    println!("{} pixels traced, {} interpolated: {d:.4} off their traced values (the nearest traced pixel's: {d_nearest:.4})", traced.len(), skipped.len());
+    assert!(skipped.len() > traced.len() / 5, "{} skipped", skipped.len());
+    assert!(d < 0.5 * d_nearest, "interpolated {d:.4}, the nearest traced pixel {d_nearest:.4}");
+}
+
+#[test]
 fn equirect_resampled_from_the_cube_matches_a_direct_render() {
     let scene = crate::testing::pillar_room(0.6);
     let rays = ray_scene(&scene);
@@ -359,8 +419,10 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     let mut frames = Vec::new();
     renderer.path_frames(&video, &eyes, width, 0, 8, |i, f| frames.push((i, f)));
     assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..9).collect::<Vec<_>>(), "frames come in order");
-    let full = renderer.equirect(&video, eyes[4], width, 4);
-    let cache_only = renderer.equirect(&TraceParams { gather: None, ..video }, eyes[4], width, 4);
+    // Lit alone as path frames are, rows thinned toward the poles.
+    let alone = |params: &TraceParams, i: usize| renderer.tracer.render_reusing(params, eyes[i], (width, width / 2), i as u64, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0;
+    let full = alone(&video, 4);
+    let cache_only = alone(&TraceParams { gather: None, ..video }, 4);
     let between = &frames[4].1;
     assert_eq!(between.albedo, full.albedo, "eye rays and textures are the frame's own");
     let (d_between, d_cache) = (relative_difference(&between.color, &full.color), relative_difference(&cache_only.color, &full.color));
@@ -382,7 +444,7 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     // checks removed, 0.039 and 2.7 %.
     assert!(!failed, "mean difference {d_between:.4} of the frame lit in full's radiance (at most 0.04), {f_between:.4} of pixels 25 % off (at most 0.018); images in target/render-failures");
     // The first key frame is the frame lit in full (later ones average in the key before).
-    assert_eq!(frames[0].1.color, renderer.equirect(&video, eyes[0], width, 0).color);
+    assert_eq!(frames[0].1.color, alone(&video, 0).color);
 }
 
 #[test]

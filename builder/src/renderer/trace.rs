@@ -223,54 +223,82 @@ impl<'a> Tracer<'a> {
     /// direction through image coordinates in [0, 1]² (t down). `image`
     /// separates the random streams of different images.
     pub fn render(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync) -> Frame {
-        self.render_reusing(params, eye, (width, height), image, project, Reuse::Off).0
+        self.render_reusing(params, eye, (width, height), image, project, Reuse::Off, &[]).0
     }
 
     /// [`Tracer::render`], reusing light along a path as `reuse` says
     /// ([`super::reuse`]); a key frame also returns what its pixels saw
-    /// (meaningful with one sample a pixel).
-    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, reuse: Reuse) -> (Frame, Option<Lit>) {
+    /// (meaningful with one sample a pixel). With `columns` (one a row), row
+    /// y traces only every `columns[y]`-th pixel from column 0 and fills the
+    /// rest by interpolating along the row, wrapping around
+    /// ([`super::equirect_columns`]); empty traces every pixel.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, reuse: Reuse, columns: &[u32]) -> (Frame, Option<Lit>) {
+        debug_assert!(columns.is_empty() || (columns.len() == height as usize && columns.iter().all(|&c| c >= 1 && width % c == 0)));
+        let traced = |x: u32, y: u32| columns.get(y as usize).is_none_or(|&c| x % c == 0);
         let keep = matches!(reuse, Reuse::Key { .. });
-        let tiles_x = width.div_ceil(TILE);
-        let tiles = tiles_x * height.div_ceil(TILE);
         let n = (width * height) as usize;
         let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
-        let mut lit = keep.then(|| Lit { eye, width, height, points: vec![None; n], history: vec![Vec4::ZERO; n] });
+        let mut lit = keep.then(|| Lit { eye, width, height, columns: columns.to_vec(), points: vec![None; n], history: vec![Vec4::ZERO; n] });
         // Frames between key frames gather nothing: the keys did.
         let field = match (&params.gather, &self.cache, params.bounces, reuse) {
-            (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project)),
+            (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project, &traced)),
             _ => None,
         };
-        let done: Vec<Vec<Pixel>> = (0..tiles)
-            .into_par_iter()
-            .map(|tile| {
-                let _mode = FlushDenormals::new();
-                let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+        let antialias = params.antialias && params.samples == 1;
+        let mut steady = vec![Vec3::ZERO; if antialias { n } else { 0 }];
+        let (mut no_points, mut no_history) = (Vec::new(), Vec::new());
+        let (points, history) = match &mut lit {
+            Some(lit) => (&mut lit.points, &mut lit.history),
+            None => (&mut no_points, &mut no_history),
+        };
+        // A band of tiles a task, each writing its own rows of every output
+        // (scattering all pixels afterwards on one thread took a tenth of a
+        // frame between video keys).
+        let rows = (width * TILE) as usize;
+        let band_count = height.div_ceil(TILE) as usize;
+        let bands: Vec<_> = bands(&mut frame.color, rows, band_count)
+            .into_iter()
+            .zip(bands(&mut frame.albedo, rows, band_count))
+            .zip(bands(&mut frame.normal, rows, band_count))
+            .zip(bands(&mut steady, rows, band_count))
+            .zip(bands(points, rows, band_count))
+            .zip(bands(history, rows, band_count))
+            .enumerate()
+            .collect();
+        bands.into_par_iter().for_each(|(band, (((((color, albedo), normal), steady), points), history))| {
+            let _mode = FlushDenormals::new();
+            let y0 = band as u32 * TILE;
+            for x0 in (0..width).step_by(TILE as usize) {
                 // Pixels in 4×2 blocks, so each packet of 8 is a compact frustum.
                 let pixels: Vec<(u32, u32)> = (0..TILE * TILE)
                     .map(|i| {
                         let block = i / 8;
                         (x0 + (block % 2) * 4 + i % 4, y0 + (block / 2) * 2 + (i % 8) / 4)
                     })
-                    .filter(|&(x, y)| x < width && y < height)
+                    .filter(|&(x, y)| x < width && y < height && traced(x, y))
                     .collect();
-                self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), reuse, None)
-            })
-            .collect();
-        let antialias = params.antialias && params.samples == 1;
-        let mut steady = vec![Vec3::ZERO; if antialias { n } else { 0 }];
-        for p in done.into_iter().flatten() {
-            if antialias {
-                steady[p.index] = p.steady;
+                for p in self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), reuse, None) {
+                    let i = p.index - band * rows;
+                    color[i] = p.color;
+                    albedo[i] = p.albedo;
+                    normal[i] = p.normal;
+                    if antialias {
+                        steady[i] = p.steady;
+                    }
+                    if let Some((seen, h)) = p.hit {
+                        points[i] = Some(seen);
+                        history[i] = h;
+                    }
+                }
             }
-            frame.color[p.index] = p.color;
-            frame.albedo[p.index] = p.albedo;
-            frame.normal[p.index] = p.normal;
-            if let (Some(lit), Some((seen, history))) = (&mut lit, p.hit) {
-                lit.points[p.index] = Some(seen);
-                lit.history[p.index] = history;
+            if !columns.is_empty() {
+                let band_columns = &columns[y0 as usize..(y0 as usize + color.len() / width as usize)];
+                fill_rows(color, width, band_columns, |c| c);
+                fill_rows(albedo, width, band_columns, |a| a);
+                fill_rows(normal, width, band_columns, Vec3::normalize_or_zero);
             }
-        }
+        });
         if antialias {
             self.antialias(params, eye, image, &project, field.as_ref(), reuse, &steady, &mut frame);
         }
@@ -507,6 +535,30 @@ pub(super) fn contrast_edges(color: &[Vec3], width: u32, height: u32) -> Vec<usi
         }
     }
     edge.iter().enumerate().filter(|e| *e.1).map(|e| e.0).collect()
+}
+
+/// `values` cut into `count` slices of `len` (the last may be shorter), or
+/// `count` empty ones when there are no values.
+fn bands<T>(values: &mut [T], len: usize, count: usize) -> Vec<&mut [T]> {
+    if values.is_empty() {
+        (0..count).map(|_| <&mut [T]>::default()).collect()
+    } else {
+        values.chunks_mut(len).collect()
+    }
+}
+
+/// Fills the pixels a thinned row skipped (`columns[y]` apart from column
+/// 0) linearly between the traced ones around them, wrapping around the
+/// row, then passed through `finish`.
+fn fill_rows(values: &mut [Vec3], width: u32, columns: &[u32], finish: impl Fn(Vec3) -> Vec3) {
+    let w = width as usize;
+    for (row, &c) in values.chunks_exact_mut(w).zip(columns) {
+        let c = c as usize;
+        for x in (0..w).filter(|x| x % c != 0) {
+            let (before, f) = (x - x % c, (x % c) as f32 / c as f32);
+            row[x] = finish(row[before].lerp(row[(before + c) % w], f));
+        }
+    }
 }
 
 /// How far past a hit to restart a ray, in its own `t` units.
