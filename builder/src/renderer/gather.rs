@@ -165,6 +165,7 @@ impl Tracer<'_> {
     /// Gathers the indirect light seen through a `width` × `height` frame
     /// (as [`Tracer::render`] projects it) on a grid every `params.step`
     /// pixels, and its near field where that grid found surfaces close.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn gather_field(
         &self,
         params: &GatherParams,

@@ -343,7 +343,7 @@ pub fn equirect_direction(s: f32, t: f32) -> Vec3 {
 pub fn equirect_columns(width: u32, height: u32, y: u32) -> u32 {
     let latitude = (0.5 - (y as f32 + 0.5) / height as f32) * std::f32::consts::PI;
     let mut columns = 1;
-    while columns < 16 && 2.0 * columns as f32 * latitude.cos() <= 1.0 && width % (2 * columns) == 0 {
+    while columns < 16 && 2.0 * columns as f32 * latitude.cos() <= 1.0 && width.is_multiple_of(2 * columns) {
         columns *= 2;
     }
     columns

@@ -235,7 +235,7 @@ impl<'a> Tracer<'a> {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, reuse: Reuse, columns: &[u32]) -> (Frame, Option<Lit>) {
         debug_assert!(columns.is_empty() || (columns.len() == height as usize && columns.iter().all(|&c| c >= 1 && width % c == 0)));
-        let traced = |x: u32, y: u32| columns.get(y as usize).is_none_or(|&c| x % c == 0);
+        let traced = |x: u32, y: u32| columns.get(y as usize).is_none_or(|&c| x.is_multiple_of(c));
         let keep = matches!(reuse, Reuse::Key { .. });
         let n = (width * height) as usize;
         let mut frame = Frame { width, height, color: vec![Vec3::ZERO; n], albedo: vec![Vec3::ZERO; n], normal: vec![Vec3::ZERO; n] };
