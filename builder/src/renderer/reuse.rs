@@ -99,7 +99,7 @@ impl Lit {
         // One pixel's footprint at that distance (the equator's, the largest;
         // a thinned row's traced pixels are no farther apart).
         let footprint = TAU / self.width as f32 * distance;
-        // x, y ≥ −0.5, so truncating y + 1 floors it (without a libm call).
+        // x, y ≥ −0.5, so truncating y + 1 (and u + 1 below) floors it (without a libm call).
         let y0 = (y + 1.0) as i32 - 1;
         let fy = y - y0 as f32;
         // The 2 × 2 traced pixels around and their bilinear weights (0 off
