@@ -57,7 +57,7 @@ fn bundle(dir: &Path) {
         let tiles = (p == 0).then(|| {
             let tiles = Tiles::new(format!("probes/{p}/tiles"), FACE, 512, 256);
             exploremaps_builder::tiles::cut(&tiles, &[(FACE, images)], |name, tile| {
-                write(name, &jpeg(tile));
+                write(name, &jpeg(&tile));
                 Ok::<_, ()>(())
             })
             .unwrap();

@@ -337,7 +337,7 @@ fn add_tiles(bundle: &Path) {
     exploremaps_builder::tiles::cut(&tiles, &[(256, faces)], |name, tile| {
         let path = bundle.join(name);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        std::fs::write(path, jpeg(tile)).map_err(|_| ())
+        std::fs::write(path, jpeg(&tile)).map_err(|_| ())
     })
     .unwrap();
     let mut graph = Graph::from_json(&std::fs::read_to_string(bundle.join("graph.json")).unwrap()).unwrap();

@@ -18,7 +18,7 @@ pub fn tour_face(face: usize, image: &RgbImage) -> RgbImage {
 /// `levels` holds the faces (bundle orientation, six a level) at whatever
 /// sizes were rendered, the largest `tiles.size`; a tile level with no face
 /// of its size is resized from the nearest larger one.
-pub fn cut<E>(tiles: &Tiles, levels: &[(u32, Vec<RgbImage>)], mut emit: impl FnMut(&str, &RgbImage) -> Result<(), E>) -> Result<(), E> {
+pub fn cut<E>(tiles: &Tiles, levels: &[(u32, Vec<RgbImage>)], mut emit: impl FnMut(&str, RgbImage) -> Result<(), E>) -> Result<(), E> {
     let source = |size: u32| levels.iter().filter(|(s, faces)| *s >= size && faces.len() == 6).min_by_key(|(s, _)| *s);
     let Some((largest, _)) = source(tiles.size) else { return Ok(()) };
     debug_assert_eq!(*largest, tiles.size, "the largest level is the pyramid's");
@@ -35,7 +35,7 @@ pub fn cut<E>(tiles: &Tiles, levels: &[(u32, Vec<RgbImage>)], mut emit: impl FnM
                 for x in 0..n {
                     let (x0, y0) = (x * tiles.tile, y * tiles.tile);
                     let tile = imageops::crop_imm(&turned, x0, y0, tiles.tile.min(size - x0), tiles.tile.min(size - y0)).to_image();
-                    emit(&tiles.file(level, TILE_FACES[f], x, y), &tile)?;
+                    emit(&tiles.file(level, TILE_FACES[f], x, y), tile)?;
                 }
             }
         }
@@ -47,7 +47,7 @@ pub fn cut<E>(tiles: &Tiles, levels: &[(u32, Vec<RgbImage>)], mut emit: impl FnM
         let f = TILE_FACES.iter().position(|c| c == name).expect("the preview names the six faces");
         imageops::replace(&mut strip, &tour_face(f, &resized(&smallest[f], p)), 0, (row as u32 * p).into());
     }
-    emit(&tiles.preview, &strip)
+    emit(&tiles.preview, strip)
 }
 
 /// Puts a level's tiles back together into six faces (bundle orientation):
@@ -91,7 +91,7 @@ mod tests {
         let mut written: HashMap<String, RgbImage> = HashMap::new();
         cut(&tiles, &levels, |file, tile| {
             assert!(file == tiles.preview || (tile.width() <= 256 && tile.height() <= 256));
-            written.insert(file.to_string(), jpeg_round_trip(tile));
+            written.insert(file.to_string(), jpeg_round_trip(&tile));
             Ok::<_, ()>(())
         })
         .unwrap();

@@ -53,7 +53,7 @@ fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)]) -> Result<(), Bu
 
 /// Renders probe `id` and writes its files; files already there are kept.
 pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe: &Probe, id: usize, levels: &[u32]) -> Result<(), BundleError> {
-    let exists = |name: &String| dir.join(name).exists();
+    let exists = |name: &str| dir.join(name).exists();
     let eye = Vec3::from(probe.position);
     let ProbeFiles { cube, tiles, pano, thumb } = ProbeFiles::new(id, levels);
     let denoised = |mut f: Frame| -> Result<Vec<Vec3>, BundleError> {
@@ -77,8 +77,8 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
     }
     let mut cut = Vec::new();
     crate::tiles::cut(&tiles, &images, |name, tile| {
-        if !dir.join(name).exists() {
-            cut.push((name.to_string(), tile.clone()));
+        if !exists(name) {
+            cut.push((name.to_string(), tile));
         }
         Ok::<(), BundleError>(())
     })?;

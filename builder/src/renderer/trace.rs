@@ -554,9 +554,11 @@ fn fill_rows(values: &mut [Vec3], width: u32, columns: &[u32], finish: impl Fn(V
     let w = width as usize;
     for (row, &c) in values.chunks_exact_mut(w).zip(columns) {
         let c = c as usize;
-        for x in (0..w).filter(|x| x % c != 0) {
-            let (before, f) = (x - x % c, (x % c) as f32 / c as f32);
-            row[x] = finish(row[before].lerp(row[(before + c) % w], f));
+        for before in (0..w).step_by(c) {
+            let (a, b) = (row[before], row[(before + c) % w]);
+            for r in 1..c {
+                row[before + r] = finish(a.lerp(b, r as f32 / c as f32));
+            }
         }
     }
 }

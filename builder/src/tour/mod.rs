@@ -206,7 +206,7 @@ fn probe_tiles(bundle: &Path, graph: &Graph, id: usize, dir: &Path) -> Result<(T
     let tiles = Tiles::new(folder, largest.size, TILE, 256.min(largest.size));
     let (mut files, mut bytes) = (0, 0);
     crate::tiles::cut(&tiles, &[(largest.size, faces)], |name, tile| {
-        let jpeg = crate::files::jpeg(tile, TILE_QUALITY);
+        let jpeg = crate::files::jpeg(&tile, TILE_QUALITY);
         files += 1;
         bytes += write(dir, name, &jpeg)?;
         Ok::<_, TourError>(())
