@@ -667,8 +667,9 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if vertices != code.vertex_count as u64 {
         return corrupt(format!("{vertices} vertices decoded, {} declared", code.vertex_count));
     }
-    // Backwards over each component: lengths of the loops, so of each S's right loop.
-    let mut right_len = vec![0u32; symbols.len()];
+    // Backwards over each component: lengths of the loops, so of each S's
+    // right loop. They are found last S first, so the forward pass pops them.
+    let mut right_lens: Vec<u32> = Vec::new();
     let mut stack: Vec<u32> = Vec::new();
     let mut merge_index = code.merges.len();
     let mut end = symbols.len();
@@ -704,7 +705,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 (L | R, Some(x)) => cur = Some(x + 1),
                 (S, Some(x)) if x >= 2 => {
                     let Some(l2) = stack.pop().filter(|&l2| l2 >= 2) else { return corrupt(format!("S without a left loop at symbol {i}")) };
-                    right_len[i] = x;
+                    right_lens.push(x);
                     cur = Some(x + l2 - 1);
                 }
                 (M, Some(x)) => {
@@ -794,7 +795,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                     w
                 }
                 S => {
-                    let l1 = right_len[i];
+                    let Some(l1) = right_lens.pop() else { return corrupt(format!("S at symbol {i} has no loop length")) };
                     let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2) else { return corrupt(format!("S at symbol {i} splits a loop of {len}")) };
                     let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
                     loops.splice(a, nw, vb, va);
@@ -827,13 +828,15 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
 
 impl Decoded {
     /// The kept triangles (none touching a dummy) over kept vertices, with
-    /// copies merged back.
-    pub fn resolve(&self) -> Vec<[u32; 3]> {
-        self.triangles
-            .iter()
-            .filter(|t| t.iter().all(|&v| self.keep[v as usize] != NONE))
-            .map(|t| t.map(|v| self.keep[v as usize]))
-            .collect()
+    /// copies merged back; taken out of `self`, in place.
+    pub fn resolve(&mut self) -> Vec<[u32; 3]> {
+        let mut triangles = std::mem::take(&mut self.triangles);
+        let keep = &self.keep;
+        triangles.retain_mut(|t| {
+            *t = t.map(|v| keep[v as usize]);
+            !t.contains(&NONE)
+        });
+        triangles
     }
 }
 
@@ -858,7 +861,7 @@ pub(crate) mod tests {
     /// Encodes, decodes and checks the decoded triangles are the input's.
     pub(crate) fn round_trip(triangles: &[[u32; 3]], vertex_count: u32) -> Connectivity {
         let (code, order) = encode(triangles, vertex_count).unwrap();
-        let decoded = decode(&code).unwrap_or_else(|e| panic!("{e}: {triangles:?} {code:?}"));
+        let mut decoded = decode(&code).unwrap_or_else(|e| panic!("{e}: {triangles:?} {code:?}"));
         let got = decoded.resolve();
         assert_eq!(got.len(), triangles.len());
         assert_eq!(order.triangles.len(), triangles.len());

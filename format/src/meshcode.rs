@@ -88,7 +88,6 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
     // The decoder's own pass gives the prediction structure.
     let decoded = edgebreaker::decode(&code)?;
-    let source: Vec<u32> = decoded.keep.iter().map(|&k| if k == NONE { NONE } else { order.vertices[k as usize] }).collect();
 
     let (lo, hi) = match order.vertices.first() {
         None => ([0.0; 3], [0.0; 3]),
@@ -98,7 +97,8 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
         }),
     };
     let grid = Grid::new(lo, hi, bits);
-    let quantized: Vec<[u32; 3]> = source.iter().map(|&v| if v == NONE { [0; 3] } else { grid.quantize(mesh.positions[v as usize]) }).collect();
+    // Per kept vertex, in decoded order.
+    let quantized: Vec<[u32; 3]> = order.vertices.iter().map(|&v| grid.quantize(mesh.positions[v as usize])).collect();
     let group_count = mesh.groups.iter().max().map_or(1, |&g| g + 1);
     let has_colours = !mesh.colours.is_empty();
 
@@ -139,9 +139,8 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     sizes.connectivity = out.section(sink);
 
     // Positions, then colours, in decoded order, predicted alike.
-    let copy_of = copies_map(&code, &decoded.keep);
     let mut sink = Sink::new(3);
-    encode_predicted(&mut sink, &decoded, &copy_of, &quantized, grid.max, [0; 3], |q, p| zigzag(q as i64 - p as i64));
+    encode_predicted(&mut sink, &decoded, &quantized, grid.max, [0; 3], |q, p| zigzag(q as i64 - p as i64));
     sizes.positions = out.section(sink);
 
     let mut sink = Sink::new(1);
@@ -157,8 +156,8 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 
     let mut sink = Sink::new(3);
     if has_colours {
-        let colours: Vec<[u32; 3]> = source.iter().map(|&v| if v == NONE { [0; 3] } else { mesh.colours[v as usize].map(u32::from) }).collect();
-        encode_predicted(&mut sink, &decoded, &copy_of, &colours, 255, [128; 3], |c, p| zigzag(((c as i32 - p as i32) as i8) as i64));
+        let colours: Vec<[u32; 3]> = order.vertices.iter().map(|&v| mesh.colours[v as usize].map(u32::from)).collect();
+        encode_predicted(&mut sink, &decoded, &colours, 255, [128; 3], |c, p| zigzag(((c as i32 - p as i32) as i8) as i64));
     }
     sizes.colours = out.section(sink);
 
@@ -218,17 +217,12 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         let original = last.checked_sub(source.value(values)?).ok_or_else(|| corrupt("copy original"))?;
         code.copies.push([last, original]);
     }
-    let decoded = edgebreaker::decode(&code)?;
+    let mut decoded = edgebreaker::decode(&code)?;
     let triangles = decoded.resolve();
-    let copy_of = copies_map(&code, &decoded.keep);
     let mut source = Source::new(&mut input, 3)?;
-    let quantized = decode_predicted(&mut source, &decoded, &copy_of, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
-    let mut positions = vec![[0f32; 3]; decoded.kept_vertices as usize];
-    for (v, &k) in decoded.keep.iter().enumerate() {
-        if k != NONE {
-            positions[k as usize] = grid.dequantize(quantized[v]);
-        }
-    }
+    let quantized = decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
+    // (In place: a grid point and a position take the same room.)
+    let positions: Vec<[f32; 3]> = quantized.into_iter().map(|q| grid.dequantize(q)).collect();
 
     let mut source = Source::new(&mut input, 1)?;
     let group_bits = bit_length(group_count - 1);
@@ -266,13 +260,8 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let mut source = Source::new(&mut input, 3)?;
     let mut colours = Vec::new();
     if has_colours == 1 {
-        let all = decode_predicted(&mut source, &decoded, &copy_of, 255, [128; 3], |p, r| Some((p as u8).wrapping_add(unzigzag(r) as u8) as u32))?;
-        colours = vec![[0u8; 3]; decoded.kept_vertices as usize];
-        for (v, &k) in decoded.keep.iter().enumerate() {
-            if k != NONE {
-                colours[k as usize] = all[v].map(|x| x as u8);
-            }
-        }
+        let all = decode_predicted(&mut source, &decoded, 255, [128; 3], |p, r| Some((p as u8).wrapping_add(unzigzag(r) as u8) as u32))?;
+        colours = all.iter().map(|c| c.map(|x| x as u8)).collect();
     }
     if input.at != body.len() {
         return Err(corrupt("bytes left after the last section"));
@@ -284,60 +273,57 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
 /// the records' numbers.
 const SYMBOL_MODELS: usize = edgebreaker::SYMBOLS + 1;
 
-/// Per decoded vertex, the decoded vertex holding its value (itself, or the
-/// original it copies).
-fn copies_map(code: &Connectivity, keep: &[u32]) -> Vec<u32> {
-    let mut map: Vec<u32> = (0..keep.len() as u32).collect();
-    for &[copy, original] in &code.copies {
-        map[copy as usize] = original;
-    }
-    map
+/// The decoded vertices whose values are coded, in decoded order, with
+/// their kept index: neither dummies nor copies (a copy's kept index is its
+/// original's, already seen, as kept indices are given in decoded order).
+fn coded_vertices(keep: &[u32]) -> impl Iterator<Item = (usize, u32)> + '_ {
+    let mut next = 0;
+    keep.iter().enumerate().filter_map(move |(v, &k)| {
+        (k == next).then(|| {
+            next += 1;
+            (v, k)
+        })
+    })
 }
 
-/// Codes one triple per vertex that is neither a dummy nor a copy, in
-/// decoded order, as residuals from its prediction (positions and colours
-/// alike); `residual(actual, predicted)` is the number coded.
-fn encode_predicted(sink: &mut Sink, decoded: &Decoded, copy_of: &[u32], values: &[[u32; 3]], max: u32, first: [u32; 3], residual: impl Fn(u32, u32) -> u32) {
+/// Codes one triple per kept vertex (`values`, by kept index), in decoded
+/// order, as residuals from its prediction (positions and colours alike);
+/// `residual(actual, predicted)` is the number coded.
+fn encode_predicted(sink: &mut Sink, decoded: &Decoded, values: &[[u32; 3]], max: u32, first: [u32; 3], residual: impl Fn(u32, u32) -> u32) {
     let mut previous = first;
-    for v in 0..values.len() {
-        if decoded.keep[v] == NONE || copy_of[v] as usize != v {
-            continue;
-        }
-        let predicted = predict(&decoded.predictors[v], &decoded.keep, copy_of, values, previous, max);
+    for (v, k) in coded_vertices(&decoded.keep) {
+        let predicted = predict(&decoded.predictors[v], &decoded.keep, values, previous, max);
+        let value = values[k as usize];
         for i in 0..3 {
-            sink.value(i, residual(values[v][i], predicted[i]));
+            sink.value(i, residual(value[i], predicted[i]));
         }
-        previous = values[v];
+        previous = value;
     }
 }
 
-/// The inverse of `encode_predicted`: a triple per decoded vertex (copies
-/// take their original's); `value(predicted, coded)` is None when out of range.
-fn decode_predicted(source: &mut Source, decoded: &Decoded, copy_of: &[u32], max: u32, first: [u32; 3], value: impl Fn(u32, u32) -> Option<u32>) -> Result<Vec<[u32; 3]>, CodingError> {
-    let mut values = vec![[0u32; 3]; decoded.keep.len()];
+/// The inverse of `encode_predicted`: a triple per kept vertex;
+/// `value(predicted, coded)` is None when out of range.
+fn decode_predicted(source: &mut Source, decoded: &Decoded, max: u32, first: [u32; 3], value: impl Fn(u32, u32) -> Option<u32>) -> Result<Vec<[u32; 3]>, CodingError> {
+    let mut values = vec![[0u32; 3]; decoded.kept_vertices as usize];
     let mut previous = first;
-    for v in 0..values.len() {
-        if decoded.keep[v] == NONE {
-            continue;
-        }
-        if copy_of[v] as usize != v {
-            values[v] = values[copy_of[v] as usize];
-            continue;
-        }
-        let predicted = predict(&decoded.predictors[v], &decoded.keep, copy_of, &values, previous, max);
+    for (v, k) in coded_vertices(&decoded.keep) {
+        let predicted = predict(&decoded.predictors[v], &decoded.keep, &values, previous, max);
+        let mut decoded = [0; 3];
         for i in 0..3 {
-            values[v][i] = value(predicted[i], source.value(i)?).ok_or_else(|| CodingError::Corrupt("value out of range".into()))?;
+            decoded[i] = value(predicted[i], source.value(i)?).ok_or_else(|| CodingError::Corrupt("value out of range".into()))?;
         }
-        previous = values[v];
+        values[k as usize] = decoded;
+        previous = decoded;
     }
     Ok(values)
 }
 
-/// The predicted value of a vertex from its predictors (`kept` is NONE for
-/// dummies, whose values are not coded).
-fn predict(predictors: &[u32; 3], kept: &[u32], copy_of: &[u32], values: &[[u32; 3]], previous: [u32; 3], max: u32) -> [u32; 3] {
-    let real = |v: u32| v != NONE && kept[v as usize] != NONE;
-    let value = |v: u32| values[copy_of[v as usize] as usize];
+/// The predicted value of a vertex from its predictors, decoded vertices
+/// (`keep` gives their kept index, NONE for dummies, whose values are not
+/// coded); `values` by kept index.
+fn predict(predictors: &[u32; 3], keep: &[u32], values: &[[u32; 3]], previous: [u32; 3], max: u32) -> [u32; 3] {
+    let real = |v: u32| v != NONE && keep[v as usize] != NONE;
+    let value = |v: u32| values[keep[v as usize] as usize];
     let [a, b, o] = *predictors;
     match (real(a), real(b), real(o)) {
         (true, true, true) => {
@@ -693,12 +679,11 @@ mod tests {
         let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32).unwrap();
         let decoded = edgebreaker::decode(&code).unwrap();
         let grid = Grid::new([0.0; 3], [43.0, 21.5, 10.75], 14);
-        let quantized: Vec<[u32; 3]> = decoded.keep.iter().map(|&k| if k == NONE { [0; 3] } else { grid.quantize(mesh.positions[order.vertices[k as usize] as usize]) }).collect();
-        let copy_of = copies_map(&code, &decoded.keep);
+        let quantized: Vec<[u32; 3]> = order.vertices.iter().map(|&v| grid.quantize(mesh.positions[v as usize])).collect();
         let mut exact = 0;
         for (v, p) in decoded.predictors.iter().enumerate() {
             if decoded.keep[v] != NONE && p.iter().all(|&x| x != NONE && decoded.keep[x as usize] != NONE) {
-                assert_eq!(predict(p, &decoded.keep, &copy_of, &quantized, [0; 3], grid.max), quantized[v], "vertex {v}");
+                assert_eq!(predict(p, &decoded.keep, &quantized, [0; 3], grid.max), quantized[decoded.keep[v] as usize], "vertex {v}");
                 exact += 1;
             }
         }
@@ -778,8 +763,9 @@ mod tests {
         bad.extend_from_slice(&crc.to_le_bytes());
         assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a dummy")), "{:?}", decode(&bad));
         // Version 1 (every dummy listed) and version 2 (a group flag a
-        // triangle): the fuzzing seeds, written before the next version.
-        for (seed, version) in [(&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1), (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2)] {
+        // triangle): the fuzzing seeds, written before the next version; and
+        // the version 3 seed, to check re-encoding gives the same mesh.
+        for (seed, version) in [(&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1), (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2), (&include_bytes!("../../fuzz/seeds/proxy/2.emmc")[..], 3)] {
             assert_eq!(seed[4], version);
             let old = decode(seed).unwrap_or_else(|e| panic!("a version {version} file decodes: {e}"));
             assert!(!old.triangles.is_empty());
