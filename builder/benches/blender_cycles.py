@@ -47,12 +47,13 @@ def settings(size, samples, denoise):
     if denoise:
         c.denoiser = "OPENIMAGEDENOISE"
         c.denoising_input_passes = "RGB_ALBEDO_NORMAL"
-    c.max_bounces = 64
-    c.diffuse_bounces = 64
+    c.max_bounces = spec.get("bounces", 64)
+    c.diffuse_bounces = spec.get("bounces", 64)
     c.glossy_bounces = 0
     c.transmission_bounces = 0
     c.volume_bounces = 0
     c.transparent_max_bounces = 64
+    c.light_sampling_threshold = float(spec.get("light_threshold", 0.01))
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0
     c.caustics_reflective = False

@@ -32,7 +32,9 @@
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
-//! other settings.
+//! other settings. REF_BOUNCES=n (1 or more) caps the reference's bounces and Cycles' at n
+//! (to see at which bounce the two part), CYCLES_LIGHT_THRESHOLD sets Cycles'
+//! light threshold (0.01 by default, 0 off).
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
@@ -438,7 +440,8 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
-    let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
+    let bounces = std::env::var("REF_BOUNCES").map(|b| format!("-b{b}")).unwrap_or_default();
+    let key = format!("{name}{bounces}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
     let load = |samples: u32| -> Option<Vec<Vec<Vec3>>> {
         let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == 6 * 12 * n)?;
@@ -460,7 +463,8 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let params = TraceParams { samples: BATCH, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
+        let bounces = std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+        let params = TraceParams { samples: BATCH, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
         for (f, s) in sum.iter_mut().enumerate() {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
             s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);
@@ -587,6 +591,8 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "eye": z_up(eye),
         "faces": faces,
         "threads": rayon::current_num_threads(),
+        "light_threshold": std::env::var("CYCLES_LIGHT_THRESHOLD").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.01),
+        "bounces": std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse::<u32>().ok()).unwrap_or(64),
         "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
     });
     std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;

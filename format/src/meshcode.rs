@@ -278,12 +278,14 @@ const SYMBOL_MODELS: usize = edgebreaker::SYMBOLS + 1;
 /// original's, already seen, as kept indices are given in decoded order).
 fn coded_vertices(keep: &[u32]) -> impl Iterator<Item = (usize, u32)> + '_ {
     let mut next = 0;
-    keep.iter().enumerate().filter_map(move |(v, &k)| {
-        (k == next).then(|| {
-            next += 1;
-            (v, k)
+    keep.iter()
+        .enumerate()
+        .filter(move |&(_, &k)| {
+            let new = k == next;
+            next += u32::from(new);
+            new
         })
-    })
+        .map(|(v, &k)| (v, k))
 }
 
 /// Codes one triple per kept vertex (`values`, by kept index), in decoded

@@ -28,7 +28,8 @@ pub struct TraceParams {
     /// Samples per pixel; 1 traces through pixel centres without jitter.
     pub samples: u32,
     /// Real diffuse bounces before the radiance cache takes over (with no
-    /// cache: the most bounces, Russian roulette ending most paths sooner).
+    /// cache: the most bounces, 0 for up to 64; Russian roulette ends most
+    /// paths sooner).
     pub bounces: u32,
     /// With no real bounce, take point lights from the cache (blurred to its
     /// cells) instead of a shadow ray each: the sun stays sharp, and frames
@@ -195,6 +196,9 @@ impl<'a> Tracer<'a> {
                 }
             };
             sum += weight * (emission + brdf * direct);
+            if self.cache.is_none() && params.bounces > 0 && depth >= params.bounces {
+                break;
+            }
             if let (Some(cache), true) = (&self.cache, depth >= params.bounces) {
                 sum += weight * brdf * cache.irradiance_jittered(s.position, s.geometric, rng);
                 break;
