@@ -34,7 +34,8 @@
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
 //! other settings. REF_BOUNCES=n (1 or more) caps the reference's bounces and Cycles' at n
 //! (to see at which bounce the two part), CYCLES_LIGHT_THRESHOLD sets Cycles'
-//! light threshold (0.01 by default, 0 off).
+//! light threshold (0.01 by default, 0 off), DROP_OBJECTS=a,b leaves out the
+//! objects whose names start so.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
@@ -120,7 +121,19 @@ fn main() {
             }
         }
     }
-    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+"))) + if untextured { "-untextured" } else { "" };
+    // DROP_OBJECTS=a,b leaves out the triangles of objects whose names start so (to find
+    // which part of a scene two renderers disagree on).
+    let drop = std::env::var("DROP_OBJECTS").ok();
+    if let Some(prefixes) = &drop {
+        for (_, scene) in &mut scenes {
+            let gone: Vec<bool> = scene.objects.iter().map(|o| prefixes.split(',').any(|p| o.starts_with(p))).collect();
+            let keep: Vec<usize> = (0..scene.triangles.len()).filter(|&t| !scene.triangle_object.get(t).is_some_and(|&o| gone[o as usize])).collect();
+            scene.triangles = keep.iter().map(|&t| scene.triangles[t]).collect();
+            scene.triangle_material = keep.iter().filter_map(|&t| scene.triangle_material.get(t).copied()).collect();
+            scene.triangle_object = keep.iter().filter_map(|&t| scene.triangle_object.get(t).copied()).collect();
+        }
+    }
+    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+"))) + if untextured { "-untextured" } else { "" } + &drop.map_or(String::new(), |d| format!("-without-{}", d.replace(',', "+")));
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
