@@ -133,7 +133,12 @@ fn main() {
             scene.triangle_object = keep.iter().filter_map(|&t| scene.triangle_object.get(t).copied()).collect();
         }
     }
-    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+"))) + if untextured { "-untextured" } else { "" } + &drop.map_or(String::new(), |d| format!("-without-{}", d.replace(',', "+")));
+    // REF_BOUNCES=n caps the bounces of the reference and of Cycles' renders.
+    let ref_bounces: Option<u32> = std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0);
+    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+")))
+        + if untextured { "-untextured" } else { "" }
+        + &drop.map_or(String::new(), |d| format!("-without-{}", d.replace(',', "+")))
+        + &ref_bounces.map_or(String::new(), |n| format!("-b{n}"));
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
@@ -210,7 +215,7 @@ fn main() {
 
         // The reference, at half and at all of its samples.
         let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}"), eye, face, ref_spp);
+        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}"), eye, face, ref_spp, ref_bounces.unwrap_or(0));
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
         // Video frames are compared at about their own resolution (or FACE, when smaller).
@@ -326,7 +331,7 @@ fn main() {
                 .map(|&n| (format!("{n}-oidn-{cycles_face}"), n, true, cycles_face))
                 .chain([(format!("{cycles_ref}-reference-{face}"), cycles_ref, false, face)])
                 .collect();
-            match cycles(&python, scene, &renderer, eye, &runs, &dir) {
+            match cycles(&python, scene, &renderer, eye, &runs, ref_bounces.unwrap_or(64), &dir) {
                 Err(e) => println!("Cycles comparison failed: {e}"),
                 Ok(done) => {
                     // Ours at the same face size, when that is not the bundle's 2048.
@@ -449,12 +454,11 @@ fn main() {
 /// The six faces at `face`² by plain path tracing, accumulated in batches of
 /// 32 samples; the images at half and at all the samples are kept on disk and
 /// reused: (at half the samples, at all, seconds spent now).
-fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32, bounces: u32) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
-    let bounces = std::env::var("REF_BOUNCES").map(|b| format!("-b{b}")).unwrap_or_default();
-    let key = format!("{name}{bounces}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
+    let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
     let load = |samples: u32| -> Option<Vec<Vec<Vec3>>> {
         let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == 6 * 12 * n)?;
@@ -476,7 +480,6 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let bounces = std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
         let params = TraceParams { samples: BATCH, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
         for (f, s) in sum.iter_mut().enumerate() {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
@@ -535,7 +538,7 @@ fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Ve
 /// `dir` in Blender's axes with the renderer's lights. Returns (tag, samples,
 /// linear faces, seconds of the six renders).
 #[allow(clippy::type_complexity)]
-fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[(String, u32, bool, u32)], dir: &Path) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
+fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[(String, u32, bool, u32)], bounces: u32, dir: &Path) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
     use serde_json::json;
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     // ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
@@ -605,7 +608,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "faces": faces,
         "threads": rayon::current_num_threads(),
         "light_threshold": std::env::var("CYCLES_LIGHT_THRESHOLD").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.01),
-        "bounces": std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse::<u32>().ok()).unwrap_or(64),
+        "bounces": bounces,
         "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
     });
     std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;

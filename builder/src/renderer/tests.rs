@@ -41,6 +41,26 @@ fn furnace_matches_the_analytic_radiance() {
 }
 
 #[test]
+fn the_path_tracer_stops_at_its_bounce_cap() {
+    // In the furnace, light that reflected k times adds ρᵏ Le. Capped at n
+    // bounces, a path keeps all light reflected up to n times and, of the
+    // light reflected n + 1 times, the share its last vertex's light
+    // sampling takes (the rest would have come by the bounce it no longer
+    // makes): Le (1 + … + ρⁿ) ≤ L ≤ Le (1 + … + ρⁿ⁺¹), and uncapped 1 / (1 - ρ).
+    let (albedo, eye) = (0.5f32, Vec3::new(0.1, 0.2, -0.3));
+    let scene = furnace(albedo);
+    let rays = ray_scene(&scene);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 7));
+    let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
+    for bounces in [1u32, 2] {
+        let frame = path_traced.render(&TraceParams { samples: 64, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+        let sum = |n: u32| (0..=n).map(|k| albedo.powi(k as i32)).sum::<f32>();
+        let m = mean(&frame.color).x;
+        assert!(m > 0.99 * sum(bounces) && m < 1.01 * sum(bounces + 1), "{bounces} bounces: mean radiance {m}, expected {} to {}", sum(bounces), sum(bounces + 1));
+    }
+}
+
+#[test]
 fn renders_do_not_depend_on_the_thread_count() {
     let scene = crate::testing::pillar_room(0.6);
     let eyes = [Vec3::new(2.0, 1.5, 2.0), Vec3::new(8.0, 1.5, 4.0)];

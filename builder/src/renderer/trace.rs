@@ -196,12 +196,15 @@ impl<'a> Tracer<'a> {
                 }
             };
             sum += weight * (emission + brdf * direct);
-            if self.cache.is_none() && params.bounces > 0 && depth >= params.bounces {
-                break;
-            }
-            if let (Some(cache), true) = (&self.cache, depth >= params.bounces) {
-                sum += weight * brdf * cache.irradiance_jittered(s.position, s.geometric, rng);
-                break;
+            if depth >= params.bounces {
+                match &self.cache {
+                    Some(cache) => {
+                        sum += weight * brdf * cache.irradiance_jittered(s.position, s.geometric, rng);
+                        break;
+                    }
+                    None if params.bounces > 0 => break,
+                    None => {}
+                }
             }
             if depth >= 2 {
                 let survive = s.albedo.max_element().min(0.95);
