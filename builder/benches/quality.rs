@@ -215,7 +215,7 @@ fn main() {
 
         // The reference, at half and at all of its samples.
         let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}"), eye, face, ref_spp, ref_bounces.unwrap_or(0));
+        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0));
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
         // Video frames are compared at about their own resolution (or FACE, when smaller).
@@ -449,6 +449,24 @@ fn main() {
         println!("{line}");
     }
     println!("images in {}", out.display());
+}
+
+/// A checksum of what a reference image depends on in the scene (geometry,
+/// materials, textures, lights), so that a cached reference is not reused
+/// once a scene's generator or loader changes.
+fn fingerprint(scene: &exploremaps_scenes::Scene) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    for p in scene.positions.iter().chain(&scene.normals) {
+        p.to_array().iter().for_each(|x| h.update(&x.to_le_bytes()));
+    }
+    for t in &scene.triangles {
+        t.iter().for_each(|i| h.update(&i.to_le_bytes()));
+    }
+    scene.uvs.iter().for_each(|uv| uv.to_array().iter().for_each(|x| h.update(&x.to_le_bytes())));
+    scene.triangle_material.iter().for_each(|m| h.update(&m.to_le_bytes()));
+    h.update(format!("{:?}{:?}", scene.materials, scene.lights).as_bytes());
+    scene.textures.iter().for_each(|t| h.update(t.image.as_raw()));
+    h.finalize()
 }
 
 /// The six faces at `face`² by plain path tracing, accumulated in batches of

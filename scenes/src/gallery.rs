@@ -123,9 +123,10 @@ pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64M
         (20.0, 4.0, 40.0, 20.0),  // C
         (24.0, -12.0, 40.0, 0.0), // D
     ];
-    for &(x0, z0, x1, z1) in &rooms {
-        m.cuboid(v(x0 - 0.15, WALL_H, z0 - 0.15), v(x1 + 0.15, WALL_H + 0.3, z1 + 0.15));
-    }
+    // Each room's roof reaches over its walls' outer halves.
+    let h = 0.5 * WALL_T;
+    let roofs: Vec<[f32; 4]> = rooms.iter().map(|&(x0, z0, x1, z1)| [o.x + x0 - h, o.z + z0 - h, o.x + x1 + h, o.z + z1 + h]).collect();
+    m.slabs(&roofs, o.y + WALL_H, o.y + WALL_H + 0.3);
 
     m.begin_object(&format!("{prefix}lamps"));
     m.set_material(mat.lamp);

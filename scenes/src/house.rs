@@ -55,15 +55,19 @@ pub fn house(seed: u64) -> Scene {
     let (x0, x1, z0, z1) = (-6.0, 6.0, -4.5, 4.5);
     let upper = GROUND_FLOOR + STOREY;
     m.begin_object("house");
-    // Ground slab, the upper slab with the stairwell left open, the roof.
+    // Ground slab (on the lawn), the upper slab with the stairwell left open,
+    // the roof. The slabs reach the walls' outer faces, so every wall stands
+    // on and under a slab: no strip of a wall's end or top lies bare.
     m.set_material(wood);
-    m.cuboid(Vec3::new(x0, -0.3, z0), Vec3::new(x1, GROUND_FLOOR, z1));
+    let h = 0.5 * WALL_T;
+    let (ox0, ox1, oz0, oz1) = (x0 - h, x1 + h, z0 - h, z1 + h);
+    m.cuboid(Vec3::new(ox0, 0.0, oz0), Vec3::new(ox1, GROUND_FLOOR, oz1));
     let well = (STAIR_X0 + 3.0 * RUN, STAIR_X0 + STEPS as f32 * RUN, STAIR_Z0, STAIR_Z0 + STAIR_W);
     let (sy0, sy1) = (upper - SLAB, upper);
-    m.cuboid(Vec3::new(x0, sy0, z0), Vec3::new(well.0, sy1, z1));
-    m.cuboid(Vec3::new(well.1, sy0, z0), Vec3::new(x1, sy1, z1));
-    m.cuboid(Vec3::new(well.0, sy0, well.3), Vec3::new(well.1, sy1, z1));
-    m.cuboid(Vec3::new(well.0, sy0, z0), Vec3::new(well.1, sy1, well.2));
+    m.cuboid(Vec3::new(ox0, sy0, oz0), Vec3::new(well.0, sy1, oz1));
+    m.cuboid(Vec3::new(well.1, sy0, oz0), Vec3::new(ox1, sy1, oz1));
+    m.cuboid(Vec3::new(well.0, sy0, well.3), Vec3::new(well.1, sy1, oz1));
+    m.cuboid(Vec3::new(well.0, sy0, oz0), Vec3::new(well.1, sy1, well.2));
     m.set_material(concrete);
     m.cuboid(Vec3::new(x0 - 0.3, upper + STOREY - SLAB, z0 - 0.3), Vec3::new(x1 + 0.3, upper + STOREY, z1 + 0.3));
 

@@ -61,16 +61,25 @@ pub fn maze(seed: u64, cells: usize) -> Scene {
     m.set_material(wall);
     m.wall(true, 0.0, 0.0, size, 0.0, HEIGHT, WALL_T, &[]);
     m.wall(false, 0.0, 0.0, size, 0.0, HEIGHT, WALL_T, &[]);
+    // Closed cell sides in a row along a line make one wall: walls meeting end
+    // to end would overlap, their faces coincident.
     for i in 0..n {
-        for j in 0..n {
-            let (x0, z0) = (i as f32 * CELL, j as f32 * CELL);
-            if !open_east[i][j] {
-                m.wall(false, x0 + CELL, z0, z0 + CELL, 0.0, HEIGHT, WALL_T, &[]);
+        let line = (i + 1) as f32 * CELL;
+        let mut runs = |closed: &dyn Fn(usize) -> bool, along_x: bool| {
+            let mut j = 0;
+            while j < n {
+                let start = j;
+                while j < n && closed(j) {
+                    j += 1;
+                }
+                if j > start {
+                    m.wall(along_x, line, start as f32 * CELL, j as f32 * CELL, 0.0, HEIGHT, WALL_T, &[]);
+                }
+                j += 1;
             }
-            if !open_south[i][j] {
-                m.wall(true, z0 + CELL, x0, x0 + CELL, 0.0, HEIGHT, WALL_T, &[]);
-            }
-        }
+        };
+        runs(&|j| !open_east[i][j], false);
+        runs(&|j| !open_south[j][i], true);
     }
     for i in (0..n).step_by(3) {
         for j in (0..n).step_by(3) {

@@ -98,6 +98,38 @@ impl MeshBuilder {
         self.quad([p(f, f, f), p(t, f, f), p(t, f, t), p(f, f, t)]); // -y
     }
 
+    /// Boxes from `y0` to `y1` covering the union of the rectangles
+    /// `[x0, x1] × [z0, z1]` once. Overlapping boxes would leave coincident,
+    /// same-facing faces where they overlap; these meet only side to side.
+    pub fn slabs(&mut self, rects: &[[f32; 4]], y0: f32, y1: f32) {
+        let cuts = |lo: usize, hi: usize| {
+            let mut v: Vec<f32> = rects.iter().flat_map(|r| [r[lo], r[hi]]).collect();
+            v.sort_by(f32::total_cmp);
+            v.dedup();
+            v
+        };
+        let (xs, zs) = (cuts(0, 2), cuts(1, 3));
+        let covered = |x: f32, z: f32| rects.iter().any(|r| (r[0]..=r[2]).contains(&x) && (r[1]..=r[3]).contains(&z));
+        // A band between consecutive z cuts at a time, its covered cells merged into runs.
+        for z in zs.windows(2) {
+            let zc = 0.5 * (z[0] + z[1]);
+            let mut run: Option<f32> = None;
+            for x in xs.windows(2) {
+                match (covered(0.5 * (x[0] + x[1]), zc), run) {
+                    (true, None) => run = Some(x[0]),
+                    (false, Some(x0)) => {
+                        self.cuboid(Vec3::new(x0, y0, z[0]), Vec3::new(x[0], y1, z[1]));
+                        run = None;
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(x0) = run {
+                self.cuboid(Vec3::new(x0, y0, z[0]), Vec3::new(xs[xs.len() - 1], y1, z[1]));
+            }
+        }
+    }
+
     /// A closed prism: a convex polygon in the x-y plane (counter-clockwise seen
     /// from +z) extruded from `z0` to `z1`, with outward faces.
     pub fn prism_z(&mut self, profile: &[Vec2], z0: f32, z1: f32) {
@@ -139,8 +171,12 @@ impl MeshBuilder {
                 (Vec3::new(line - h, y0, s0), Vec3::new(line + h, y1, s1))
             }
         };
-        let mut start = a.min(b) - h;
-        let end = a.max(b) + h;
+        // Ends reach almost, not quite, to the far side of a wall they meet: an
+        // end flush with it would be a coincident, same-facing face, which
+        // renderers resolve differently (Cycles shades such strips black).
+        let reach = 0.99 * h;
+        let mut start = a.min(b) - reach;
+        let end = a.max(b) + reach;
         let mut openings = openings.to_vec();
         openings.sort_by(|x, y| x.centre.total_cmp(&y.centre));
         for o in openings {
