@@ -245,9 +245,12 @@ def texture(t):
     return textures[t["path"]]
 
 
+# "albedo_only": each surface emits its albedo, with no lights (to compare
+# what the two renderers take a surface's reflectance to be).
+albedo_only = spec.get("albedo_only", False)
 for i, mat in enumerate(spec["materials"]):
     albedo = [min(c, 0.98) for c in mat["albedo"]]
-    emission = [c * scale["emission"] for c in mat["emission"]] if any(mat["emission"]) else None
+    emission = [c * scale["emission"] for c in mat["emission"]] if any(mat["emission"]) and not albedo_only else None
     m, nodes, links, bsdf, output = diffuse_material(f"m{i}", albedo, emission)
     if mat["texture"] is not None:
         tex = nodes.new("ShaderNodeTexImage")
@@ -256,13 +259,23 @@ for i, mat in enumerate(spec["materials"]):
         tex.extension = "REPEAT"
         mul = nodes.new("ShaderNodeVectorMath")
         mul.operation = "MULTIPLY"
-        mul.inputs[1].default_value = albedo
+        # The factor as given: the cap of 0.98 is on the product, as ours has it
+        # (capping the factor too made white-tinted textures 2 % darker).
+        mul.inputs[1].default_value = mat["albedo"]
         links.new(tex.outputs["Color"], mul.inputs[0])
         clamp = nodes.new("ShaderNodeVectorMath")
         clamp.operation = "MINIMUM"
         clamp.inputs[1].default_value = (0.98, 0.98, 0.98)
         links.new(mul.outputs[0], clamp.inputs[0])
         links.new(clamp.outputs[0], bsdf.inputs["Color"])
+    if albedo_only:
+        em = nodes.new("ShaderNodeEmission")
+        em.inputs["Strength"].default_value = 1.0
+        em.inputs["Color"].default_value = bsdf.inputs["Color"].default_value
+        if bsdf.inputs["Color"].is_linked:
+            links.new(bsdf.inputs["Color"].links[0].from_socket, em.inputs["Color"])
+        links.new(em.outputs[0], output.inputs["Surface"])
+    if mat["texture"] is not None:
         if mat["cutoff"] is not None:
             # Holes where alpha × factor falls under the cut-off, as this project renders them.
             alpha = nodes.new("ShaderNodeMath")
@@ -296,15 +309,15 @@ def add_light(kind, rgb):
     return obj
 
 
-for sun in spec["suns"]:
+for sun in [] if albedo_only else spec["suns"]:
     obj = add_light("SUN", sun["irradiance"])
     obj.data.angle = sun["angle"]
     obj.rotation_euler = Vector(sun["direction"]).to_track_quat("Z", "Y").to_euler()
-for point in spec["points"]:
+for point in [] if albedo_only else spec["points"]:
     obj = add_light("POINT", point["intensity"])
     obj.data.shadow_soft_size = 0.0
     obj.location = point["position"]
-world([[c * scale["world"] for c in row] for row in spec["sky_rows"]] if spec["sky_rows"] else None)
+world([[c * scale["world"] for c in row] for row in spec["sky_rows"]] if spec["sky_rows"] and not albedo_only else None)
 
 cams = [camera(spec["eye"], f["right"], f["up"], f["forward"], math.pi / 2) for f in spec["faces"]]
 

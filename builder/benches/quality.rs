@@ -215,6 +215,23 @@ fn main() {
 
         // The reference, at half and at all of its samples.
         let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
+        // ALBEDO=1: compare only the two renderers' first-hit albedo, what
+        // each takes every surface's reflectance to be; then the next scene.
+        if std::env::var("ALBEDO").is_ok_and(|v| v == "1") {
+            let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
+            let ours: Vec<Vec<Vec3>> = (0..6).map(|f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
+            save("albedo", face, &ours);
+            match cycles(&python, scene, &renderer, eye, &[("albedo".into(), 64, false, face)], 0, &out.join(format!("cycles-albedo-{name}"))) {
+                Err(e) => println!("Cycles albedo comparison failed: {e}"),
+                Ok(done) => {
+                    save("cycles_albedo", face, &done[0].3);
+                    let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
+                    let ratios: Vec<String> = done[0].3.iter().zip(&ours).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
+                    println!("{name}: Cycles' first-hit albedo over ours, per face (r, g, b): {}", ratios.join(" "));
+                }
+            }
+            continue;
+        }
         let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0));
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
@@ -627,6 +644,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "threads": rayon::current_num_threads(),
         "light_threshold": std::env::var("CYCLES_LIGHT_THRESHOLD").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.01),
         "bounces": bounces,
+        "albedo_only": std::env::var("ALBEDO").is_ok_and(|v| v == "1"),
         "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
     });
     std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
