@@ -175,7 +175,7 @@ mod tests {
                 .count();
             if hit > 0 && unit != Vec3::ZERO {
                 let object = scene.objects[scene.triangle_object[t] as usize].clone();
-                *by_object.entry(object).or_default() += 0.5 * n.length() * hit as f32 / samples.len() as f32;
+                *by_object.entry(object).or_default() += scene.triangle_area(t) * hit as f32 / samples.len() as f32;
             }
         }
         by_object.into_iter().collect()
@@ -203,11 +203,7 @@ mod tests {
         let mut m = mesh::MeshBuilder::new("slabs");
         m.slabs(&[[0.0, 0.0, 2.0, 2.0], [1.0, 1.0, 3.0, 3.0], [5.0, 0.0, 6.0, 1.0]], 0.0, 0.5);
         let scene = m.finish();
-        let top: f32 = (0..scene.triangles.len())
-            .map(|t| scene.triangle(t))
-            .filter(|[a, b, c]| a.y == 0.5 && b.y == 0.5 && c.y == 0.5)
-            .map(|[a, b, c]| 0.5 * (b - a).cross(c - a).length())
-            .sum();
+        let top: f32 = (0..scene.triangles.len()).filter(|&t| scene.triangle(t).iter().all(|p| p.y == 0.5)).map(|t| scene.triangle_area(t)).sum();
         assert!((top - 8.0).abs() < 1e-4, "tops cover {top} m², the union is 8");
         assert!(coincident_area(&scene).is_empty());
     }
