@@ -215,6 +215,8 @@ o += nt * 12
 tri_material = np.frombuffer(mesh_bytes, np.uint32, nt, o)
 o += nt * 4
 uvs = np.frombuffer(mesh_bytes, np.float32, nv * 2, o).reshape(nv, 2) if has_uv else None
+o += nv * 8 if has_uv else 0
+normals = np.frombuffer(mesh_bytes, np.float32, nv * 3, o).reshape(nv, 3) if spec.get("normals") else None
 
 mesh = bpy.data.meshes.new(spec["name"])
 mesh.vertices.add(nv)
@@ -230,6 +232,13 @@ if uvs is not None:
 mesh.polygons.foreach_set("material_index", tri_material.astype(np.int32))
 mesh.update(calc_edges=True)
 mesh.validate()
+# Shading as this project shades: with the scene's own vertex normals if it
+# has them, else flat. (Blender 4.1+ makes faces smooth unless told, and its
+# normals averaged across the creases of a welded mesh lit and darkened
+# patches of the Crytek Sponza that are flat here.)
+mesh.polygons.foreach_set("use_smooth", np.full(len(mesh.polygons), normals is not None, dtype=bool))
+if normals is not None:
+    mesh.normals_split_custom_set_from_vertices(normals)
 
 textures = {}
 
