@@ -59,6 +59,10 @@ def settings(size, samples, denoise):
     c.caustics_reflective = False
     c.caustics_refractive = False
     c.seed = 1
+    # Path guiding (Open PGL, CPU only): learns where light comes from, such as
+    # sunlight reaching a room only by bounces, which plain paths find by chance.
+    c.use_guiding = bool(spec.get("guiding", False))
+    c.use_surface_guiding = c.use_guiding
     c.film_exposure = 1.0
     c.pixel_filter_type = "BOX"
     c.filter_width = 1.0

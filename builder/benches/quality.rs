@@ -34,8 +34,8 @@
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
 //! other settings. REF_BOUNCES=n (1 or more) caps the reference's bounces and Cycles' at n
 //! (to see at which bounce the two part), CYCLES_LIGHT_THRESHOLD sets Cycles'
-//! light threshold (0.01 by default, 0 off), DROP_OBJECTS=a,b leaves out the
-//! objects whose names start so.
+//! light threshold (0.01 by default, 0 off), CYCLES_GUIDING=1 turns Cycles' path
+//! guiding on, DROP_OBJECTS=a,b leaves out the objects whose names start so.
 
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
@@ -646,6 +646,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "eye": z_up(eye),
         "faces": faces,
         "threads": rayon::current_num_threads(),
+        "guiding": std::env::var("CYCLES_GUIDING").is_ok_and(|v| v == "1"),
         "light_threshold": std::env::var("CYCLES_LIGHT_THRESHOLD").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.01),
         "bounces": bounces,
         "albedo_only": std::env::var("ALBEDO").is_ok_and(|v| v == "1"),
