@@ -584,8 +584,8 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
     mesh.extend((0..scene.triangles.len()).flat_map(|t| scene.triangle_material.get(t).copied().unwrap_or(u32::MAX).min(scene.materials.len() as u32).to_le_bytes()));
     // Blender's texture rows run bottom to top.
     mesh.extend(scene.uvs.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).flat_map(f32::to_le_bytes));
-    // Shading normals: without them Cycles shades every triangle flat, and smooth
-    // low-poly surfaces (the Crytek Sponza's curtains) are lit differently.
+    // Shading normals, if the scene has them (the script shades flat otherwise, as
+    // this renderer does; Blender's default, smooth, lit the Crytek Sponza's creases).
     mesh.extend(scene.normals.iter().flat_map(|&n| z_up(n)).flat_map(f32::to_le_bytes));
     std::fs::write(dir.join("mesh.bin"), mesh).map_err(|e| e.to_string())?;
     // Textures as linear floats (rows bottom to top), so Cycles filters linear values as this
@@ -640,7 +640,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "uvs": !scene.uvs.is_empty(),
         "normals": !scene.normals.is_empty(),
         "materials": materials,
-        "suns": lighting.suns.iter().map(|&(d, e)| json!({"direction": z_up(d), "irradiance": e.to_array(), "angle": 2.0 * 0.0047})).collect::<Vec<_>>(),
+        "suns": lighting.suns.iter().map(|&(d, e)| json!({"direction": z_up(d), "irradiance": e.to_array(), "angle": 2.0 * exploremaps_builder::renderer::SUN_RADIUS})).collect::<Vec<_>>(),
         "points": lighting.points.iter().map(|&(p, i)| json!({"position": z_up(p), "intensity": i.to_array()})).collect::<Vec<_>>(),
         "sky_rows": if sky.zenith == Vec3::ZERO && sky.horizon == Vec3::ZERO && sky.ground == Vec3::ZERO { serde_json::Value::Null } else { json!(sky_rows) },
         "eye": z_up(eye),

@@ -11,7 +11,7 @@ use glam::{Vec2, Vec3};
 pub const DEFAULT_SUN: Light = Light::Sun { direction: Vec3::new(0.2988, 0.9063, 0.2988), irradiance: Vec3::new(3.4, 3.2, 2.9) };
 
 /// Angular radius of the sun (the real one's), for soft shadow edges.
-const SUN_RADIUS: f32 = 0.0047;
+pub const SUN_RADIUS: f32 = 0.0047;
 
 /// A shading point: where a ray hit, oriented toward the ray.
 #[derive(Clone, Copy, Debug)]
