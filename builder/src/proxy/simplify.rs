@@ -655,43 +655,58 @@ impl<'a> State<'a> {
     /// The mesh with its quadrics and boundary planes.
     fn new(mesh: &'a Mesh, colours: Option<Colours>) -> State<'a> {
         let n = mesh.positions.len();
+        let mut around = vec![SmallVec::new(); n];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &v in tri {
+                around[v as usize].push(t as u32);
+            }
+        }
+        let colours: Vec<DVec3> = colours.map(|c| c.values.par_iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default();
+        // A triangle's plane (unit normal, offset) and weight, if it has an area.
+        let plane = |t: u32| {
+            let p = mesh.triangles[t as usize].map(|v| mesh.positions[v as usize]);
+            let nrm = normal(p);
+            let area = 0.5 * nrm.length() as f64;
+            (area > 0.0).then(|| (p, nrm.normalize().as_dvec3(), area.sqrt()))
+        };
+        // Each vertex's sum over its triangles in their order, each
+        // triangle's quadrics found anew at each of its corners: on every
+        // core, and without a list of every triangle's quadrics (300 bytes
+        // each; faulting in its pages cost more than the sums).
+        let quadrics = around.par_iter().map(|ts: &SmallVec<[u32; 8]>| {
+            let mut q = Quadric::default();
+            for (p, u, w) in ts.iter().filter_map(|&t| plane(t)) {
+                q.add(&Quadric::plane(u, -u.dot(p[0].as_dvec3()), w));
+            }
+            q
+        }).collect();
+        let colour_quadrics = if colours.is_empty() {
+            Vec::new()
+        } else {
+            around.par_iter().map(|ts: &SmallVec<[u32; 8]>| {
+                let mut q = ColourQuadric::default();
+                for &t in ts {
+                    let Some((p, u, w)) = plane(t) else { continue };
+                    if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), mesh.triangles[t as usize].map(|v| colours[v as usize]), u, w) {
+                        q.add(&c);
+                    }
+                }
+                q
+            }).collect()
+        };
         let mut s = State {
             positions: mesh.positions.clone(),
             triangles: mesh.triangles.clone(),
             groups: &mesh.groups,
             alive: vec![true; mesh.triangles.len()],
-            around: vec![SmallVec::new(); n],
-            quadrics: vec![Quadric::default(); n],
-            colour_quadrics: vec![ColourQuadric::default(); if colours.is_some() { n } else { 0 }],
-            colours: colours.map(|c| c.values.iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default(),
+            around,
+            quadrics,
+            colour_quadrics,
+            colours,
             stamp: vec![0; n],
             part: vec![u32::MAX; n],
-            input_normals: mesh.triangles.iter().map(|t| normal(t.map(|v| mesh.positions[v as usize]))).collect(),
+            input_normals: mesh.triangles.par_iter().map(|t| normal(t.map(|v| mesh.positions[v as usize]))).collect(),
         };
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for &v in tri {
-                s.around[v as usize].push(t as u32);
-            }
-        }
-        // Each triangle's quadrics, then each vertex's sum over its triangles
-        // in their order (as one pass adding triangle by triangle would), on
-        // every core: a tenth of the whole run was this, on one.
-        let with_colour = !s.colours.is_empty();
-        let planes: Vec<Option<(Quadric, Option<ColourQuadric>)>> = mesh.triangles.par_iter().map(|tri| {
-            let p = tri.map(|v| s.positions[v as usize]);
-            let nrm = normal(p);
-            let area = 0.5 * nrm.length() as f64;
-            (area > 0.0).then(|| {
-                let u = nrm.normalize().as_dvec3();
-                let colour = with_colour.then(|| ColourQuadric::triangle(p.map(Vec3::as_dvec3), tri.map(|v| s.colours[v as usize]), u, area.sqrt())).flatten();
-                (Quadric::plane(u, -u.dot(p[0].as_dvec3()), area.sqrt()), colour)
-            })
-        }).collect();
-        s.quadrics.par_iter_mut().zip(&s.around).for_each(|(q, around)| around.iter().filter_map(|&t| planes[t as usize].as_ref()).for_each(|(plane, _)| q.add(plane)));
-        if with_colour {
-            s.colour_quadrics.par_iter_mut().zip(&s.around).for_each(|(q, around)| around.iter().filter_map(|&t| planes[t as usize].as_ref()?.1.as_ref()).for_each(|c| q.add(c)));
-        }
-        drop(planes);
         s.add_border_planes();
         s
     }
