@@ -543,27 +543,32 @@ fn shrink(img: &[Vec3], from: u32, to: u32) -> Vec<Vec3> {
     img
 }
 
-/// One cube face, `size`² pixels, sampled bilinearly from an equirectangular image.
+/// One cube face, `size`² pixels, from an equirectangular image: each pixel
+/// the mean of s × s bilinear samples over its square, s enough that they lie
+/// no farther apart than the image's pixels at the equator (a face spans a
+/// quarter of its width). Panoramas are box-filtered down to the scored size
+/// ([`shrink`]); one sample a pixel here would alias a frame against its
+/// reference wherever the face is smaller than the frame (four frame pixels
+/// a face pixel at 64² faces from 1,024-wide frames), and score that, not
+/// the render.
 fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Vec3> {
     let height = width / 2;
+    let s = (width / 4).div_ceil(size).max(1);
+    let bilinear = |u: f32, v: f32| {
+        let d = Vec3::from(cube_direction(face, u, v));
+        let (yaw, pitch) = exploremaps_format::yaw_pitch(d.into());
+        let x = (yaw / std::f32::consts::TAU).rem_euclid(1.0) * width as f32 - 0.5;
+        let y = (0.5 - pitch / std::f32::consts::PI) * height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor().clamp(0.0, height as f32 - 1.0));
+        let (fx, fy) = (x - x0, (y - y0).clamp(0.0, 1.0));
+        let at = |xx: f32, yy: f32| eq[(yy.min(height as f32 - 1.0) as u32 * width + (xx as i64).rem_euclid(width as i64) as u32) as usize];
+        (at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx) * (1.0 - fy) + (at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx) * fy
+    };
     (0..size * size)
         .map(|i| {
-            let d = Vec3::from(cube_direction(
-                face,
-                ((i % size) as f32 + 0.5) / size as f32,
-                ((i / size) as f32 + 0.5) / size as f32,
-            ));
-            let (yaw, pitch) = exploremaps_format::yaw_pitch(d.into());
-            let x = (yaw / std::f32::consts::TAU).rem_euclid(1.0) * width as f32 - 0.5;
-            let y = (0.5 - pitch / std::f32::consts::PI) * height as f32 - 0.5;
-            let (x0, y0) = (x.floor(), y.floor().clamp(0.0, height as f32 - 1.0));
-            let (fx, fy) = (x - x0, (y - y0).clamp(0.0, 1.0));
-            let at = |xx: f32, yy: f32| {
-                eq[(yy.min(height as f32 - 1.0) as u32 * width
-                    + (xx as i64).rem_euclid(width as i64) as u32) as usize]
-            };
-            (at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx) * (1.0 - fy)
-                + (at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx) * fy
+            let (px, py) = ((i % size) as f32, (i / size) as f32);
+            let sub = |k: u32| (k as f32 + 0.5) / s as f32;
+            (0..s * s).map(|k| bilinear((px + sub(k % s)) / size as f32, (py + sub(k / s)) / size as f32)).sum::<Vec3>() / (s * s) as f32
         })
         .collect()
 }
