@@ -662,7 +662,8 @@ impl<'a> State<'a> {
             }
         }
         let colours: Vec<DVec3> = colours.map(|c| c.values.par_iter().map(|v| v.as_dvec3() * c.weight as f64).collect()).unwrap_or_default();
-        // A triangle's plane (unit normal, offset) and weight, if it has an area.
+        // A triangle's corners, unit normal and weight (the square root of
+        // its area), if it has an area.
         let plane = |t: u32| {
             let p = mesh.triangles[t as usize].map(|v| mesh.positions[v as usize]);
             let nrm = normal(p);
