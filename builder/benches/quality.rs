@@ -217,7 +217,7 @@ fn main() {
         let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
         // ALBEDO=1: compare only the two renderers' first-hit albedo, what
         // each takes every surface's reflectance to be; then the next scene.
-        if std::env::var("ALBEDO").is_ok_and(|v| v == "1") {
+        if albedo_only() {
             let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
             let ours: Vec<Vec<Vec3>> = (0..6).map(|f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
             save("albedo", face, &ours);
@@ -532,6 +532,12 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     (load(spp / 2).expect("the half-way reference"), full, started.elapsed().as_secs_f64())
 }
 
+/// `ALBEDO=1`: both renderers give first-hit albedo only (read by the bench's
+/// loop and by the spec it writes for Cycles).
+fn albedo_only() -> bool {
+    std::env::var("ALBEDO").is_ok_and(|v| v == "1")
+}
+
 /// Box-filters a square image from `from` to `to` pixels a side (powers of two).
 fn shrink(img: &[Vec3], from: u32, to: u32) -> Vec<Vec3> {
     let mut img = img.to_vec();
@@ -654,7 +660,7 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         "guiding": std::env::var("CYCLES_GUIDING").is_ok_and(|v| v == "1"),
         "light_threshold": std::env::var("CYCLES_LIGHT_THRESHOLD").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(0.01),
         "bounces": bounces,
-        "albedo_only": std::env::var("ALBEDO").is_ok_and(|v| v == "1"),
+        "albedo_only": albedo_only(),
         "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
     });
     std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
