@@ -28,7 +28,7 @@
 //! position, so placement is solved as before, and a collapse costs that
 //! quadric's error at the placement. (Each end's own quadric with its own
 //! best colour was summed before: it undercounted a colour change across the
-//! edge, and cost a second evaluation and 80 bytes a vertex.) The error
+//! edge, and cost a second evaluation and 88 bytes a vertex.) The error
 //! reported stays geometric.
 //!
 //! A collapse is refused when it would flip or nearly flatten a triangle
