@@ -171,6 +171,12 @@ impl Quadric {
         (p.dot(ap + 2.0 * self.b) + self.c).max(0.0)
     }
 
+    /// The error at p as a distance: the root mean square distance to the
+    /// planes summed, by their weight (a colour part adds none).
+    fn distance(&self, p: DVec3) -> f32 {
+        (self.error(p) / self.weight.max(1e-30)).sqrt() as f32
+    }
+
     /// The minimising point, if the system is well conditioned.
     fn optimum(&self) -> Option<DVec3> {
         // Cramer's rule on the symmetric matrix (its cofactors, once).
@@ -833,8 +839,7 @@ impl State<'_> {
             Some(p) if p.distance(0.5 * (pa + pb)) <= 2.0 * pa.distance(pb) => p,
             _ => [pa, pb, 0.5 * (pa + pb)].into_iter().map(|p| (p, q.error(p))).min_by(|x, y| x.1.total_cmp(&y.1))?.0,
         };
-        // (The colour part adds no weight.)
-        Some((p, (q.error(p) / q.weight.max(1e-30)).sqrt() as f32))
+        Some((p, q.distance(p)))
     }
 
     /// The collapse's error as a distance (colour included).
@@ -844,8 +849,9 @@ impl State<'_> {
 
     /// The geometric error of moving a and b to p, as [`Self::placement`]'s.
     fn geometric_error(&self, a: u32, b: u32, p: DVec3) -> f32 {
-        let (qa, qb) = (&self.quadrics[a as usize], &self.quadrics[b as usize]);
-        ((qa.error(p) + qb.error(p)) / (qa.weight + qb.weight).max(1e-30)).sqrt() as f32
+        let mut q = self.quadrics[a as usize];
+        q.add(&self.quadrics[b as usize]);
+        q.distance(p)
     }
 
     fn can_collapse(&self, kept: u32, removed: u32, target: DVec3) -> bool {
