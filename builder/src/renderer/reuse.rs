@@ -28,7 +28,7 @@
 use super::gather::NORMAL_POWER;
 use super::surface::Surface;
 use glam::{Vec3, Vec4};
-use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI, TAU};
 use std::ops::{Add, Div, Mul};
 
 /// Keys a key frame's gathered light averages over at most (the weight of
@@ -80,25 +80,33 @@ pub struct Between<'a> {
 }
 
 impl Lit {
+    /// Where four points fall in this key frame, lane by lane: their pixel
+    /// coordinates x and y (pixel centres at whole numbers) and one pixel's
+    /// footprint at their distance (the equator's, the largest; a thinned
+    /// row's traced pixels are no farther apart); 0 at the eye. Four at
+    /// once: a frame between keys projects every pixel's hit into both.
+    fn project(&self, p: [Vec3; 4]) -> [Vec4; 3] {
+        let d = |f: fn(Vec3) -> f32| Vec4::from_array(p.map(f));
+        let (dx, dy, dz) = (d(|p| p.x) - self.eye.x, d(|p| p.y) - self.eye.y, d(|p| p.z) - self.eye.z);
+        let across = (dx * dx + dz * dz).sqrt();
+        let distance = (across * across + dy * dy).sqrt();
+        // The bundle's yaw (0 toward −Z, turning toward +X) and the angle
+        // down from straight up, as fractions of a turn and of a half turn
+        // (products with the reciprocals: these are long dependent chains).
+        let yaw = atan2(dx, -dz) * (0.5 * FRAC_1_PI);
+        let yaw = Vec4::select(yaw.cmplt(Vec4::ZERO), yaw + 1.0, yaw);
+        let down = atan2(across, dy) * FRAC_1_PI;
+        [yaw * self.width as f32 - 0.5, down * self.height as f32 - 0.5, distance * (TAU / self.width as f32)]
+    }
+
     /// The mean of `value` over the pixels (at most four) that saw the point
     /// of `s`, weighted by nearness and likeness; `None` where this key saw
     /// something else there.
-    fn blend<T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, value: impl Fn(usize, &Seen) -> T) -> Option<T> {
-        let d = s.position - self.eye;
-        let across = (d.x * d.x + d.z * d.z).sqrt();
-        let distance = (across * across + d.y * d.y).sqrt();
-        if distance <= 0.0 {
+    fn blend<T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, (x, y, footprint): (f32, f32, f32), value: impl Fn(usize, &Seen) -> T) -> Option<T> {
+        if footprint <= 0.0 {
             return None;
         }
-        // The bundle's yaw (0 toward −Z, turning toward +X) and the angle down from straight up.
-        let yaw = atan2(d.x, -d.z) / TAU;
-        let down = atan2(across, d.y);
         let (width, height) = (self.width as i32, self.height as i32);
-        let x = (if yaw < 0.0 { yaw + 1.0 } else { yaw }) * width as f32 - 0.5;
-        let y = down / PI * height as f32 - 0.5;
-        // One pixel's footprint at that distance (the equator's, the largest;
-        // a thinned row's traced pixels are no farther apart).
-        let footprint = TAU / self.width as f32 * distance;
         // x, y ≥ −0.5, so truncating y + 1 (and u + 1 below) floors it (without a libm call).
         let y0 = (y + 1.0) as i32 - 1;
         let fy = y - y0 as f32;
@@ -113,7 +121,8 @@ impl Lit {
                 continue;
             }
             let columns = self.columns.get(yy as usize).map_or(1, |&c| c as i32);
-            let u = x / columns as f32;
+            // (Columns are powers of two: the product is the quotient exactly.)
+            let u = x * (1.0 / columns as f32);
             let u0 = (u + 1.0) as i32 - 1;
             let fx = u - u0 as f32;
             let wy = if dy == 1 { fy } else { 1.0 - fy };
@@ -158,24 +167,27 @@ impl Lit {
         Some(sum / weight)
     }
 
-    /// Irradiance at `s` as this key frame saw it.
-    fn irradiance(&self, s: &Surface) -> Option<Vec3> {
-        self.blend(s, |_, seen| seen.irradiance)
-    }
-
     /// This key's gathered indirect light at `s` and how many keys it averages.
     pub fn history(&self, s: &Surface) -> Option<Vec4> {
-        self.blend(s, |i, _| self.history[i])
+        let [x, y, footprint] = self.project([s.position; 4]);
+        self.blend(s, (x.x, y.x, footprint.x), |i, _| self.history[i])
     }
 }
 
 impl Between<'_> {
-    /// Irradiance at `s` from the key frames, blended by time; `None` where neither saw it.
-    pub fn irradiance(&self, s: &Surface) -> Option<Vec3> {
-        match (self.keys[0].irradiance(s), self.keys[1].irradiance(s)) {
-            (Some(a), Some(b)) => Some(a.lerp(b, self.t)),
-            (a, b) => a.or(b),
-        }
+    /// Irradiance at four surface points from the key frames, blended by
+    /// time; `None` where neither saw it (and for a point not given).
+    pub fn irradiance(&self, s: [Option<&Surface>; 4]) -> [Option<Vec3>; 4] {
+        let p = s.map(|s| s.map_or(Vec3::ZERO, |s| s.position));
+        let at = self.keys.map(|key| key.project(p));
+        std::array::from_fn(|j| {
+            let s = s[j]?;
+            let [a, b] = [0, 1].map(|k| self.keys[k].blend(s, (at[k][0][j], at[k][1][j], at[k][2][j]), |_, seen| seen.irradiance));
+            match (a, b) {
+                (Some(a), Some(b)) => Some(a.lerp(b, self.t)),
+                (a, b) => a.or(b),
+            }
+        })
     }
 }
 
@@ -195,28 +207,18 @@ fn exp_minus(y: Vec4) -> Vec4 {
     e4 * e4
 }
 
-/// atan2 to within 2e-5 radians (a fiftieth of a pixel of a 4096-wide frame)
-/// at a fraction of libm's cost: it runs twice a pixel per key frame.
-fn atan2(y: f32, x: f32) -> f32 {
+/// atan2 lane by lane, to within 2e-5 radians (a fiftieth of a pixel of a
+/// 4096-wide frame) at a fraction of libm's cost; 0 where x = y = 0.
+fn atan2(y: Vec4, x: Vec4) -> Vec4 {
     let (ax, ay) = (x.abs(), y.abs());
-    if ax == 0.0 && ay == 0.0 {
-        return 0.0;
-    }
     // atan on [0, 1] by an odd minimax polynomial, then the octant.
     let a = ax.min(ay) / ax.max(ay);
+    let a = Vec4::select(a.is_nan_mask(), Vec4::ZERO, a);
     let s = a * a;
-    let mut r = a * (0.999_977_26 + s * (-0.332_623_47 + s * (0.193_543_46 + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
-    if ay > ax {
-        r = FRAC_PI_2 - r;
-    }
-    if x < 0.0 {
-        r = PI - r;
-    }
-    if y < 0.0 {
-        -r
-    } else {
-        r
-    }
+    let r = a * (0.999_977_26 + s * (-0.332_623_47 + s * (0.193_543_46 + s * (-0.116_432_87 + s * (0.052_653_32 + s * -0.011_721_2)))));
+    let r = Vec4::select(ay.cmpgt(ax), FRAC_PI_2 - r, r);
+    let r = Vec4::select(x.cmplt(Vec4::ZERO), PI - r, r);
+    Vec4::select(y.cmplt(Vec4::ZERO), -r, r)
 }
 
 #[cfg(test)]
@@ -281,7 +283,7 @@ mod tests {
             let dir = (Vec3::new(r(), r(), r()) * 2.0 - 1.0).normalize_or(Vec3::X);
             let normal = (-dir + Vec3::new(r(), r(), r()) * 0.6 - 0.3).normalize();
             let s = Surface { position: eye + dir * (3.0 + 0.05 * r()), normal, geometric: normal, albedo: Vec3::ONE, emission: Vec3::ZERO };
-            let (lanes, (one_by_one, weight)) = (lit.irradiance(&s), blend_one_by_one(&lit, &s));
+            let (lanes, (one_by_one, weight)) = (Between { keys: [&lit, &lit], t: 0.0 }.irradiance([None, Some(&s), None, None])[1], blend_one_by_one(&lit, &s));
             // (Within rounding of the threshold either answer is right.)
             if (weight - 0.25).abs() < 1e-3 {
                 continue;
@@ -313,7 +315,7 @@ mod tests {
             let a = i as f32 * 0.1f32.to_radians();
             for r in [1e-3f32, 1.0, 1e3] {
                 let (y, x) = (r * a.sin(), r * a.cos());
-                let d = (super::atan2(y, x) - y.atan2(x)).abs();
+                let d = (super::atan2(Vec4::splat(y), Vec4::splat(x)).x - y.atan2(x)).abs();
                 assert!(d < 2e-5 || (d - std::f32::consts::TAU).abs() < 2e-5, "atan2({y}, {x}): {d}");
             }
         }

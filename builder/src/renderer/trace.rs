@@ -417,14 +417,24 @@ impl<'a> Tracer<'a> {
                     Some(s) => {
                         sums[i].1 += s.albedo;
                         sums[i].2 += s.normal;
-                        reused[i] = match reuse {
-                            Reuse::Between(b) => b.irradiance(s),
-                            _ => None,
-                        };
-                        if reused[i].is_some() {
-                            surfaces.push(Some(*s));
-                            continue;
-                        }
+                    }
+                }
+                surfaces.push(s);
+            }
+            // The keys' light, four pixels at a time, in a loop of its own
+            // (a lookup is a long chain of dependent arithmetic, which the
+            // next pixels' can overlap here).
+            if let Reuse::Between(b) = reuse {
+                for (r, s) in reused.chunks_mut(4).zip(surfaces.chunks(4)) {
+                    let found = b.irradiance(std::array::from_fn(|j| s.get(j).and_then(Option::as_ref)));
+                    r.copy_from_slice(&found[..r.len()]);
+                }
+            }
+            for i in 0..pixels.len() {
+                match &surfaces[i] {
+                    None => {}
+                    Some(_) if reused[i].is_some() => {}
+                    Some(s) => {
                         let rng = rngs[i].get_or_insert_with(|| stream(i));
                         let u = Vec2::new(rng.random(), rng.random());
                         let seen = lamps.and_then(|c| c.lamps_seen(s.position, s.geometric));
@@ -441,7 +451,6 @@ impl<'a> Tracer<'a> {
                         });
                     }
                 }
-                surfaces.push(s);
             }
             direct.iter_mut().for_each(|d| *d = (Vec3::ZERO, Vec3::ZERO));
             let mut add = |(i, _, e, won): &(usize, Ray, Vec3, bool)| {
