@@ -78,17 +78,109 @@ impl Encoder {
 
     /// The frames as an MP4 file at `fps` frames a second.
     pub fn encode(&self, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, VideoError> {
-        let first = frames.first().ok_or(VideoError::Empty)?;
-        let (w, h) = first.dimensions();
-        if w % 16 != 0 || h % 16 != 0 || w > 4096 || frames.iter().any(|f| f.dimensions() != (w, h)) {
+        let mut stream = self.stream(fps);
+        for frame in frames {
+            stream.push(frame.clone())?;
+        }
+        stream.finish()
+    }
+
+    /// An MP4 at `fps` frames a second, encoded as its frames are handed
+    /// over ([`Stream::push`]).
+    pub fn stream(&self, fps: f32) -> Stream {
+        let kind = match self {
+            Encoder::Ffmpeg(program) => Kind::Ffmpeg(program.clone(), None),
+            Encoder::OpenH264 => Kind::Held(Vec::new()),
+        };
+        Stream { fps, size: None, frames: 0, kind }
+    }
+}
+
+/// A video being encoded. With ffmpeg each frame goes to libx264 as it comes,
+/// so a path's frames are encoded while the next ones render (in the cores'
+/// idle moments; the encoding had waited for the last frame, a tenth of a
+/// path's time) and are not all held at once; openh264 encodes at the end.
+pub struct Stream {
+    fps: f32,
+    size: Option<(u32, u32)>,
+    frames: usize,
+    kind: Kind,
+}
+
+enum Kind {
+    /// The program, and once the first frame has come its running process.
+    Ffmpeg(PathBuf, Option<Ffmpeg>),
+    Held(Vec<RgbImage>),
+}
+
+/// A running ffmpeg writing into its own temporary directory.
+struct Ffmpeg {
+    child: std::process::Child,
+    stdin: Option<std::process::ChildStdin>,
+    dir: tempfile::TempDir,
+}
+
+impl Drop for Ffmpeg {
+    /// An abandoned encoding (an error elsewhere) leaves no process behind.
+    fn drop(&mut self) {
+        drop(self.stdin.take());
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Stream {
+    /// Adds the next frame; all must be the first's size, a multiple of 16
+    /// and at most 4096 wide.
+    pub fn push(&mut self, frame: RgbImage) -> Result<(), VideoError> {
+        let (w, h) = frame.dimensions();
+        if w % 16 != 0 || h % 16 != 0 || w > 4096 || self.size.is_some_and(|s| s != (w, h)) {
             return Err(VideoError::Size(w, h));
         }
-        match self {
-            Encoder::Ffmpeg(program) => ffmpeg(program, frames, fps),
-            Encoder::OpenH264 => openh264(frames, fps),
+        self.size = Some((w, h));
+        self.frames += 1;
+        match &mut self.kind {
+            Kind::Held(frames) => frames.push(frame),
+            Kind::Ffmpeg(program, running) => {
+                if running.is_none() {
+                    *running = Some(start_ffmpeg(program, (w, h), self.fps)?);
+                }
+                let ffmpeg = running.as_mut().expect("started");
+                let stdin = ffmpeg.stdin.as_mut().expect("open until finish");
+                if stdin.write_all(frame.as_raw()).is_err() {
+                    // ffmpeg has stopped: its own words say why.
+                    let mut ffmpeg = running.take().expect("started");
+                    drop(ffmpeg.stdin.take());
+                    return Err(ffmpeg_failed(&mut ffmpeg));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The MP4 file.
+    pub fn finish(mut self) -> Result<Vec<u8>, VideoError> {
+        if self.frames == 0 {
+            return Err(VideoError::Empty);
+        }
+        match &mut self.kind {
+            Kind::Held(frames) => openh264(frames, self.fps),
+            Kind::Ffmpeg(_, running) => {
+                let mut ffmpeg = running.take().expect("started at the first frame");
+                drop(ffmpeg.stdin.take());
+                let out = ffmpeg.dir.path().join(VIDEO_FILE);
+                match ffmpeg.child.wait() {
+                    Ok(status) if status.success() => std::fs::read(&out).map_err(|e| VideoError::Ffmpeg(e.to_string())),
+                    _ => Err(ffmpeg_failed(&mut ffmpeg)),
+                }
+            }
         }
     }
 }
+
+/// ffmpeg's output file and error output in its temporary directory.
+const VIDEO_FILE: &str = "video.mp4";
+const LOG_FILE: &str = "ffmpeg.log";
 
 fn openh264(frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, VideoError> {
     use openh264::encoder::{EncoderConfig, FrameType, IntraFramePeriod, QpRange, RateControlMode, VuiConfig};
@@ -122,30 +214,30 @@ fn openh264(frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, VideoError> {
     Ok(out)
 }
 
-fn ffmpeg(program: &PathBuf, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, VideoError> {
-    let (w, h) = frames[0].dimensions();
+fn start_ffmpeg(program: &PathBuf, (w, h): (u32, u32), fps: f32) -> Result<Ffmpeg, VideoError> {
     let key = key_frame_interval(fps).to_string();
     let dir = tempfile::tempdir().map_err(|e| VideoError::Ffmpeg(e.to_string()))?;
-    let out = dir.path().join("video.mp4");
     let mut child = Command::new(program)
         .args(["-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", &format!("{w}x{h}"), "-r", &fps.to_string(), "-i", "-"])
         .args(["-c:v", "libx264", "-preset", X264_PRESET, "-crf", "20", "-bf", "0", "-pix_fmt", "yuv420p"])
         .args(["-g", &key, "-keyint_min", &key, "-sc_threshold", "0"])
         .args(["-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m", "-color_range", "tv"])
         .args(["-movflags", "+faststart", "-y"])
-        .arg(&out)
+        .arg(dir.path().join(VIDEO_FILE))
         .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
+        // A file, not a pipe: nothing reads it until ffmpeg has stopped.
+        .stderr(std::fs::File::create(dir.path().join(LOG_FILE)).map_err(|e| VideoError::Ffmpeg(e.to_string()))?)
         .spawn()
         .map_err(|e| VideoError::Ffmpeg(format!("cannot start {}: {e}", program.display())))?;
-    let mut stdin = child.stdin.take().expect("piped stdin");
-    let fed: std::io::Result<()> = frames.iter().try_for_each(|f| stdin.write_all(f.as_raw()));
-    drop(stdin);
-    let result = child.wait_with_output().map_err(|e| VideoError::Ffmpeg(e.to_string()))?;
-    if !result.status.success() || fed.is_err() {
-        return Err(VideoError::Ffmpeg(String::from_utf8_lossy(&result.stderr).trim().to_string()));
-    }
-    std::fs::read(&out).map_err(|e| VideoError::Ffmpeg(e.to_string()))
+    let stdin = child.stdin.take();
+    Ok(Ffmpeg { child, stdin, dir })
+}
+
+/// Why ffmpeg failed, from what it wrote to its error output.
+fn ffmpeg_failed(ffmpeg: &mut Ffmpeg) -> VideoError {
+    let status = ffmpeg.child.wait().map_or_else(|e| e.to_string(), |s| s.to_string());
+    let log = std::fs::read_to_string(ffmpeg.dir.path().join(LOG_FILE)).unwrap_or_default();
+    VideoError::Ffmpeg(format!("{status}: {}", log.trim()))
 }
 
 #[cfg(test)]
@@ -205,6 +297,20 @@ mod tests {
             Encoder::OpenH264 => eprintln!("SKIPPED: no ffmpeg with libx264 on the PATH"),
             ffmpeg => round_trip(ffmpeg),
         }
+    }
+
+    #[test]
+    fn a_failing_or_missing_encoder_is_an_error() {
+        let frames = vec![RgbImage::new(64, 32); 3];
+        // `false` reads nothing and exits at once: the frames go nowhere, and no file comes.
+        let r = Encoder::Ffmpeg("false".into()).encode(&frames, 25.0);
+        assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("exit status")), "{r:?}");
+        let r = Encoder::Ffmpeg("/nonexistent/ffmpeg".into()).encode(&frames, 25.0);
+        assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("cannot start")), "{r:?}");
+        // A frame of another size than the first is refused as it comes.
+        let mut stream = Encoder::OpenH264.stream(25.0);
+        stream.push(RgbImage::new(64, 32)).unwrap();
+        assert!(matches!(stream.push(RgbImage::new(32, 32)), Err(VideoError::Size(32, 32))));
     }
 
     #[test]

@@ -8,7 +8,6 @@ use crate::renderer::{Renderer, Settings};
 use crate::video::Encoder;
 use exploremaps_format::Path as PathInfo;
 use glam::Vec3;
-use image::RgbImage;
 use std::path::Path;
 
 /// Random-number streams of video frames (path id × 2²⁴ + frame), apart from
@@ -20,23 +19,31 @@ pub(super) fn files(id: usize) -> (String, String) {
     (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
 }
 
-/// The path's equirectangular frames, one a camera key.
-pub(super) fn frames(renderer: &Renderer, settings: &Settings, path: &PathInfo, id: usize) -> Vec<RgbImage> {
-    let w = settings.video_width;
-    let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
-    let mut frames = Vec::with_capacity(eyes.len());
-    renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| frames.push(renderer.to_image(w, w / 2, &frame.color)));
-    frames
-}
-
 /// Renders path `id`, encodes and writes its files. A path without camera
 /// keys has nothing to show: false, and no files.
 pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encoder: &Encoder, path: &PathInfo, id: usize) -> Result<bool, BundleError> {
     let (video, poster) = files(id);
-    let frames = frames(renderer, settings, path, id);
-    let Some(first) = frames.first() else { return Ok(false) };
-    let mp4 = encoder.encode(&frames, crate::smooth::FPS).map_err(|e| BundleError::Video { path: dir.join(&video).display().to_string(), source: e })?;
-    write(dir, &poster, &jpeg(first, 85))?;
+    let w = settings.video_width;
+    let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
+    // Each frame goes to the encoder as it is rendered; the first is the poster too.
+    let mut stream = encoder.stream(crate::smooth::FPS);
+    let (mut first, mut failed) = (None, None);
+    renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| {
+        let image = renderer.to_image(w, w / 2, &frame.color);
+        if first.is_none() {
+            first = Some(image.clone());
+        }
+        if failed.is_none() {
+            failed = stream.push(image).err();
+        }
+    });
+    let Some(first) = first else { return Ok(false) };
+    let video_error = |e| BundleError::Video { path: dir.join(&video).display().to_string(), source: e };
+    if let Some(e) = failed {
+        return Err(video_error(e));
+    }
+    let mp4 = stream.finish().map_err(video_error)?;
+    write(dir, &poster, &jpeg(&first, 85))?;
     write(dir, &video, &mp4)?;
     Ok(true)
 }
