@@ -80,7 +80,7 @@ impl Encoder {
     pub fn encode(&self, frames: &[RgbImage], fps: f32) -> Result<Vec<u8>, VideoError> {
         let mut stream = self.stream(fps);
         for frame in frames {
-            stream.push(frame.clone())?;
+            stream.push(frame)?;
         }
         stream.finish()
     }
@@ -92,7 +92,7 @@ impl Encoder {
             Encoder::Ffmpeg(program) => Kind::Ffmpeg(program.clone(), None),
             Encoder::OpenH264 => Kind::Held(Vec::new()),
         };
-        Stream { fps, size: None, frames: 0, kind }
+        Stream { fps, size: None, kind }
     }
 }
 
@@ -102,8 +102,8 @@ impl Encoder {
 /// path's time) and are not all held at once; openh264 encodes at the end.
 pub struct Stream {
     fps: f32,
+    /// The frames' size, once one has been taken.
     size: Option<(u32, u32)>,
-    frames: usize,
     kind: Kind,
 }
 
@@ -132,17 +132,18 @@ impl Drop for Ffmpeg {
 impl Stream {
     /// Adds the next frame; all must be the first's size, a multiple of 16
     /// and at most 4096 wide.
-    pub fn push(&mut self, frame: RgbImage) -> Result<(), VideoError> {
+    pub fn push(&mut self, frame: &RgbImage) -> Result<(), VideoError> {
         let (w, h) = frame.dimensions();
         if w % 16 != 0 || h % 16 != 0 || w > 4096 || self.size.is_some_and(|s| s != (w, h)) {
             return Err(VideoError::Size(w, h));
         }
-        self.size = Some((w, h));
-        self.frames += 1;
         match &mut self.kind {
-            Kind::Held(frames) => frames.push(frame),
+            Kind::Held(frames) => frames.push(frame.clone()),
             Kind::Ffmpeg(program, running) => {
                 if running.is_none() {
+                    if self.size.is_some() {
+                        return Err(stopped());
+                    }
                     *running = Some(start_ffmpeg(program, (w, h), self.fps)?);
                 }
                 let ffmpeg = running.as_mut().expect("started");
@@ -151,22 +152,24 @@ impl Stream {
                     // ffmpeg has stopped: its own words say why.
                     let mut ffmpeg = running.take().expect("started");
                     drop(ffmpeg.stdin.take());
+                    self.size = Some((w, h));
                     return Err(ffmpeg_failed(&mut ffmpeg));
                 }
             }
         }
+        self.size = Some((w, h));
         Ok(())
     }
 
     /// The MP4 file.
     pub fn finish(mut self) -> Result<Vec<u8>, VideoError> {
-        if self.frames == 0 {
+        if self.size.is_none() {
             return Err(VideoError::Empty);
         }
         match &mut self.kind {
             Kind::Held(frames) => openh264(frames, self.fps),
             Kind::Ffmpeg(_, running) => {
-                let mut ffmpeg = running.take().expect("started at the first frame");
+                let mut ffmpeg = running.take().ok_or_else(stopped)?;
                 drop(ffmpeg.stdin.take());
                 let out = ffmpeg.dir.path().join(VIDEO_FILE);
                 match ffmpeg.child.wait() {
@@ -176,6 +179,11 @@ impl Stream {
             }
         }
     }
+}
+
+/// A stream whose ffmpeg failed at an earlier frame (that error said why).
+fn stopped() -> VideoError {
+    VideoError::Ffmpeg("ffmpeg stopped at an earlier frame".into())
 }
 
 /// ffmpeg's output file and error output in its temporary directory.
@@ -307,10 +315,17 @@ mod tests {
         assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("exit status")), "{r:?}");
         let r = Encoder::Ffmpeg("/nonexistent/ffmpeg".into()).encode(&frames, 25.0);
         assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("cannot start")), "{r:?}");
+        // After a failure the stream stays failed: no second ffmpeg, no panic.
+        let mut stream = Encoder::Ffmpeg("false".into()).stream(25.0);
+        let big = RgbImage::new(1024, 512);
+        let first_error = (0..8).find_map(|_| stream.push(&big).err());
+        assert!(matches!(&first_error, Some(VideoError::Ffmpeg(_))), "{first_error:?}");
+        assert!(matches!(stream.push(&big), Err(VideoError::Ffmpeg(m)) if m.contains("earlier frame")));
+        assert!(matches!(stream.finish(), Err(VideoError::Ffmpeg(_))));
         // A frame of another size than the first is refused as it comes.
         let mut stream = Encoder::OpenH264.stream(25.0);
-        stream.push(RgbImage::new(64, 32)).unwrap();
-        assert!(matches!(stream.push(RgbImage::new(32, 32)), Err(VideoError::Size(32, 32))));
+        stream.push(&RgbImage::new(64, 32)).unwrap();
+        assert!(matches!(stream.push(&RgbImage::new(32, 32)), Err(VideoError::Size(32, 32))));
     }
 
     #[test]

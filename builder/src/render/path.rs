@@ -30,11 +30,11 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encod
     let (mut first, mut failed) = (None, None);
     renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| {
         let image = renderer.to_image(w, w / 2, &frame.color);
-        if first.is_none() {
-            first = Some(image.clone());
-        }
         if failed.is_none() {
-            failed = stream.push(image).err();
+            failed = stream.push(&image).err();
+        }
+        if first.is_none() {
+            first = Some(image);
         }
     });
     let Some(first) = first else { return Ok(false) };

@@ -430,27 +430,23 @@ impl<'a> Tracer<'a> {
                     r.copy_from_slice(&found[..r.len()]);
                 }
             }
+            // Direct light by shadow rays where the keys gave none.
             for i in 0..pixels.len() {
-                match &surfaces[i] {
-                    None => {}
-                    Some(_) if reused[i].is_some() => {}
-                    Some(s) => {
-                        let rng = rngs[i].get_or_insert_with(|| stream(i));
-                        let u = Vec2::new(rng.random(), rng.random());
-                        let seen = lamps.and_then(|c| c.lamps_seen(s.position, s.geometric));
-                        self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| match (&seen, k.checked_sub(suns)) {
-                            // Russian roulette on a lamp no cache point nearby saw (most are in
-                            // other rooms): traced at odds UNSEEN_LAMP_ODDS, carrying its light
-                            // over them, so the mean stays exact wherever the cache was wrong.
-                            (Some(seen), Some(lamp)) if !seen.sees(lamp) => {
-                                if rng.random::<f32>() < UNSEEN_LAMP_ODDS {
-                                    shadows[k].push((i, r, e / UNSEEN_LAMP_ODDS, true));
-                                }
-                            }
-                            _ => shadows[k].push((i, r, e, false)),
-                        });
+                let (Some(s), None) = (&surfaces[i], reused[i]) else { continue };
+                let rng = rngs[i].get_or_insert_with(|| stream(i));
+                let u = Vec2::new(rng.random(), rng.random());
+                let seen = lamps.and_then(|c| c.lamps_seen(s.position, s.geometric));
+                self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| match (&seen, k.checked_sub(suns)) {
+                    // Russian roulette on a lamp no cache point nearby saw (most are in
+                    // other rooms): traced at odds UNSEEN_LAMP_ODDS, carrying its light
+                    // over them, so the mean stays exact wherever the cache was wrong.
+                    (Some(seen), Some(lamp)) if !seen.sees(lamp) => {
+                        if rng.random::<f32>() < UNSEEN_LAMP_ODDS {
+                            shadows[k].push((i, r, e / UNSEEN_LAMP_ODDS, true));
+                        }
                     }
-                }
+                    _ => shadows[k].push((i, r, e, false)),
+                });
             }
             direct.iter_mut().for_each(|d| *d = (Vec3::ZERO, Vec3::ZERO));
             let mut add = |(i, _, e, won): &(usize, Ray, Vec3, bool)| {
