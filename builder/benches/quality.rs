@@ -28,7 +28,8 @@
 //!
 //! Needs `scripts/bench-env.sh` once (FLIP and bpy); without it the table
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
-//! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...), FACE sets the compared face size,
+//! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...;
+//! or the shared scenes staircase, livingroom, apartment), FACE sets the compared face size,
 //! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
 //! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
@@ -76,17 +77,19 @@ fn main() {
     let mut scenes: Vec<(&str, Scene)> = Vec::new();
     // The three scenes of the protocol, or any built-in scene SCENES names.
     let names: Vec<&str> = only.as_ref().map_or(vec!["sunroom", "gallery", "crytek"], |o| o.iter().map(String::as_str).collect());
+    // Shared scenes by short name: (file, metres a unit when the file does not say).
+    let shared = |name: &str| match name {
+        "crytek" => Some(("sponza_crytek/sponza_crytek.obj", Some(0.2))),
+        "staircase" => Some(("wooden_staircase/wooden_staircase.obj", Some(1.0))),
+        "livingroom" => Some(("grey_white_room/grey_white_room.obj", Some(1.0))),
+        "apartment" => Some(("dream_apartment/dream_apartment.glb", None)),
+        _ => None,
+    };
     for name in names {
-        if name == "crytek" {
-            match load(
-                &root.join("../shared/scenes/sponza_crytek/sponza_crytek.obj"),
-                &LoadOptions {
-                    metres_per_unit: Some(0.2),
-                    ..Default::default()
-                },
-            ) {
+        if let Some((file, metres_per_unit)) = shared(name) {
+            match load(&root.join("../shared/scenes").join(file), &LoadOptions { metres_per_unit, ..Default::default() }) {
                 Ok(s) => scenes.push((name, s)),
-                Err(e) => println!("SKIPPED crytek: {e}"),
+                Err(e) => println!("SKIPPED {name}: {e}"),
             }
         } else {
             match BuiltIn::parse(name) {
