@@ -832,10 +832,15 @@ impl Decoded {
     pub fn resolve(&mut self) -> Vec<[u32; 3]> {
         let mut triangles = std::mem::take(&mut self.triangles);
         let keep = &self.keep;
-        triangles.retain_mut(|t| {
-            *t = t.map(|v| keep[v as usize]);
-            !t.contains(&NONE)
-        });
+        // Without a branch on whether a triangle stays: dummies' fans come
+        // and go with no pattern to predict.
+        let mut kept = 0;
+        for i in 0..triangles.len() {
+            let t = triangles[i].map(|v| keep[v as usize]);
+            triangles[kept] = t;
+            kept += usize::from((t[0] != NONE) & (t[1] != NONE) & (t[2] != NONE));
+        }
+        triangles.truncate(kept);
         triangles
     }
 }

@@ -6,8 +6,9 @@
 //! predicted by the parallelogram rule (Touma and Gotsman 1998): a vertex that
 //! arrives by a C across the gate `a -> b` of the triangle `(a, b, o)` is
 //! predicted at `a + b - o`. Colours (optional, RGB8 per vertex) use the same
-//! predictors. Residuals and CLERS symbols are entropy coded (rANS, the
-//! `constriction` crate, whose table decoding needs no division) with static models stored in the file: CLERS conditioned on the
+//! predictors. Residuals and CLERS symbols are entropy coded (rANS: coded by
+//! the `constriction` crate, decoded by [`Source`], by table lookups with no
+//! division) with static models stored in the file: CLERS conditioned on the
 //! previous symbol, residuals as an Elias-gamma bucket (their bit length,
 //! modelled) followed by raw bits. A CRC-32 closes the file.
 //!
@@ -18,9 +19,9 @@
 //! LE) of all that precedes.
 
 use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order};
-use constriction::stream::model::{SmallContiguousCategoricalEntropyModel, SmallContiguousLookupDecoderModel};
+use constriction::stream::model::SmallContiguousCategoricalEntropyModel;
 use constriction::stream::stack::DefaultAnsCoder;
-use constriction::stream::{Decode, Encode};
+use constriction::stream::Encode;
 use std::ops::RangeInclusive;
 
 const MAGIC: &[u8; 4] = b"EMMC";
@@ -30,8 +31,8 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// many bits).
 const VERSION: u8 = 3;
 const NONE: u32 = u32::MAX;
-/// Probabilities are 12-bit fixed point (constriction's "small" preset, which
-/// allows table lookups when decoding).
+/// Probabilities are 12-bit fixed point (constriction's "small" preset: a
+/// decoding table of 4,096 entries a model).
 const PRECISION: u32 = 12;
 
 /// An indexed triangle mesh with a group (material) per triangle and,
@@ -195,7 +196,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     code.symbols.reserve(symbol_count as usize);
     let mut context = 0;
     for _ in 0..symbol_count {
-        let s = source.symbol(context)?;
+        let s = source.symbol(context);
         if s >= edgebreaker::SYMBOLS {
             return Err(corrupt("symbol out of range"));
         }
@@ -232,7 +233,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         // A flag a triangle: whether a new group (raw) follows.
         let mut group = 0;
         for _ in 0..n {
-            if source.symbol(0)? == 1 {
+            if source.symbol(0) == 1 {
                 group = source.raw(group_bits)?;
                 if group >= group_count {
                     return Err(corrupt("group out of range"));
@@ -520,23 +521,37 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// A model being decoded with: by search of its cumulative table at first,
-/// by a lookup table (4,096 entries to build) once it has decoded enough
-/// symbols to repay it. Both give the same symbols.
+/// A model being decoded with: its cumulative probabilities (the symbols'
+/// in order, then 4,096) and, built at its first symbol, the symbol of each
+/// of the 4,096 quantiles.
 struct Model {
-    probabilities: Vec<u16>,
-    search: SmallContiguousCategoricalEntropyModel,
-    lookup: Option<SmallContiguousLookupDecoderModel>,
-    used: u32,
+    cdf: Vec<u16>,
+    table: Vec<u8>,
 }
 
-/// Symbols a model decodes by search before it builds its lookup table.
-const SEARCHED: u32 = 64;
+impl Model {
+    #[cold]
+    fn fill_table(&mut self) {
+        self.table = vec![0; 1 << PRECISION];
+        for (s, w) in self.cdf.windows(2).enumerate() {
+            self.table[w[0] as usize..w[1] as usize].fill(s as u8);
+        }
+    }
+}
 
-/// A section being decoded.
+/// A section being decoded. The rANS decoding is done here rather than by
+/// `constriction` (which encodes): its lookup tables took longer to build than
+/// a small mesh takes to decode, and searching instead was slower per symbol.
+/// This one fills a table of one byte a quantile, a run per symbol, the first
+/// time a model is used. The steps are constriction's `AnsCoder<u32, u64>`
+/// (words popped from the end; a word read whenever the state falls under
+/// 2³²), so both read the same files (tests decode what constriction coded).
 pub(crate) struct Source<'a> {
     models: Vec<Model>,
-    decoder: DefaultAnsCoder,
+    /// The entropy-coded words, as little-endian bytes; `left` of them unread.
+    words: &'a [u8],
+    left: usize,
+    state: u64,
     raw: &'a [u8],
     raw_at: usize,
 }
@@ -550,43 +565,70 @@ impl<'a> Source<'a> {
             if n == 0 || n > 64 {
                 return Err(corrupt("alphabet size"));
             }
-            let mut p = Vec::with_capacity(n);
+            let mut cdf = Vec::with_capacity(n + 1);
+            cdf.push(0u16);
             let mut sum = 0u64;
             for _ in 0..n - 1 {
                 let x = input.varint()?;
-                // (x bounded before the sum, which a huge x would overflow.)
+                // Every symbol at least 1/4096 and the last one too (x
+                // bounded before the sum, which a huge x would overflow).
                 if x == 0 || x >= 1 << PRECISION || sum + x >= 1 << PRECISION {
                     return Err(corrupt("probabilities"));
                 }
                 sum += x;
-                p.push(x as u16);
+                cdf.push(sum as u16);
             }
-            p.push(((1u64 << PRECISION) - sum) as u16);
-            let search = SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(&p, false).map_err(|_| corrupt("probabilities"))?;
-            tables.push(Model { probabilities: p, search, lookup: None, used: 0 });
+            cdf.push(1 << PRECISION);
+            tables.push(Model { cdf, table: Vec::new() });
         }
-        let words = input.varint()? as usize;
-        if words > input.bytes.len() / 4 {
+        let count = input.varint()? as usize;
+        if count > input.bytes.len() / 4 {
             return Err(corrupt("word count"));
         }
-        let data = input.take(words * 4)?;
-        let words: Vec<u32> = data.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        let decoder = DefaultAnsCoder::from_compressed(words).map_err(|_| corrupt("entropy coder"))?;
-        let raw_len = input.varint()? as usize;
-        let raw = input.take(raw_len)?;
-        Ok(Source { models: tables, decoder, raw, raw_at: 0 })
-    }
-    pub(crate) fn symbol(&mut self, model: usize) -> Result<usize, CodingError> {
-        let m = &mut self.models[model];
-        m.used += 1;
-        if m.lookup.is_none() && m.used > SEARCHED {
-            m.lookup = SmallContiguousLookupDecoderModel::from_nonzero_fixed_point_probabilities(&m.probabilities, false).ok();
+        let words = input.take(count * 4)?;
+        let mut source = Source { models: tables, words, left: count, state: 0, raw: &[], raw_at: 0 };
+        // The first word read is the top of the state: never zero.
+        if let Some(first) = source.pop() {
+            if first == 0 {
+                return Err(corrupt("entropy coder"));
+            }
+            source.state = first as u64;
+            if let Some(second) = source.pop() {
+                source.state = source.state << 32 | second as u64;
+            }
         }
-        let decoded = match &m.lookup {
-            Some(table) => self.decoder.decode_symbol(table),
-            None => self.decoder.decode_symbol(&m.search),
-        };
-        decoded.map_err(|_| CodingError::Corrupt("entropy coder".into()))
+        let raw_len = input.varint()? as usize;
+        source.raw = input.take(raw_len)?;
+        Ok(source)
+    }
+
+    /// The last unread word.
+    #[inline]
+    fn pop(&mut self) -> Option<u32> {
+        self.left = self.left.checked_sub(1)?;
+        let at = 4 * self.left;
+        Some(u32::from_le_bytes([self.words[at], self.words[at + 1], self.words[at + 2], self.words[at + 3]]))
+    }
+
+    /// The next symbol of `model`. Any state decodes to some symbol, so
+    /// damaged data gives wrong symbols (which the callers' range checks and
+    /// the file's CRC catch), never a failure here.
+    #[inline]
+    pub(crate) fn symbol(&mut self, model: usize) -> usize {
+        let m = &mut self.models[model];
+        if m.table.is_empty() {
+            m.fill_table();
+        }
+        let quantile = (self.state & ((1 << PRECISION) - 1)) as usize;
+        let symbol = m.table[quantile] as usize;
+        let (low, high) = (m.cdf[symbol], m.cdf[symbol + 1]);
+        self.state = (self.state >> PRECISION) * (high - low) as u64 + (quantile - low as usize) as u64;
+        if self.state < 1 << 32 {
+            if let Some(word) = self.pop() {
+                self.state = self.state << 32 | word as u64;
+            }
+        }
+        symbol
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
         if bits == 0 {
@@ -607,7 +649,7 @@ impl<'a> Source<'a> {
         Ok(((window >> shift) & ((1u64 << bits) - 1)) as u32)
     }
     pub(crate) fn value(&mut self, model: usize) -> Result<u32, CodingError> {
-        let n = self.symbol(model)? as u32;
+        let n = self.symbol(model) as u32;
         match n {
             0 => Ok(0),
             1..=32 => Ok(1 << (n - 1) | self.raw(n - 1)?),

@@ -212,7 +212,7 @@ impl Refiner {
         let max = grid.max as i64;
         let axis = |x: i64| if (0..=max).contains(&x) { Ok(x as u32) } else { corrupt("position off the grid") };
         let group = |src: &mut Source, predicted: u32| -> Result<u32, CodingError> {
-            if group_count == 1 || src.symbol(GROUP)? == 0 {
+            if group_count == 1 || src.symbol(GROUP) == 0 {
                 return Ok(predicted);
             }
             let g = src.raw(group_bits)?;
@@ -222,7 +222,7 @@ impl Refiner {
                 corrupt("group out of range")
             }
         };
-        match src.symbol(KIND)? {
+        match src.symbol(KIND) {
             0 => {
                 let vertex = src.raw(bit_length(n.saturating_sub(1)))?;
                 if vertex >= n {
@@ -250,11 +250,11 @@ impl Refiner {
                 }
                 let mut moved = Vec::new();
                 for &t in &self.incident[vertex as usize] {
-                    if src.symbol(MOVED + self.nearer_new(t, vertex, position, new_position))? == 1 {
+                    if src.symbol(MOVED + self.nearer_new(t, vertex, position, new_position)) == 1 {
                         moved.push(t);
                     }
                 }
-                let count = match src.symbol(ADDED)? as u32 {
+                let count = match src.symbol(ADDED) as u32 {
                     ADDED_ESCAPE => ADDED_ESCAPE + src.value(ADDED)?,
                     c => c,
                 };
@@ -266,17 +266,17 @@ impl Refiner {
                 let (mut added, mut groups) = (Vec::new(), Vec::new());
                 for _ in 0..count {
                     let mut tri = [0u32; 3];
-                    if src.symbol(FAN)? == 0 {
+                    if src.symbol(FAN) == 0 {
                         let k = src.value(NEIGHBOUR)? as usize;
                         if k >= neighbours.len() {
                             return corrupt("neighbour out of range");
                         }
                         let x = neighbours.remove(k);
-                        let turn = src.symbol(TURN + self.turn_guess(vertex, x, &moved))?;
+                        let turn = src.symbol(TURN + self.turn_guess(vertex, x, &moved));
                         tri = if turn == 0 { [vertex, n, x] } else { [vertex, x, n] };
                     } else {
                         for (slot, c) in tri.iter_mut().enumerate() {
-                            *c = match src.symbol(CORNER + slot)? {
+                            *c = match src.symbol(CORNER + slot) {
                                 0 => vertex,
                                 1 => n,
                                 _ => src.raw(bit_length(n))?,
