@@ -64,10 +64,10 @@ const BORDER_WEIGHT: f64 = 10.0;
 const MIN_NORMAL_COSINE: f32 = 0.2;
 /// A collapse costs at least this share of how far it moves off the plane
 /// of a face around it. All of it made the greedy order too timid (the
-/// bunny's and Crytek Sponza's 50 % and 1 % levels farther from their input
-/// than meshoptimizer's, and 1.7 times the time); half keeps every level of
-/// the proxy bench's four scenes within 2 % of meshoptimizer's distances or
-/// closer (ARCHITECTURE.md, proxy figures).
+/// bunny's 50 % level and the Dabrovic Sponza's 1 % level farther from their
+/// input than meshoptimizer's, and 1.7 times the time); half keeps every
+/// level of the proxy bench's four scenes within 3 % of meshoptimizer's
+/// distances or closer (ARCHITECTURE.md, proxy figures).
 const FARTHEST_PLANE_SHARE: f32 = 0.5;
 /// Most triangles on an edge that collapses (a split record brings back at
 /// most 255; real non-manifold edges carry three or four).
