@@ -758,6 +758,45 @@ mod tests {
         assert!(Source::new(&mut Reader { bytes: &bytes, at: 0 }, 1).is_err());
     }
 
+    /// The hand-written rANS decoder against constriction's encoder, on
+    /// models of one symbol (probability 1), two, and 64 (most rare), in
+    /// sections from empty to long enough for many word reads.
+    #[test]
+    fn sections_decode_to_the_symbols_and_raw_bits_coded() {
+        let mut state = 99u64;
+        let mut next = move |n: u64| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 33) % n
+        };
+        for length in [0usize, 1, 7, 300, 20_000] {
+            let mut sink = Sink::new(3);
+            let mut expected = Vec::new();
+            for k in 0..length {
+                let model = k % 3;
+                let symbol = match model {
+                    0 => 0,
+                    // Skewed: symbol 1 about one time in a hundred.
+                    1 => usize::from(next(100) == 0),
+                    _ => [next(64), next(3)][next(2) as usize] as usize,
+                };
+                sink.symbol(model, symbol);
+                let bits = next(20) as u32;
+                let raw = next(1 << bits) as u32;
+                sink.raw(raw, bits);
+                expected.push((model, symbol, bits, raw));
+            }
+            let mut out = Writer::default();
+            out.section(sink);
+            let mut reader = Reader { bytes: &out.bytes, at: 0 };
+            let mut source = Source::new(&mut reader, 3).unwrap();
+            for (k, &(model, symbol, bits, raw)) in expected.iter().enumerate() {
+                assert_eq!(source.symbol(model), symbol, "symbol {k} of {length}");
+                assert_eq!(source.raw(bits).unwrap(), raw, "raw bits {k} of {length}");
+            }
+            assert_eq!(reader.at, out.bytes.len());
+        }
+    }
+
     #[test]
     fn damaged_files_are_errors() {
         let mesh = wavy_grid(6);
