@@ -137,11 +137,14 @@ impl Stream {
         if w % 16 != 0 || h % 16 != 0 || w > 4096 || self.size.is_some_and(|s| s != (w, h)) {
             return Err(VideoError::Size(w, h));
         }
+        // Set before anything can fail: a stream whose ffmpeg failed to
+        // start or stopped stays failed (no second ffmpeg).
+        let earlier = self.size.replace((w, h)).is_some();
         match &mut self.kind {
             Kind::Held(frames) => frames.push(frame.clone()),
             Kind::Ffmpeg(program, running) => {
                 if running.is_none() {
-                    if self.size.is_some() {
+                    if earlier {
                         return Err(stopped());
                     }
                     *running = Some(start_ffmpeg(program, (w, h), self.fps)?);
@@ -152,12 +155,10 @@ impl Stream {
                     // ffmpeg has stopped: its own words say why.
                     let mut ffmpeg = running.take().expect("started");
                     drop(ffmpeg.stdin.take());
-                    self.size = Some((w, h));
                     return Err(ffmpeg_failed(&mut ffmpeg));
                 }
             }
         }
-        self.size = Some((w, h));
         Ok(())
     }
 
@@ -315,6 +316,10 @@ mod tests {
         assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("exit status")), "{r:?}");
         let r = Encoder::Ffmpeg("/nonexistent/ffmpeg".into()).encode(&frames, 25.0);
         assert!(matches!(&r, Err(VideoError::Ffmpeg(m)) if m.contains("cannot start")), "{r:?}");
+        // One that cannot start is not tried again at the next frame.
+        let mut stream = Encoder::Ffmpeg("/nonexistent/ffmpeg".into()).stream(25.0);
+        assert!(matches!(stream.push(&frames[0]), Err(VideoError::Ffmpeg(m)) if m.contains("cannot start")));
+        assert!(matches!(stream.push(&frames[0]), Err(VideoError::Ffmpeg(m)) if m.contains("earlier frame")));
         // After a failure the stream stays failed: no second ffmpeg, no panic.
         let mut stream = Encoder::Ffmpeg("false".into()).stream(25.0);
         let big = RgbImage::new(1024, 512);
