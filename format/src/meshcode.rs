@@ -313,7 +313,7 @@ fn decode_predicted(source: &mut Source, decoded: &Decoded, max: u32, first: [u3
         let predicted = predict(&decoded.predictors[v], &decoded.keep, &values, previous, max);
         let mut decoded = [0; 3];
         for i in 0..3 {
-            decoded[i] = value(predicted[i], source.value(i)?).ok_or_else(|| CodingError::Corrupt("value out of range".into()))?;
+            decoded[i] = source.try_value(i).and_then(|r| value(predicted[i], r)).ok_or_else(|| CodingError::Corrupt("value out of range, over 32 bits or past the raw bits".into()))?;
         }
         values[k as usize] = decoded;
         previous = decoded;
@@ -525,17 +525,21 @@ impl<'a> Reader<'a> {
 /// in order, then 4,096) and, built at its first symbol, the symbol of each
 /// of the 4,096 quantiles.
 struct Model {
-    cdf: Vec<u16>,
-    table: Vec<u8>,
+    /// Symbol s spans quantiles `cdf[s]..cdf[s + 1]`; at most 64 symbols
+    /// (checked when read), so a symbol masked to six bits indexes it unchecked.
+    cdf: [u16; 65],
+    table: Option<Box<[u8; 1 << PRECISION]>>,
 }
 
 impl Model {
+    /// The table, each byte written once (a run per symbol).
     #[cold]
-    fn fill_table(&mut self) {
-        self.table = vec![0; 1 << PRECISION];
-        for (s, w) in self.cdf.windows(2).enumerate() {
-            self.table[w[0] as usize..w[1] as usize].fill(s as u8);
+    fn fill_table(&mut self, symbols: usize) -> &[u8; 1 << PRECISION] {
+        let mut table = Vec::with_capacity(1 << PRECISION);
+        for s in 0..symbols {
+            table.resize(self.cdf[s + 1] as usize, s as u8);
         }
+        self.table.insert(table.into_boxed_slice().try_into().expect("the last symbol ends at 4,096"))
     }
 }
 
@@ -547,10 +551,9 @@ impl Model {
 /// (words popped from the end; a word read whenever the state falls under
 /// 2³²), so both read the same files (tests decode what constriction coded).
 pub(crate) struct Source<'a> {
-    models: Vec<Model>,
-    /// The entropy-coded words, as little-endian bytes; `left` of them unread.
+    models: Vec<(Model, usize)>,
+    /// The unread entropy-coded words, as little-endian bytes (read from the end).
     words: &'a [u8],
-    left: usize,
     state: u64,
     raw: &'a [u8],
     raw_at: usize,
@@ -565,10 +568,9 @@ impl<'a> Source<'a> {
             if n == 0 || n > 64 {
                 return Err(corrupt("alphabet size"));
             }
-            let mut cdf = Vec::with_capacity(n + 1);
-            cdf.push(0u16);
+            let mut cdf = [0u16; 65];
             let mut sum = 0u64;
-            for _ in 0..n - 1 {
+            for c in &mut cdf[1..n] {
                 let x = input.varint()?;
                 // Every symbol at least 1/4096 and the last one too (x
                 // bounded before the sum, which a huge x would overflow).
@@ -576,17 +578,17 @@ impl<'a> Source<'a> {
                     return Err(corrupt("probabilities"));
                 }
                 sum += x;
-                cdf.push(sum as u16);
+                *c = sum as u16;
             }
-            cdf.push(1 << PRECISION);
-            tables.push(Model { cdf, table: Vec::new() });
+            cdf[n] = 1 << PRECISION;
+            tables.push((Model { cdf, table: None }, n));
         }
         let count = input.varint()? as usize;
         if count > input.bytes.len() / 4 {
             return Err(corrupt("word count"));
         }
         let words = input.take(count * 4)?;
-        let mut source = Source { models: tables, words, left: count, state: 0, raw: &[], raw_at: 0 };
+        let mut source = Source { models: tables, words, state: 0, raw: &[], raw_at: 0 };
         // The first word read is the top of the state: never zero.
         if let Some(first) = source.pop() {
             if first == 0 {
@@ -605,9 +607,9 @@ impl<'a> Source<'a> {
     /// The last unread word.
     #[inline]
     fn pop(&mut self) -> Option<u32> {
-        self.left = self.left.checked_sub(1)?;
-        let at = 4 * self.left;
-        Some(u32::from_le_bytes([self.words[at], self.words[at + 1], self.words[at + 2], self.words[at + 3]]))
+        let (rest, last) = self.words.split_last_chunk::<4>()?;
+        self.words = rest;
+        Some(u32::from_le_bytes(*last))
     }
 
     /// The next symbol of `model`. Any state decodes to some symbol, so
@@ -615,12 +617,13 @@ impl<'a> Source<'a> {
     /// the file's CRC catch), never a failure here.
     #[inline]
     pub(crate) fn symbol(&mut self, model: usize) -> usize {
-        let m = &mut self.models[model];
-        if m.table.is_empty() {
-            m.fill_table();
-        }
+        let (m, n) = &mut self.models[model];
         let quantile = (self.state & ((1 << PRECISION) - 1)) as usize;
-        let symbol = m.table[quantile] as usize;
+        let symbol = match &m.table {
+            Some(table) => table[quantile],
+            None => m.fill_table(*n)[quantile],
+        } as usize
+            & 63;
         let (low, high) = (m.cdf[symbol], m.cdf[symbol + 1]);
         self.state = (self.state >> PRECISION) * (high - low) as u64 + (quantile - low as usize) as u64;
         if self.state < 1 << 32 {
@@ -631,30 +634,38 @@ impl<'a> Source<'a> {
         symbol
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
-        if bits == 0 {
-            return Ok(0);
-        }
-        if bits > 32 || self.raw_at + bits as usize > self.raw.len() * 8 {
-            return Err(CodingError::Corrupt("raw bits run out".into()));
+        (bits <= 32).then(|| self.bits(bits)).flatten().ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))
+    }
+    /// The next `bits` (at most 32) raw bits, None past the end.
+    #[inline]
+    fn bits(&mut self, bits: u32) -> Option<u32> {
+        let end = self.raw_at + bits as usize;
+        if end > self.raw.len() * 8 {
+            return None;
         }
         // At most 32 bits from any bit offset: within five bytes, read as one
         // little-endian word of eight where eight are left.
         let (byte, shift) = (self.raw_at / 8, self.raw_at % 8);
         let window = match self.raw.get(byte..byte + 8) {
-            Some(eight) => u64::from_le_bytes(eight.try_into().expect("eight bytes")),
+            Some(eight) => u64::from_le_bytes(eight.try_into().ok()?),
             // Near the end: the bytes that are left.
-            None => self.raw[byte..].iter().rev().fold(0u64, |w, &b| w << 8 | b as u64),
+            None => self.raw[byte.min(self.raw.len())..].iter().rev().fold(0u64, |w, &b| w << 8 | b as u64),
         };
-        self.raw_at += bits as usize;
-        Ok(((window >> shift) & ((1u64 << bits) - 1)) as u32)
+        self.raw_at = end;
+        Some(((window >> shift) & ((1u64 << bits) - 1)) as u32)
     }
+    /// A number coded as its bit length (a symbol of `model`) and the bits
+    /// below its leading one (raw).
     pub(crate) fn value(&mut self, model: usize) -> Result<u32, CodingError> {
+        self.try_value(model).ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))
+    }
+    /// `value`, None where it fails (returned in a register, for hot loops).
+    #[inline]
+    fn try_value(&mut self, model: usize) -> Option<u32> {
         let n = self.symbol(model) as u32;
-        match n {
-            0 => Ok(0),
-            1..=32 => Ok(1 << (n - 1) | self.raw(n - 1)?),
-            _ => Err(CodingError::Corrupt("value over 32 bits".into())),
-        }
+        let below = n.saturating_sub(1);
+        let low = self.bits(below)?;
+        (n <= 32).then_some(if n == 0 { 0 } else { 1 << below | low })
     }
 }
 
