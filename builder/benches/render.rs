@@ -77,7 +77,7 @@ fn main() {
         // `video_keys` frames and the frames between reusing the keys' light.
         let eyes: Vec<Vec3> = graph.paths.first().map(|p| p.camera.iter().take(2 * settings.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect()).unwrap_or_default();
         let t = Instant::now();
-        renderer.path_frames(&settings.video, &eyes, vw, 0, settings.video_keys, |_, _| {});
+        renderer.path_frames(&settings.video, &eyes, vw, 0, settings.video_keys, |_, _| std::ops::ControlFlow::Continue(()));
         let per_frame = t.elapsed().as_secs_f64() / eyes.len().max(1) as f64;
         let px = (vw * vw / 2) as f64 * settings.video.samples as f64;
         println!(

@@ -8,6 +8,7 @@ use crate::renderer::{Renderer, Settings};
 use crate::video::Encoder;
 use exploremaps_format::Path as PathInfo;
 use glam::Vec3;
+use std::ops::ControlFlow;
 use std::path::Path;
 
 /// Random-number streams of video frames (path id × 2²⁴ + frame), apart from
@@ -30,12 +31,10 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encod
     let (mut first, mut failed) = (None, None);
     renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| {
         let image = renderer.to_image(w, w / 2, &frame.color);
-        if failed.is_none() {
-            failed = stream.push(&image).err();
-        }
-        if first.is_none() {
-            first = Some(image);
-        }
+        failed = stream.push(&image).err();
+        first.get_or_insert(image);
+        // No more frames once the encoder has failed: the path errs anyway.
+        if failed.is_some() { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
     });
     let Some(first) = first else { return Ok(false) };
     let video_error = |e| BundleError::Video { path: dir.join(&video).display().to_string(), source: e };

@@ -49,6 +49,7 @@ use exploremaps_scenes::Scene;
 use glam::Vec3;
 use image::RgbImage;
 use rayon::prelude::*;
+use std::ops::ControlFlow;
 
 /// How much work a render puts in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -237,12 +238,17 @@ impl<'a> Renderer<'a> {
     /// `GatherParams::history_rays` says); the frames between take their
     /// lighting from those two ([`reuse`]). Rows toward the poles trace
     /// fewer pixels ([`equirect_columns`]): a fifth less work a frame.
-    pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame)) {
+    /// `each` breaks to stop the path there (its encoder failed, say).
+    pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame) -> ControlFlow<()>) {
         let n = eyes.len();
         let columns = equirect_rows(width);
         let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse, &columns);
         if params.samples != 1 || interval <= 1 || n < 3 {
-            (0..n).for_each(|i| each(i, render(params, i, reuse::Reuse::Off).0));
+            for i in 0..n {
+                if each(i, render(params, i, reuse::Reuse::Off).0).is_break() {
+                    return;
+                }
+            }
             return;
         }
         let mut keys: Vec<usize> = (0..n).step_by(interval as usize).collect();
@@ -252,7 +258,9 @@ impl<'a> Renderer<'a> {
         // Keys after the first: fewer rays, averaged with the keys before.
         let later = params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
         let (first, lit) = render(params, 0, reuse::Reuse::Key { history: None });
-        each(0, first);
+        if each(0, first).is_break() {
+            return;
+        }
         let mut previous = lit.expect("key frames keep their lighting");
         for w in keys.windows(2) {
             let (a, b) = (w[0], w[1]);
@@ -263,9 +271,13 @@ impl<'a> Renderer<'a> {
             let next = lit.expect("key frames keep their lighting");
             for i in a + 1..b {
                 let between = reuse::Between { keys: [&previous, &next], t: (i - a) as f32 / (b - a) as f32 };
-                each(i, render(params, i, reuse::Reuse::Between(&between)).0);
+                if each(i, render(params, i, reuse::Reuse::Between(&between)).0).is_break() {
+                    return;
+                }
             }
-            each(b, key);
+            if each(b, key).is_break() {
+                return;
+            }
             previous = next;
         }
     }

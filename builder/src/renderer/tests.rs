@@ -73,11 +73,34 @@ fn renders_do_not_depend_on_the_thread_count() {
             let video = Settings::new(Quality::Final, 3).video;
             let walk: Vec<Vec3> = (0..5).map(|i| eyes[0].lerp(eyes[1], i as f32 / 4.0)).collect();
             let mut frames = Vec::new();
-            renderer.path_frames(&video, &walk, 32, 9, 4, |_, f| frames.push(f.color));
+            renderer.path_frames(&video, &walk, 32, 9, 4, |_, f| {
+                frames.push(f.color);
+                ControlFlow::Continue(())
+            });
             (renderer.exposure, renderer.equirect(&params, eyes[0], 64, 5).color, renderer.equirect(&gather, eyes[1], 64, 6).color, frames)
         })
     };
     assert_eq!(render(1), render(2));
+}
+
+#[test]
+fn a_path_stops_at_the_frame_its_consumer_breaks_on() {
+    let scene = crate::testing::pillar_room(0.6);
+    let eyes: Vec<Vec3> = (0..9).map(|i| Vec3::new(2.0 + 0.5 * i as f32, 1.5, 2.0)).collect();
+    let rays = ray_scene(&scene);
+    let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Final, 3));
+    // Key frames and frames between them, and every frame lit alone.
+    let video = renderer.settings.video;
+    for params in [video, TraceParams { samples: 2, ..video }] {
+        for stop in [0, 2, 4, 8] {
+            let mut seen = Vec::new();
+            renderer.path_frames(&params, &eyes, 32, 0, 4, |i, _| {
+                seen.push(i);
+                if i == stop { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+            });
+            assert_eq!(seen, (0..=stop).collect::<Vec<_>>(), "{} samples, stop at {stop}", params.samples);
+        }
+    }
 }
 
 #[test]
@@ -437,7 +460,10 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     let video = renderer.settings.video;
     let width = 256;
     let mut frames = Vec::new();
-    renderer.path_frames(&video, &eyes, width, 0, 8, |i, f| frames.push((i, f)));
+    renderer.path_frames(&video, &eyes, width, 0, 8, |i, f| {
+        frames.push((i, f));
+        ControlFlow::Continue(())
+    });
     assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..9).collect::<Vec<_>>(), "frames come in order");
     // Lit alone as path frames are, rows thinned toward the poles.
     let alone = |params: &TraceParams, i: usize| renderer.tracer.render_reusing(params, eyes[i], (width, width / 2), i as u64, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0;
@@ -481,7 +507,10 @@ fn key_frames_averaged_with_the_keys_before_come_closer_to_the_answer() {
     let with = |rays: u32, history_rays: u32| TraceParams { gather: renderer.settings.video.gather.map(|g| GatherParams { rays, history_rays, ..g }), ..renderer.settings.video };
     let keys = |params: &TraceParams| {
         let mut frames = Vec::new();
-        renderer.path_frames(params, &eyes, width, 0, 2, |_, f| frames.push(f));
+        renderer.path_frames(params, &eyes, width, 0, 2, |_, f| {
+            frames.push(f);
+            ControlFlow::Continue(())
+        });
         frames
     };
     let (alone, averaged) = (keys(&with(4, 0)), keys(&with(4, 4)));
