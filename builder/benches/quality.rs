@@ -30,7 +30,8 @@
 //! shows PSNR only. `cargo bench -p exploremaps-builder --bench quality`;
 //! SCENES=sunroom,gallery,crytek narrows it (or names other built-in scenes: maze, house, ...;
 //! or the shared scenes staircase, livingroom, apartment), FACE sets the compared face size,
-//! REF_SPP the reference's samples, LIGHTS=sun,sky,points,emitters keeps only
+//! REF_SPP the reference's samples, FACES=2 compares only the faces named (90° views: 0-5 are
+//! +x -x +y -y +z -z), LIGHTS=sun,sky,points,emitters keeps only
 //! those lights and NO_TEXTURES=1 drops textures (to check each against Cycles); VIDEO_GATHER and
 //! PANORAMA_GATHER=rays,step[,passes[,near]], VIDEO_SPREAD / PANORAMA_SPREAD=x, VIDEO_WIDEN / PANORAMA_WIDEN=passes,x, VIDEO_KEYS=n, VIDEO_HISTORY=rays (0: keys gather alone), VIDEO_ANTIALIAS=0, SUN_RAYS=n and CACHE_GATHER=n (gather rays a cache cell) try
 //! other settings. REF_BOUNCES=n (1 or more) caps the reference's bounces and Cycles' at n
@@ -74,6 +75,10 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1024);
+    // FACES=2,4 compares only those cube faces (0-5: +x -x +y -y +z -z), as 90° views:
+    // a reference at 1024² costs hours for six faces here.
+    let views: Vec<usize> = std::env::var("FACES").map_or((0..6).collect(), |v| v.split(',').filter_map(|f| f.trim().parse().ok()).filter(|&f| f < 6).collect());
+    assert!(!views.is_empty(), "FACES names no face of 0-5");
     let mut scenes: Vec<(&str, Scene)> = Vec::new();
     // The three scenes of the protocol, or any built-in scene SCENES names.
     let names: Vec<&str> = only.as_ref().map_or(vec!["sunroom", "gallery", "crytek"], |o| o.iter().map(String::as_str).collect());
@@ -204,11 +209,12 @@ fn main() {
         }
         let bake = t.elapsed().as_secs_f64();
         let exposure = renderer.exposure;
+        // Images of the compared faces (`views`, in that order).
         let save = |tag: &str, size: u32, faces: &[Vec<Vec3>]| -> Vec<PathBuf> {
             faces
                 .iter()
-                .enumerate()
-                .map(|(f, c)| {
+                .zip(&views)
+                .map(|(c, f)| {
                     let path = out.join(format!("{name}-{tag}-{f}.png"));
                     to_image(size, size, c, exposure).save(&path).unwrap();
                     path
@@ -222,20 +228,21 @@ fn main() {
         // each takes every surface's reflectance to be; then the next scene.
         if albedo_only() {
             let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
-            let ours: Vec<Vec<Vec3>> = (0..6).map(|f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
+            let ours: Vec<Vec<Vec3>> = views.iter().map(|&f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
             save("albedo", face, &ours);
             match cycles(&python, scene, &renderer, eye, &[("albedo".into(), 64, false, face)], 0, &out.join(format!("cycles-albedo-{name}"))) {
                 Err(e) => println!("Cycles albedo comparison failed: {e}"),
                 Ok(done) => {
-                    save("cycles_albedo", face, &done[0].3);
+                    let theirs: Vec<Vec<Vec3>> = views.iter().map(|&f| done[0].3[f].clone()).collect();
+                    save("cycles_albedo", face, &theirs);
                     let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
-                    let ratios: Vec<String> = done[0].3.iter().zip(&ours).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
+                    let ratios: Vec<String> = theirs.iter().zip(&ours).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
                     println!("{name}: Cycles' first-hit albedo over ours, per face (r, g, b): {}", ratios.join(" "));
                 }
             }
             continue;
         }
-        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0));
+        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0), &views);
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
         // Video frames are compared at about their own resolution (or FACE, when smaller).
@@ -264,13 +271,9 @@ fn main() {
             ("final panorama", settings.panorama),
         ] {
             let t = Instant::now();
-            let faces: Vec<Vec<Vec3>> = renderer
-                .cube(&params, eye, 2048, 0)
-                .into_iter()
-                .map(|f| f.color)
-                .collect();
+            let faces = renderer.cube(&params, eye, 2048, 0);
             let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, 2048, face)).collect();
+            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, 2048, face)).collect();
             rows.push((
                 tag.to_string(),
                 seconds,
@@ -299,8 +302,9 @@ fn main() {
             let t = Instant::now();
             let frame = renderer.equirect(&params, eye, settings.video_width, 0);
             let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = (0..6)
-                .map(|f| cube_from_equirect(&frame.color, settings.video_width, f, small))
+            let faces: Vec<Vec<Vec3>> = views
+                .iter()
+                .map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small))
                 .collect();
             rows.push((
                 tag.to_string(),
@@ -330,6 +334,7 @@ fn main() {
                 if i == 2 * interval + interval / 2 {
                     middle = Some(frame);
                 }
+                std::ops::ControlFlow::Continue(())
             });
             let seconds = t.elapsed().as_secs_f64() / eyes.len() as f64;
             // Frames between keys are handed over as each is rendered: the median gap is one's cost.
@@ -337,7 +342,7 @@ fn main() {
             gaps.sort_by(f64::total_cmp);
             let between = gaps[gaps.len() / 2];
             let frame = middle.expect("the middle frame");
-            let faces: Vec<Vec<Vec3>> = (0..6).map(|f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
+            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
             let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
             rows.push((tag, seconds, save("final_video_between_keys", small, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
         }
@@ -357,7 +362,8 @@ fn main() {
                     // Ours at the same face size, when that is not the bundle's 2048.
                     if cycles_face != 2048 {
                         let t = Instant::now();
-                        let faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, cycles_face, 0).into_iter().map(|f| shrink(&f.color, cycles_face, face)).collect();
+                        let faces = renderer.cube(&settings.panorama, eye, cycles_face, 0);
+                        let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, cycles_face, face)).collect();
                         let seconds = t.elapsed().as_secs_f64();
                         cycles_rows.push((rows.len(), 0, seconds));
                         rows.push((format!("final panorama, {cycles_face}² faces"), seconds, save(&format!("final_{cycles_face}"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
@@ -365,6 +371,7 @@ fn main() {
                         cycles_rows.push((2, 0, rows[2].1));
                     }
                     for (tag, samples, size, faces, seconds) in done {
+                        let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| faces[f].clone()).collect();
                         if tag.contains("reference") {
                             // Noise aside, do the two renderers compute the same light? Mean radiance per face.
                             let mean = |f: &[Vec3]| f.iter().map(|c| c.dot(Vec3::ONE)).sum::<f32>() / f.len() as f32;
@@ -401,7 +408,7 @@ fn main() {
             if values.len() != args.len() / 2 {
                 println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
             }
-            let mut next = values.chunks(6).map(|v| v.iter().sum::<f64>() / 6.0);
+            let mut next = values.chunks(views.len()).map(|v| v.iter().sum::<f64>() / v.len() as f64);
             let complete = values.len() == args.len() / 2;
             rows.iter()
                 .map(|r| {
@@ -425,7 +432,7 @@ fn main() {
                     )
                 })
                 .sum::<f64>()
-                / 6.0;
+                / views.len() as f64;
             // How much the score moves when the reference's samples double.
             let change = match flip {
                 Some((f, Some(h))) => format!("{:+.4}", f - h),
@@ -489,17 +496,18 @@ fn fingerprint(scene: &exploremaps_scenes::Scene) -> u32 {
     h.finalize()
 }
 
-/// The six faces at `face`² by plain path tracing, accumulated in batches of
+/// The faces `views` (all six by default) at `face`² by plain path tracing, accumulated in batches of
 /// 32 samples; the images at half and at all the samples are kept on disk and
 /// reused: (at half the samples, at all, seconds spent now).
-fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32, bounces: u32) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32, bounces: u32, views: &[usize]) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
-    let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}", eye.x, eye.y, eye.z);
+    let some = if views.len() < 6 { format!("-faces{}", views.iter().map(usize::to_string).collect::<String>()) } else { String::new() };
+    let key = format!("{name}-{face}-{:.3}_{:.3}_{:.3}{some}", eye.x, eye.y, eye.z);
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
     let load = |samples: u32| -> Option<Vec<Vec<Vec3>>> {
-        let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == 6 * 12 * n)?;
+        let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == views.len() * 12 * n)?;
         Some(bytes.chunks_exact(12 * n).map(|f| f.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect()).collect())
     };
     let save = |samples: u32, img: &[Vec<Vec3>]| {
@@ -514,12 +522,12 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     // Sums of radiance over the samples so far.
     let (mut sum, mut done) = match &half {
         Some(h) => (h.iter().map(|f| f.iter().map(|c| *c * (spp / 2) as f32).collect()).collect(), spp / 2),
-        None => (vec![vec![Vec3::ZERO; n]; 6], 0),
+        None => (vec![vec![Vec3::ZERO; n]; views.len()], 0),
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
         let params = TraceParams { samples: BATCH, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
-        for (f, s) in sum.iter_mut().enumerate() {
+        for (&f, s) in views.iter().zip(sum.iter_mut()) {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
             s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);
         }
