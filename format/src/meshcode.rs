@@ -503,7 +503,7 @@ pub(crate) struct Reader<'a> {
 
 impl<'a> Reader<'a> {
     pub(crate) fn take(&mut self, n: usize) -> Result<&'a [u8], CodingError> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or(CodingError::Corrupt("truncated".into()))?;
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or_else(|| CodingError::Corrupt("truncated".into()))?;
         let out = &self.bytes[self.at..end];
         self.at = end;
         Ok(out)

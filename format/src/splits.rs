@@ -320,7 +320,7 @@ impl Refiner {
                     let mut tri = [0u32; 3];
                     for c in &mut tri {
                         let back = src.value(PART)? as u64;
-                        *c = total.checked_sub(back + 1).ok_or(CodingError::Corrupt("part corner out of range".into()))? as u32;
+                        *c = total.checked_sub(back + 1).ok_or_else(|| CodingError::Corrupt("part corner out of range".into()))? as u32;
                     }
                     tris.push(tri);
                 }
