@@ -940,11 +940,11 @@ impl State<'_> {
                 if tri.contains(&kept) && tri.contains(&removed) {
                     continue;
                 }
-                let before = tri.map(|w| self.positions[w as usize]);
                 let after = tri.map(|w| if w == kept || w == removed { p } else { self.positions[w as usize] });
-                let (n0, n1) = (normal(before), normal(after));
-                let (l0, l1) = (n0.length(), n1.length());
-                if l1 <= 1e-12 * (1.0 + l0) || n0.dot(n1) < MIN_NORMAL_COSINE * l0 * l1 || n1.dot(self.input_normals[t as usize]) <= 0.0 {
+                // The face's unit normal before is its kept plane's (zero if it had no area).
+                let (n0, n1) = (self.planes[t as usize].truncate(), normal(after));
+                let l1 = n1.length();
+                if l1 <= 1e-12 || (n0 != Vec3::ZERO && n0.dot(n1) < MIN_NORMAL_COSINE * l1) || n1.dot(self.input_normals[t as usize]) <= 0.0 {
                     return false;
                 }
             }
