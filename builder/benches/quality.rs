@@ -499,6 +499,7 @@ fn fingerprint(scene: &exploremaps_scenes::Scene) -> u32 {
 /// The faces `views` (all six by default) at `face`² by plain path tracing, accumulated in batches of
 /// 32 samples; the images at half and at all the samples are kept on disk and
 /// reused: (at half the samples, at all, seconds spent now).
+#[allow(clippy::too_many_arguments)]
 fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32, bounces: u32, views: &[usize]) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
