@@ -528,15 +528,16 @@ struct Model {
     /// Symbol s spans quantiles `cdf[s]..cdf[s + 1]`; at most 64 symbols
     /// (checked when read), so a symbol masked to six bits indexes it unchecked.
     cdf: [u16; 65],
+    symbols: usize,
     table: Option<Box<[u8; 1 << PRECISION]>>,
 }
 
 impl Model {
     /// The table, each byte written once (a run per symbol).
     #[cold]
-    fn fill_table(&mut self, symbols: usize) -> &[u8; 1 << PRECISION] {
+    fn fill_table(&mut self) -> &[u8; 1 << PRECISION] {
         let mut table = Vec::with_capacity(1 << PRECISION);
-        for s in 0..symbols {
+        for s in 0..self.symbols {
             table.resize(self.cdf[s + 1] as usize, s as u8);
         }
         self.table.insert(table.into_boxed_slice().try_into().expect("the last symbol ends at 4,096"))
@@ -551,7 +552,7 @@ impl Model {
 /// (words popped from the end; a word read whenever the state falls under
 /// 2³²), so both read the same files (tests decode what constriction coded).
 pub(crate) struct Source<'a> {
-    models: Vec<(Model, usize)>,
+    models: Vec<Model>,
     /// The unread entropy-coded words, as little-endian bytes (read from the end).
     words: &'a [u8],
     state: u64,
@@ -581,7 +582,7 @@ impl<'a> Source<'a> {
                 *c = sum as u16;
             }
             cdf[n] = 1 << PRECISION;
-            tables.push((Model { cdf, table: None }, n));
+            tables.push(Model { cdf, symbols: n, table: None });
         }
         let count = input.varint()? as usize;
         if count > input.bytes.len() / 4 {
@@ -617,11 +618,11 @@ impl<'a> Source<'a> {
     /// the file's CRC catch), never a failure here.
     #[inline]
     pub(crate) fn symbol(&mut self, model: usize) -> usize {
-        let (m, n) = &mut self.models[model];
+        let m = &mut self.models[model];
         let quantile = (self.state & ((1 << PRECISION) - 1)) as usize;
         let symbol = match &m.table {
             Some(table) => table[quantile],
-            None => m.fill_table(*n)[quantile],
+            None => m.fill_table()[quantile],
         } as usize
             & 63;
         let (low, high) = (m.cdf[symbol], m.cdf[symbol + 1]);
