@@ -7,6 +7,13 @@ fn ray_scene(scene: &Scene) -> RayScene {
     RayScene::new(&scene.positions, &scene.triangles, 0).unwrap()
 }
 
+/// Where a failing render test writes its images (made if missing).
+fn failure_dir() -> std::path::PathBuf {
+    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
+    std::fs::create_dir_all(&out).unwrap();
+    out
+}
+
 fn mean(c: &[Vec3]) -> Vec3 {
     c.iter().copied().sum::<Vec3>() / c.len() as f32
 }
@@ -276,8 +283,7 @@ fn check_reference(name: &str, actual: &RgbImage, min_db: f64) {
     let expected = image::open(&path).unwrap_or_else(|e| panic!("{}: {e} (UPDATE_REFERENCES=1 writes it)", path.display())).to_rgb8();
     let db = psnr(actual, &expected);
     if db < min_db {
-        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
-        std::fs::create_dir_all(&out).unwrap();
+        let out = failure_dir();
         actual.save(out.join(format!("{name}.actual.png"))).unwrap();
         let diff = RgbImage::from_fn(actual.width(), actual.height(), |x, y| {
             let (a, b) = (actual.get_pixel(x, y).0, expected.get_pixel(x, y).0);
@@ -431,8 +437,7 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     println!("ceiling band energy: reference {e_ref:.4}, final {e_ours:.4}, cache at the first hit {e_before:.4}; mean {mean_ratio:.3} of the reference's");
     let failed = e_ours > 1.5 * e_ref || !(0.85..1.15).contains(&mean_ratio);
     if failed || std::env::var("SHOW").is_ok() {
-        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
-        std::fs::create_dir_all(&out).unwrap();
+        let out = failure_dir();
         let exposure = 0.5 / luminance(mean(&reference.color));
         for (name, f) in [("reference", &reference), ("final", &ours), ("before", &before)] {
             to_image(size, size, &f.color, exposure).save(out.join(format!("sunroom_ceiling_{name}.png"))).unwrap();
@@ -449,8 +454,9 @@ fn the_crease_where_a_ceiling_meets_a_wall_shows_no_dots() {
     // The sunroom's ceiling face at 1024², the wall's crease near its edge:
     // there the gather points' surfaces lie close, and Ward's bound left
     // them unfiltered and standing for hardly any pixel sample: a row of
-    // bright and dark dots and blotches. Along a crease the light changes slowly, so a pixel far
-    // from its row's neighbours (the crease runs along the rows) is a dot.
+    // bright and dark dots and blotches. Along a crease the light changes
+    // slowly, so a pixel far from its row's neighbours (the crease runs
+    // along the rows) is a dot.
     let scene = exploremaps_scenes::BuiltIn::Sunroom.generate(1);
     let rays = ray_scene(&scene);
     let eye = Vec3::new(2.0, 1.6, 1.4);
@@ -473,8 +479,7 @@ fn the_crease_where_a_ceiling_meets_a_wall_shows_no_dots() {
     }
     println!("{} dots; the first {:?}", dots.len(), &dots[..dots.len().min(8)]);
     if !dots.is_empty() || std::env::var("SHOW").is_ok() {
-        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
-        std::fs::create_dir_all(&out).unwrap();
+        let out = failure_dir();
         to_image(size, size, &frame.color, renderer.exposure).save(out.join("sunroom_crease.png")).unwrap();
     }
     // 2,457 such pixels before Ward's bound had a floor (gather.rs, SPREAD_FLOOR).
@@ -516,8 +521,7 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     println!("middle frame against the frame lit in full: reused {d_between:.4} ({f_between:.4} of pixels 25 % off), cache at the first hit {d_cache:.4} ({f_cache:.4})");
     let failed = d_between > 0.04 || f_between > 0.018;
     if failed || std::env::var("SHOW").is_ok() {
-        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
-        std::fs::create_dir_all(&out).unwrap();
+        let out = failure_dir();
         let exposure = 0.3 / luminance(mean(&full.color));
         for (name, f) in [("full", &full), ("between", between), ("cache", &cache_only)] {
             to_image(width, width / 2, &f.color, exposure).save(out.join(format!("sunroom_walk_{name}.png"))).unwrap();
@@ -715,8 +719,7 @@ fn the_floor_darkens_at_a_boxs_foot_as_the_reference_does() {
     let (error, plain_error) = (relative_difference(&ours, &reference), relative_difference(&plain, &reference));
     let (m_ours, m_ref) = (luminance(mean(&ours)), luminance(mean(&reference)));
     if std::env::var("SHOW").is_ok() {
-        let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/render-failures");
-        std::fs::create_dir_all(&out).unwrap();
+        let out = failure_dir();
         let exposure = 0.5 / m_ref;
         for (name, f) in [("reference", &reference), ("final", &ours), ("plain", &plain)] {
             to_image(size, size, f, exposure).save(out.join(format!("box_foot_{name}.png"))).unwrap();
