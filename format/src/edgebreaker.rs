@@ -24,10 +24,12 @@
 //!   listed so that the decoder merges each copy back into its original;
 //! - each boundary loop gets a dummy vertex fanned to its edges, listed so that
 //!   the decoder drops it with its triangles. Components with a boundary are
-//!   walked first, each from a triangle of its first loop's fan with the dummy
-//!   as its first vertex, so those dummies follow from where components start
-//!   and need no listing: on soups of small open parts the list cost a quarter
-//!   of the connectivity bits.
+//!   walked first, each from one of its loops (of three edges or more) as the
+//!   first loop of the walk, in place of a first triangle: that loop's dummy
+//!   and fan are never coded, only its length. (Version 3 files start such a
+//!   component at a triangle of the fan instead, with the dummy as its first
+//!   vertex; that fan's other triangles cost a symbol each, about a third of
+//!   the symbols on soups of small open parts.)
 //!
 //! So decoding gives back every triangle with its orientation, up to the order
 //! of vertices and triangles and the rotation of corners within a triangle.
@@ -70,9 +72,13 @@ pub struct Connectivity {
     /// Triangles and vertices decoded, dummies and copies included.
     pub triangle_count: u32,
     pub vertex_count: u32,
-    /// How many components, the first ones, start at a dummy: the encoder
-    /// starts each component with a boundary at its first boundary loop's
-    /// dummy, decoded as the component's first vertex.
+    /// Per component, the first ones, that starts from a boundary loop: the
+    /// loop's length (at least 3). Its vertices are the component's first,
+    /// decoded in the loop's order.
+    pub start_loops: Vec<u32>,
+    /// Version 3 files: how many components, the first ones, start at a
+    /// triangle of a boundary loop's fan with its dummy as their first vertex.
+    /// The encoder no longer writes these.
     pub dummy_starts: u32,
     /// Decoded indices of the other dummy vertices, ascending.
     pub dummies: Vec<u32>,
@@ -278,11 +284,13 @@ impl Loops {
         self.nodes[next as usize].prev = n;
         n
     }
-    /// A loop of three: the first triangle of a component.
-    fn triangle(&mut self, v: [u32; 3], facing: [u32; 3], loop_id: u32) -> u32 {
+    /// A component's first loop (its first triangle, or a boundary loop):
+    /// node `i` has vertex `v[i]` and faces `facing[i]`. Returns the first node.
+    fn ring(&mut self, v: &[u32], facing: &[u32], loop_id: u32) -> u32 {
         let n = self.nodes.len() as u32;
-        for i in 0..3u32 {
-            self.nodes.push(Node { vertex: v[i as usize], prev: n + (i + 2) % 3, next: n + (i + 1) % 3, facing: facing[i as usize], loop_id, same: NONE });
+        let k = v.len() as u32;
+        for i in 0..k {
+            self.nodes.push(Node { vertex: v[i as usize], prev: n + (i + k - 1) % k, next: n + (i + 1) % k, facing: facing[i as usize], loop_id, same: NONE });
         }
         n
     }
@@ -372,33 +380,52 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
         }
     }
 
-    // Components with a boundary first, each from a dummy triangle (w, u, d)
-    // turned to (d, w, u), so their first vertex is a dummy the file need not
-    // list; then closed components.
+    // Components with a boundary first, each from the first of its loops of
+    // three edges or more, then the others from a triangle. A dummy triangle
+    // is (w, u, d), its boundary edge w -> u; the triangle across u -> d is
+    // the loop's next, (u, y, d).
     let starts = (*real_triangles..triangle_total as u32).chain(0..*real_triangles);
-    let mut implied = Vec::new();
+    let (mut v, mut facing, mut fan) = (Vec::new(), Vec::new(), Vec::new());
     for start in starts {
         if visited[start as usize] {
             continue;
         }
-        visited[start as usize] = true;
-        triangle_order.push(start);
-        let c0 = 3 * start;
-        // Per node, its vertex and the corner facing the edge to the next.
-        let (v, facing) = if start >= *real_triangles {
-            out.dummy_starts += 1;
-            implied.push(emitted.len() as u32);
-            ([corners[c0 as usize + 2], corners[c0 as usize], corners[c0 as usize + 1]], [c0 + 1, c0 + 2, c0])
+        v.clear();
+        facing.clear();
+        fan.clear();
+        if start >= *real_triangles {
+            let mut t = start;
+            loop {
+                fan.push(t);
+                t = opposite[3 * t as usize] / 3;
+                if t == start {
+                    break;
+                }
+            }
+            if fan.len() < 3 {
+                continue;
+            }
+            for &t in &fan {
+                visited[t as usize] = true;
+                v.push(corners[3 * t as usize]);
+                facing.push(3 * t + 2);
+            }
+            out.start_loops.push(fan.len() as u32);
         } else {
-            ([corners[c0 as usize], corners[c0 as usize + 1], corners[c0 as usize + 2]], [c0 + 2, c0, c0 + 1])
-        };
+            let c0 = 3 * start;
+            visited[start as usize] = true;
+            fan.push(start);
+            v.extend([corners[c0 as usize], corners[c0 as usize + 1], corners[c0 as usize + 2]]);
+            facing.extend([c0 + 2, c0, c0 + 1]);
+        }
+        triangle_order.extend_from_slice(&fan);
         for &x in &v {
             emit(x, &mut decoded, &mut emitted);
         }
         let mut current = loop_len.len() as u32;
-        loop_len.push(3);
-        let first = loops.triangle(v, facing, current);
-        for n in first..first + 3 {
+        loop_len.push(v.len() as u32);
+        let first = loops.ring(&v, &facing, current);
+        for n in first..first + v.len() as u32 {
             attach(&mut loops, &mut head, n);
         }
         let mut gate = first;
@@ -545,7 +572,8 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     }
     debug_assert_eq!(triangle_order.len(), triangle_total);
 
-    out.triangle_count = triangle_total as u32;
+    // The start loops' fans are not decoded.
+    out.triangle_count = triangle_total as u32 - out.start_loops.iter().sum::<u32>();
     out.vertex_count = emitted.len() as u32;
     // Of the copies of an input vertex, the first decoded is kept.
     let mut first = vec![NONE; vertex_count as usize];
@@ -553,9 +581,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     for (i, &v) in emitted.iter().enumerate() {
         let s = source[v as usize];
         if s == NONE {
-            if implied.binary_search(&(i as u32)).is_err() {
-                out.dummies.push(i as u32);
-            }
+            out.dummies.push(i as u32);
         } else if first[s as usize] != NONE {
             out.copies.push([i as u32, first[s as usize]]);
         } else {
@@ -605,7 +631,7 @@ pub struct Decoded {
     /// Per decoded vertex, the vertices that predict it: `[a, b, o]` for the
     /// parallelogram `a + b - o` across the gate it was added on; a component's
     /// first three vertices have `[NONE; 3]`, `[v0, NONE, NONE]` and
-    /// `[v0, v1, NONE]`.
+    /// `[v0, v1, NONE]`; a start loop's vertices `[the one before, NONE, NONE]`.
     pub predictors: Vec<[u32; 3]>,
     /// Per decoded vertex, its index among kept ones (NONE for dummies).
     pub keep: Vec<u32>,
@@ -619,8 +645,17 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
     }
     // Components end at an E with an empty stack. Each starts with three
-    // vertices and brings one more per C: the first vertices of the first
-    // `dummy_starts` components are dummies.
+    // vertices (or its start loop's) and brings one more per C; in version 3
+    // files the first vertices of the first `dummy_starts` components are
+    // dummies.
+    let loops_in = code.start_loops.len();
+    if code.dummy_starts > 0 && loops_in > 0 {
+        return corrupt("components start both at dummies and at loops");
+    }
+    if code.start_loops.iter().any(|&k| k < 3) {
+        return corrupt("a start loop of fewer than three vertices");
+    }
+    let loop_vertices: u64 = code.start_loops.iter().map(|&k| k as u64).sum();
     let mut ends = Vec::new();
     let mut depth = 0u32;
     let mut merges = 0usize;
@@ -660,10 +695,13 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if merges != code.merges.len() || depth != 0 || ends.last().map_or(!symbols.is_empty(), |&e| e + 1 != symbols.len()) {
         return corrupt("symbols end inside a component");
     }
-    if symbols.len() + ends.len() != code.triangle_count as usize {
-        return corrupt(format!("{} symbols and {} components for {} triangles", symbols.len(), ends.len(), code.triangle_count));
+    if loops_in > ends.len() {
+        return corrupt(format!("{loops_in} components start at a loop, of {}", ends.len()));
     }
-    let vertices = new_vertices as u64 + 3 * ends.len() as u64;
+    if symbols.len() + ends.len() - loops_in != code.triangle_count as usize {
+        return corrupt(format!("{} symbols and {} components, {loops_in} of them from a loop, for {} triangles", symbols.len(), ends.len(), code.triangle_count));
+    }
+    let vertices = new_vertices as u64 + 3 * (ends.len() - loops_in) as u64 + loop_vertices;
     if vertices != code.vertex_count as u64 {
         return corrupt(format!("{vertices} vertices decoded, {} declared", code.vertex_count));
     }
@@ -724,8 +762,8 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 bad()?;
             }
         }
-        if cur != Some(3) || !stack.is_empty() {
-            return corrupt(format!("component {k} does not start with one triangle"));
+        if cur != Some(code.start_loops.get(k).copied().unwrap_or(3)) || !stack.is_empty() {
+            return corrupt(format!("component {k} does not start with its first loop"));
         }
         end = begin;
     }
@@ -750,13 +788,30 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         out.predictors.push(predictor);
         out.predictors.len() as u32 - 1
     };
-    for &last in &ends {
-        let v0 = new_vertex(&mut out, [NONE; 3]);
-        let v1 = new_vertex(&mut out, [v0, NONE, NONE]);
-        let v2 = new_vertex(&mut out, [v0, v1, NONE]);
-        out.triangles.push([v0, v1, v2]);
-        let mut gate = loops.triangle([v0, v1, v2], [v2, v0, v1], 0);
-        let mut len = 3u32;
+    let (mut ring, mut facing) = (Vec::new(), Vec::new());
+    for (k, &last) in ends.iter().enumerate() {
+        let mut gate = if let Some(&len) = code.start_loops.get(k) {
+            // A boundary loop, each vertex predicted by the one before (on
+            // the Crytek Sponza's base, extending the edge before it cost
+            // 1.6 % more position bytes); its edges face the dummy, which is
+            // not decoded.
+            ring.clear();
+            let mut previous = NONE;
+            for _ in 0..len {
+                previous = new_vertex(&mut out, [previous, NONE, NONE]);
+                ring.push(previous);
+            }
+            facing.clear();
+            facing.resize(len as usize, NONE);
+            loops.ring(&ring, &facing, 0)
+        } else {
+            let v0 = new_vertex(&mut out, [NONE; 3]);
+            let v1 = new_vertex(&mut out, [v0, NONE, NONE]);
+            let v2 = new_vertex(&mut out, [v0, v1, NONE]);
+            out.triangles.push([v0, v1, v2]);
+            loops.ring(&[v0, v1, v2], &[v2, v0, v1], 0)
+        };
+        let mut len = code.start_loops.get(k).copied().unwrap_or(3);
         while i <= last {
             let s = symbols[i];
             let a = gate;
@@ -916,16 +971,34 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn open_grid_gets_one_dummy_and_about_two_bits_worth_of_symbols() {
+    fn open_grid_starts_from_its_boundary_and_codes_no_dummy() {
         let tris = grid(8);
         let code = round_trip(&tris, 81);
-        // One dummy, the component's first vertex: implied, not listed.
-        assert_eq!((code.dummy_starts, code.dummies.len()), (1, 0));
-        assert_eq!(decode(&code).unwrap().keep[0], NONE);
-        assert!(code.merges.is_empty());
+        // The 32 boundary edges are the first loop; no dummy is decoded.
+        assert_eq!(code.start_loops, [32]);
+        assert!(code.dummies.is_empty() && code.merges.is_empty());
+        assert!(decode(&code).unwrap().keep.iter().all(|&k| k != NONE));
+        // A symbol a triangle; the 49 inner vertices each arrive by a C.
+        assert_eq!((code.symbols.len(), code.triangle_count, code.vertex_count), (128, 128, 81));
         let cs = code.symbols.iter().filter(|&&s| s == C).count();
-        // Euler: every vertex but the first three arrives by a C.
-        assert_eq!(cs as u32, code.vertex_count - 3);
+        assert_eq!(cs, 49);
+    }
+
+    #[test]
+    fn a_second_hole_keeps_its_dummy_and_a_two_edge_loop_starts_no_component() {
+        // The grid with its middle quad removed: the outer loop starts the
+        // walk, the hole's dummy is decoded and listed.
+        let mut tris = grid(4);
+        let middle = 2 * (2 * 4 + 1);
+        tris.drain(middle..middle + 2);
+        let code = round_trip(&tris, 25);
+        assert_eq!((code.start_loops.len(), code.dummies.len()), (1, 1));
+        assert!([4, 16].contains(&code.start_loops[0]), "{:?}", code.start_loops);
+        // Three triangles on one edge: each use of the edge is cut, and two of
+        // them make a boundary loop of two edges, which cannot start a walk.
+        let fin = [[0, 1, 2], [1, 0, 3], [0, 1, 4]];
+        let code = round_trip(&fin, 5);
+        assert!(code.start_loops.iter().all(|&k| k >= 3));
     }
 
     #[test]
@@ -1055,5 +1128,14 @@ pub(crate) mod tests {
         bad.dummies.push(3);
         bad.copies.push([2, 7]);
         assert!(decode(&bad).is_err());
+        // Start loops of a wrong length, too short, too many, or mixed with
+        // version 3's dummy starts: refused.
+        let (code, _) = encode(&grid(6), 49).unwrap();
+        assert_eq!(code.start_loops, [24]);
+        for loops in [vec![23], vec![25], vec![2], vec![0], vec![u32::MAX], vec![24, 3], vec![]] {
+            let bad = Connectivity { start_loops: loops.clone(), ..code.clone() };
+            assert!(decode(&bad).is_err(), "{loops:?}");
+        }
+        assert!(decode(&Connectivity { dummy_starts: 1, ..code.clone() }).is_err());
     }
 }

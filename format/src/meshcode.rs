@@ -28,8 +28,10 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// Version 2 leaves out the dummies that start components (version 1 files,
 /// which list every dummy, are still read); version 3 codes groups as runs
 /// (before, a flag a triangle: a fifth of the symbols to decode, for as
-/// many bits).
-const VERSION: u8 = 3;
+/// many bits); version 4 starts components with a boundary from a loop, the
+/// count of such components in the place of version 3's dummy starts and
+/// their lengths (less three, as values) after the symbols.
+const VERSION: u8 = 4;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset: a
 /// decoding table of 4,096 entries a model).
@@ -106,7 +108,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.dummy_starts, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -120,6 +122,9 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     for &s in &code.symbols {
         sink.symbol(context, s as usize);
         context = s as usize;
+    }
+    for &k in &code.start_loops {
+        sink.value(SYMBOL_MODELS - 1, k - 3);
     }
     for m in &code.merges {
         for x in [m.depth, m.offset, m.length] {
@@ -175,10 +180,12 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let body = input.bytes;
     let mut count = || input.varint().and_then(|c| u32::try_from(c).map_err(|_| corrupt("count over 32 bits")));
     let [triangle_count, vertex_count, symbol_count, merge_count] = [count()?, count()?, count()?, count()?];
-    // Version 1 has no count of dummy starts: every dummy is listed.
-    let dummy_starts = if version > 1 { count()? } else { 0 };
+    // Version 1 has no count of dummy starts: every dummy is listed. Version
+    // 4 has start loops in that place.
+    let starts = if version > 1 { count()? } else { 0 };
+    let (dummy_starts, loop_count) = if version >= 4 { (0, starts) } else { (starts, 0) };
     let [dummy_count, copy_count, group_count, has_colours, bits] = [count()?, count()?, count()?, count()?, count()?];
-    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, dummy_starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
+    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
         return Err(corrupt("counts out of range"));
     }
     let mut lo = [0f32; 3];
@@ -204,6 +211,10 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         context = s;
     }
     let values = SYMBOL_MODELS - 1;
+    for _ in 0..loop_count {
+        let k = source.value(values)?.checked_add(3).ok_or_else(|| corrupt("start loop length"))?;
+        code.start_loops.push(k);
+    }
     for _ in 0..merge_count {
         code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
     }
@@ -832,8 +843,8 @@ mod tests {
     }
 
     #[test]
-    fn dummies_that_start_components_are_left_out_and_version_1_and_2_files_still_decode() {
-        // Two open grids: each starts at its boundary's dummy, so no dummy is listed.
+    fn components_with_a_boundary_start_from_a_loop_and_older_files_still_decode() {
+        // Two open grids: each starts from its boundary loop, so no dummy is coded.
         let one = wavy_grid(4);
         let mut two = one.clone();
         let n = one.positions.len() as u32;
@@ -844,8 +855,8 @@ mod tests {
         let coded = check_round_trip(&two, 14);
         let mut reader = Reader { bytes: &coded.bytes, at: 5 };
         let counts: Vec<u64> = (0..6).map(|_| reader.varint().unwrap()).collect();
-        assert_eq!((counts[4], counts[5]), (2, 0), "two dummy starts, none listed");
-        // A header claiming more dummy starts than there are components is refused.
+        assert_eq!((counts[0], counts[4], counts[5]), (two.triangles.len() as u64, 2, 0), "all triangles, two start loops, no dummy");
+        // A header claiming more start loops than there are components is refused.
         let mut bad = MAGIC.to_vec();
         bad.push(VERSION);
         let mut w = Writer::default();
@@ -856,11 +867,18 @@ mod tests {
         bad.extend_from_slice(&coded.bytes[reader.at..coded.bytes.len() - 4]);
         let crc = crc32fast::hash(&bad);
         bad.extend_from_slice(&crc.to_le_bytes());
-        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a dummy")), "{:?}", decode(&bad));
-        // Version 1 (every dummy listed) and version 2 (a group flag a
-        // triangle): the fuzzing seeds, written before the next version; and
-        // the version 3 seed, to check re-encoding gives the same mesh.
-        for (seed, version) in [(&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1), (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2), (&include_bytes!("../../fuzz/seeds/proxy/2.emmc")[..], 3)] {
+        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(_))), "{:?}", decode(&bad));
+        // Version 1 (every dummy listed), version 2 (a group flag a
+        // triangle) and version 3 (components start at a dummy): the fuzzing
+        // seeds, written before the next version; and the version 4 seed; each
+        // re-encoded gives the same mesh.
+        let seeds = [
+            (&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1),
+            (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2),
+            (&include_bytes!("../../fuzz/seeds/proxy/2.emmc")[..], 3),
+            (&include_bytes!("../../fuzz/seeds/proxy/3.emmc")[..], 4),
+        ];
+        for (seed, version) in seeds {
             assert_eq!(seed[4], version);
             let old = decode(seed).unwrap_or_else(|e| panic!("a version {version} file decodes: {e}"));
             assert!(!old.triangles.is_empty());
