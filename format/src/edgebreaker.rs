@@ -44,7 +44,11 @@ pub const R: u8 = 2;
 pub const S: u8 = 3;
 pub const E: u8 = 4;
 pub const M: u8 = 5;
-pub const SYMBOLS: usize = 6;
+/// A C whose new vertex is a dummy (version 4): the dummies of loops that do
+/// not start a component need no list, and the symbols after a D, which walk
+/// the dummy's fan, get a context of their own.
+pub const D: u8 = 6;
+pub const SYMBOLS: usize = 7;
 
 const NONE: u32 = u32::MAX;
 /// Most triangles (dummies included) a decoder accepts: bounds the memory a
@@ -80,7 +84,8 @@ pub struct Connectivity {
     /// triangle of a boundary loop's fan with its dummy as their first vertex.
     /// The encoder no longer writes these.
     pub dummy_starts: u32,
-    /// Decoded indices of the other dummy vertices, ascending.
+    /// Versions 1 to 3: decoded indices of the other dummy vertices,
+    /// ascending (version 4 marks them with D).
     pub dummies: Vec<u32>,
     /// `[copy, original]` decoded indices, ascending by copy.
     pub copies: Vec<[u32; 2]>,
@@ -439,7 +444,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
             let w = corners[c as usize];
             if decoded[w as usize] == NONE {
                 emit(w, &mut decoded, &mut emitted);
-                out.symbols.push(C);
+                out.symbols.push(if source[w as usize] == NONE { D } else { C });
                 loops.nodes[a as usize].facing = next(c);
                 let nw = loops.add(w, a, b, prev(c), current);
                 attach(&mut loops, &mut head, nw);
@@ -581,7 +586,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     for (i, &v) in emitted.iter().enumerate() {
         let s = source[v as usize];
         if s == NONE {
-            out.dummies.push(i as u32);
+            // Brought by a D.
         } else if first[s as usize] != NONE {
             out.copies.push([i as u32, first[s as usize]]);
         } else {
@@ -665,6 +670,11 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         implied.push(0);
     }
     let mut new_vertices = 0u32;
+    // Dummies brought by a D.
+    let mut marked = Vec::new();
+    // The vertices components have started with so far, the current one's too.
+    let start_size = |k: usize| code.start_loops.get(k).map_or(3, |&n| n as u64);
+    let mut started = start_size(0);
     for (i, &s) in symbols.iter().enumerate() {
         // C, L and R, most symbols, only count new vertices (no branch on which).
         if s <= R {
@@ -673,12 +683,17 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         }
         match s {
             S => depth += 1,
+            D => {
+                marked.push((started + new_vertices as u64).min(NONE as u64) as u32);
+                new_vertices += 1;
+            }
             E if depth == 0 => {
                 ends.push(i);
                 // The next component's first vertex (a dummy for the first `dummy_starts`).
                 if implied.len() < dummy_starts && i + 1 < symbols.len() {
                     implied.push(new_vertices + 3 * ends.len() as u32);
                 }
+                started += start_size(ends.len());
             }
             E => depth -= 1,
             M => {
@@ -721,7 +736,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         for i in (begin..end).rev() {
             let bad = || corrupt::<()>(format!("loop lengths do not add up at symbol {i}"));
             // C shortens the loop by one (of more than three), L and R lengthen
-            // it: most symbols, done without a branch on which.
+            // it: most symbols, done without a branch on which (D, a C, has one).
             let s = symbols[i];
             if let Some(x) = cur.filter(|&x| s <= R && x >= 2 + u32::from(s == C)) {
                 let x = x + 1 - 2 * u32::from(s == C);
@@ -739,7 +754,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                     cur = Some(3);
                 }
                 (_, None) => bad()?,
-                (C, Some(x)) if x >= 3 => cur = Some(x - 1),
+                (C | D, Some(x)) if x >= 3 => cur = Some(x - 1),
                 (L | R, Some(x)) => cur = Some(x + 1),
                 (S, Some(x)) if x >= 2 => {
                     let Some(l2) = stack.pop().filter(|&l2| l2 >= 2) else { return corrupt(format!("S without a left loop at symbol {i}")) };
@@ -772,8 +787,9 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     if implied.len() != code.dummy_starts as usize {
         return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
     }
-    // Both lists ascend; a dummy in both is refused as a repeat.
+    // A dummy in two lists is refused as a repeat.
     let mut dummies = implied;
+    dummies.extend_from_slice(&marked);
     dummies.extend_from_slice(&code.dummies);
     dummies.sort_unstable();
     let (keep, kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
@@ -818,7 +834,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
             let b = loops.next(a);
             let (va, vb) = (loops.vertex(a), loops.vertex(b));
             let w = match s {
-                C => {
+                C | D => {
                     let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing]);
                     loops.nodes[a as usize].facing = vb;
                     gate = loops.add(w, a, b, va, 0);
@@ -992,7 +1008,8 @@ pub(crate) mod tests {
         let middle = 2 * (2 * 4 + 1);
         tris.drain(middle..middle + 2);
         let code = round_trip(&tris, 25);
-        assert_eq!((code.start_loops.len(), code.dummies.len()), (1, 1));
+        assert_eq!((code.start_loops.len(), code.symbols.iter().filter(|&&s| s == D).count()), (1, 1));
+        assert!(code.dummies.is_empty());
         assert!([4, 16].contains(&code.start_loops[0]), "{:?}", code.start_loops);
         // Three triangles on one edge: each use of the edge is cut, and two of
         // them make a boundary loop of two edges, which cannot start a walk.

@@ -30,7 +30,8 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// (before, a flag a triangle: a fifth of the symbols to decode, for as
 /// many bits); version 4 starts components with a boundary from a loop, the
 /// count of such components in the place of version 3's dummy starts and
-/// their lengths (less three, as values) after the symbols.
+/// their lengths (less three, as values) after the symbols, and marks the
+/// other dummies by a seventh symbol, D, in place of their list.
 const VERSION: u8 = 4;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset: a
@@ -198,19 +199,21 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     }
     let grid = Grid::new(lo, hi, bits);
 
-    let mut source = Source::new(&mut input, SYMBOL_MODELS)?;
+    // Versions before 4 have no D, so a model fewer.
+    let symbols = if version >= 4 { edgebreaker::SYMBOLS } else { edgebreaker::D as usize };
+    let mut source = Source::new(&mut input, symbols + 1)?;
     let mut code = Connectivity { triangle_count, vertex_count, dummy_starts, ..Connectivity::default() };
     code.symbols.reserve(symbol_count as usize);
     let mut context = 0;
     for _ in 0..symbol_count {
         let s = source.symbol(context);
-        if s >= edgebreaker::SYMBOLS {
+        if s >= symbols {
             return Err(corrupt("symbol out of range"));
         }
         code.symbols.push(s as u8);
         context = s;
     }
-    let values = SYMBOL_MODELS - 1;
+    let values = symbols;
     for _ in 0..loop_count {
         let k = source.value(values)?.checked_add(3).ok_or_else(|| corrupt("start loop length"))?;
         code.start_loops.push(k);
