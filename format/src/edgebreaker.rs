@@ -5,13 +5,15 @@
 //!
 //! The encoder walks each connected component triangle by triangle, keeping
 //! the boundary of the visited region as loops of vertices, and writes one
-//! symbol per triangle after the first: C when the triangle brings a new
+//! symbol per triangle after the first (per triangle, when it starts from a
+//! boundary loop, below): C when the triangle brings a new
 //! vertex, L or R when it also borders the visited region on the left or the
 //! right of the gate edge, E when it closes a loop of three, S when its tip lies
 //! further along the loop and splits it in two (the right part is walked
 //! first, the left part waits on a stack). A sixth symbol covers what a sphere
 //! never needs: M joins the current loop with one waiting on the stack (once
-//! per handle; its record says which loop, where, and how long). Where an S tip lies
+//! per handle; its record says which loop, where, and how long), and D is a C
+//! whose new vertex is a dummy (below). Where an S tip lies
 //! follows from the symbols alone: summing loop lengths backwards over them
 //! gives the length of each S's right loop, so S costs no extra bits.
 //!
@@ -22,8 +24,9 @@
 //!   is cut into boundary edges;
 //! - a vertex whose triangles then form several fans gets a copy per extra fan,
 //!   listed so that the decoder merges each copy back into its original;
-//! - each boundary loop gets a dummy vertex fanned to its edges, listed so that
-//!   the decoder drops it with its triangles. Components with a boundary are
+//! - each boundary loop gets a dummy vertex fanned to its edges, brought by a
+//!   D (a C marked as a dummy) so that the decoder drops it with its
+//!   triangles (versions 1 to 3 list them). Components with a boundary are
 //!   walked first, each from one of its loops (of three edges or more) as the
 //!   first loop of the walk, in place of a first triangle: that loop's dummy
 //!   and fan are never coded, only its length. (Version 3 files start such a
@@ -586,8 +589,9 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
     for (i, &v) in emitted.iter().enumerate() {
         let s = source[v as usize];
         if s == NONE {
-            // Brought by a D.
-        } else if first[s as usize] != NONE {
+            continue; // a dummy, marked by its D
+        }
+        if first[s as usize] != NONE {
             out.copies.push([i as u32, first[s as usize]]);
         } else {
             first[s as usize] = i as u32;
