@@ -109,7 +109,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, code.dummies.len() as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, 0, code.copies.len() as u32, group_count, has_colours as u32, bits] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -132,11 +132,9 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
             sink.value(SYMBOL_MODELS - 1, x);
         }
     }
-    let mut last = 0;
-    for &d in &code.dummies {
-        sink.value(SYMBOL_MODELS - 1, d - last);
-        last = d;
-    }
+    // Dummies come by their D: version 4 lists none (the count stays in the
+    // header for the readers of versions 1 to 3).
+    debug_assert!(code.dummies.is_empty());
     let mut last = 0;
     for &[copy, original] in &code.copies {
         sink.value(SYMBOL_MODELS - 1, copy - last);
