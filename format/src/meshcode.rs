@@ -868,7 +868,7 @@ mod tests {
         bad.extend_from_slice(&coded.bytes[reader.at..coded.bytes.len() - 4]);
         let crc = crc32fast::hash(&bad);
         bad.extend_from_slice(&crc.to_le_bytes());
-        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(_))), "{:?}", decode(&bad));
+        assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a loop")), "{:?}", decode(&bad));
         // Version 1 (every dummy listed), version 2 (a group flag a
         // triangle) and version 3 (components start at a dummy): the fuzzing
         // seeds, written before the next version; and the version 4 seed; each
