@@ -11,9 +11,9 @@ pub struct Cli {
     /// Seed of every random choice: the same seed gives the same output at any thread count.
     #[arg(long, global = true, default_value_t = 1)]
     pub seed: u64,
-    /// Worker threads (0: one per core).
-    #[arg(long, global = true, default_value_t = 0)]
-    pub threads: usize,
+    /// Worker threads (0: one per core; at most 1024).
+    #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=1024))]
+    pub threads: u16,
     /// More log output (-v: debug, -vv: trace).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
@@ -196,6 +196,10 @@ pub struct PlanArgs {
     /// cost a probe; 1 places probes until none adds anything.
     #[arg(long, default_value_t = exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET)]
     pub coverage: f64,
+    /// The most probes to place before clustering, even short of --coverage (a warning
+    /// says when a scene needs more). More take longer to plan and render.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=20_000))]
+    pub max_probes: u32,
     /// Near distance r in metres: the least clearance of probes and paths (default 0.5 %
     /// of the scene's bounding-box diagonal, at most 0.3 m when walking or when the
     /// scale is stated or plausibly guessed, so probes pass any door a visitor passes).

@@ -35,7 +35,7 @@ fn main() -> ExitCode {
     STARTED.get_or_init(Instant::now);
     let cli = Cli::parse();
     init_logging(cli.verbose, cli.quiet);
-    if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(cli.threads).build_global() {
+    if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(cli.threads.into()).build_global() {
         tracing::warn!("could not set up {} worker threads: {e}", cli.threads);
     }
     match run(&cli) {
@@ -258,6 +258,7 @@ fn plan_params(planning: &PlanArgs, seed: u64) -> PlanParams {
                 cli::Strategy::Occluded => Strategy::Occluded,
             },
             coverage_target: planning.coverage,
+            max_probes: planning.max_probes as usize,
             user_probes: planning.probes.iter().map(|&p| Vec3::from(p)).collect(),
             seed,
             ..Default::default()
@@ -472,7 +473,8 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     }
     let e = &plan.stats.explore;
     if e.probes > 0 {
-        println!("  explore     {} candidate probes, {:.1} M rays ({:.2} s)", e.probes, e.rays as f64 / 1e6, e.seconds);
+        let capped = if e.capped { ", stopped at --max-probes short of --coverage" } else { "" };
+        println!("  explore     {} candidate probes{capped}, {:.1} M rays ({:.2} s)", e.probes, e.rays as f64 / 1e6, e.seconds);
     }
     if let Some(c) = &plan.stats.cluster {
         println!("  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)", c.clusters, c.final_probes, c.added_back, c.seconds);

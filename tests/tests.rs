@@ -367,7 +367,7 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let g = exploremaps_format::Graph::from_json(&std::fs::read_to_string(denoised.join("graph.json")).unwrap()).unwrap();
     assert_eq!(g.stats["render"]["denoised"], true);
     assert!(g.probes.iter().all(|p| p.assets.equirect.is_some()));
-    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--proxy-triangles", "5"], vec!["--spp", "0"], vec!["--bounces", "99"], vec!["--shard", "2/2"], vec!["--quality", "best"]] {
+    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--proxy-triangles", "5"], vec!["--spp", "0"], vec!["--bounces", "99"], vec!["--shard", "2/2"], vec!["--quality", "best"], vec!["--threads", "100000"]] {
         let mut args = vec!["render", one.to_str().unwrap()];
         args.extend(bad.iter());
         let run = exploremaps(&args);

@@ -70,6 +70,8 @@ pub struct ExploreParams {
     pub samples_per_jump: usize,
     /// Relaxation steps per new probe (0: stay at the sample).
     pub relax_steps: usize,
+    /// Placement stops here even short of the target (greedy draws at least
+    /// four candidates a probe of it).
     pub max_probes: usize,
     /// Placed first, never moved.
     pub user_probes: Vec<Vec3>,
@@ -122,6 +124,9 @@ pub struct ExploreStats {
     pub samples_created: usize,
     /// Samples still unseen when the probe budget ran out (0 when complete).
     pub samples_left: usize,
+    /// Placement stopped at `max_probes` short of its target: the scene needs
+    /// more probes than it was allowed.
+    pub capped: bool,
     pub seconds: f64,
     /// Seconds in cube-map ray casting, in masking, in relaxation.
     pub seconds_views: f64,
@@ -151,7 +156,8 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
     if !navigable.is_empty() {
         let half = Vec3::splat(0.5 * space.grid.voxel);
-        let drawn: Vec<Vec3> = (0..params.candidates)
+        // Several candidates for each probe the budget allows, however large the scene.
+        let drawn: Vec<Vec3> = (0..params.candidates.max(4 * params.max_probes))
             .map(|_| {
                 let c = navigable[rng.random_range(0..navigable.len())];
                 // Jitter inside the voxel so candidates are not locked to the grid.
@@ -220,6 +226,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     stats.samples_created = targets.len();
     stats.samples_left = targets.len() - covered_count;
     stats.probes = probes.len();
+    stats.capped = probes.len() >= params.max_probes && (covered_count as f64) < params.coverage_target * targets.len() as f64;
     stats.seconds = started.elapsed().as_secs_f64();
     (probes, stats)
 }
@@ -289,6 +296,7 @@ fn explore_occluded(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) 
     }
     stats.probes = probes.len();
     stats.samples_left = pending.len();
+    stats.capped = probes.len() >= params.max_probes && !pending.is_empty();
     stats.seconds = started.elapsed().as_secs_f64();
     (probes, stats)
 }
@@ -418,6 +426,18 @@ mod tests {
             let (probes, stats, space) = plan(&scene, &with(strategy));
             assert_eq!(probes.len(), 1, "{strategy:?}: {stats:?}");
             assert!(covered(&scene, &space, &probes) > 0.999, "{strategy:?}");
+        }
+    }
+
+    #[test]
+    fn a_scene_that_needs_more_probes_than_allowed_says_so() {
+        let scene = rooms(4, 5.0, 3.0, 4.0, &[1, 2, 3]);
+        for strategy in STRATEGIES {
+            let (probes, stats, _) = plan(&scene, &ExploreParams { max_probes: 2, ..with(strategy) });
+            assert_eq!(probes.len(), 2, "{strategy:?}");
+            assert!(stats.capped, "{strategy:?}: {stats:?}");
+            let (probes, stats, _) = plan(&scene, &with(strategy));
+            assert!(probes.len() > 2 && !stats.capped, "{strategy:?}: {stats:?}");
         }
     }
 

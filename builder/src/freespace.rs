@@ -387,6 +387,20 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
     let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
+    // A grid much coarser than a door can close every corridor of a large
+    // interior (a 200 m maze of 2 m corridors on 0.86 m voxels keeps no
+    // floor): with a scale to trust, look for floors again on the walking grid.
+    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
+    if !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto && params.voxel.is_none() && grid.voxel > 1.001 * walk_voxel {
+        let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
+        if finer < 0.999 * grid.voxel {
+            let (fs, mut stats) = free_space(scene, rays, &FreeSpaceParams { voxel: Some(finer), ..params.clone() })?;
+            stats.height_reason = format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, grid.voxel * scene.metres_per_unit);
+            stats.rays += ray_count;
+            stats.seconds = started.elapsed().as_secs_f64();
+            return Ok((fs, stats));
+        }
+    }
     let (walking, height_reason) = match params.height {
         HeightMode::Fly => (false, "given".to_string()),
         HeightMode::Walk => (true, "given".to_string()),
@@ -401,7 +415,6 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
     // A large scene's grid is coarser than a door: walk on a finer one.
-    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
     let mut height_reason = height_reason;
     if walking && grid.voxel > 1.001 * walk_voxel {
         let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
@@ -1149,6 +1162,21 @@ mod tests {
         // Starting inside a closed box in outside mode finds the (sealed) interior, not a hang.
         let (inner, _) = run(&scene, &FreeSpaceParams { start: Some(Vec3::new(3.0, 1.5, 2.0)), ..outside }).unwrap();
         assert!(!inner.is_navigable(Vec3::new(-0.4, 1.5, 2.0)));
+    }
+
+    #[test]
+    fn floors_a_coarse_grid_closes_are_looked_for_again_on_the_walking_grid() {
+        // A 50 m maze of 2 m corridors on 64 cells: its 0.87 m voxels leave no
+        // floor, as 256 cells do in a 200 m maze. It used to be "no navigable space".
+        let scene = BuiltIn::Maze(25).generate(1);
+        let (space, stats) = run(&scene, &FreeSpaceParams { max_cells: 64, ..Default::default() }).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        assert!(stats.height_reason.contains("no floor was left on 0.8"), "{stats:?}");
+        assert!((space.grid.voxel - 0.4).abs() < 1e-3, "{}", space.grid.voxel);
+        assert!(space.is_navigable(Vec3::new(1.0, 1.6, 1.0)), "the first cell, at eye height");
+        // Flying is not retried: it needs no floor.
+        let (space, stats) = run(&scene, &FreeSpaceParams { max_cells: 64, height: HeightMode::Fly, ..Default::default() }).map_or((None, None), |(f, s)| (Some(f.grid.voxel), Some(s)));
+        assert!(space.is_none_or(|v| v > 0.8), "{stats:?}");
     }
 
     #[test]

@@ -138,6 +138,10 @@ fn explore_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Exp
     let _span = tracing::info_span!("explore").entered();
     let (candidates, stats) = explore(scene, rays, space, params);
     tracing::info!("explore: {} candidate probes in {:.2} s", candidates.len(), stats.seconds);
+    if stats.capped {
+        let seen = 100.0 * (1.0 - stats.samples_left as f64 / stats.samples_created.max(1) as f64);
+        tracing::warn!("explore stopped at the limit of {} probes with {seen:.1} % of its samples seen (target {:.1} %): the scene needs more; raise --max-probes", params.max_probes, 100.0 * params.coverage_target);
+    }
     (candidates, stats)
 }
 
