@@ -7,7 +7,8 @@
 //! Two probes are connected when some point of navigable space is visible from
 //! both (not only when they see each other: a probe in a room and one outside
 //! its window connect). Each probe sees a set of seeded random navigable points
-//! (occlusion rays); shared points make a pair. The route: the straight segment
+//! (4,000, or 16 a probe when there are more than 250 probes; occlusion rays);
+//! shared points make a pair. The route: the straight segment
 //! if it keeps clearance r; else through the shared point minimising the
 //! detour, if both legs keep clearance; else A* over navigable voxels
 //! (26-neighbours, each step's cost its length times 1 + r / clearance, so
@@ -24,6 +25,10 @@ use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 use std::time::Instant;
+
+/// Witness points at least this many times the probes (the default 4,000
+/// serve up to 250 probes).
+const WITNESSES_PER_PROBE: usize = 16;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConnectParams {
@@ -80,7 +85,9 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     let mut stats = ConnectStats::default();
     let navigable = space.navigable_points();
     let mut rng = crate::seeds::Stream::Connect.rng(params.seed);
-    let witnesses: Vec<Vec3> = if navigable.is_empty() { Vec::new() } else { (0..params.witness_points).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
+    // Enough witnesses for each probe to share some with its neighbours however many probes there are.
+    let count = params.witness_points.max(WITNESSES_PER_PROBE * probes.len());
+    let witnesses: Vec<Vec3> = if navigable.is_empty() { Vec::new() } else { (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
     let seen: Vec<Vec<bool>> = probes
         .par_iter()
         .map(|&p| {
@@ -350,6 +357,17 @@ mod tests {
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let (again, _) = one.install(|| connect(&rays, &space, &probes, &ConnectParams::default()));
         assert_eq!(again, paths);
+    }
+
+    #[test]
+    fn witnesses_grow_with_the_probes() {
+        // The maze's probes with one witness asked for: the floor of 16 a probe still joins them.
+        let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
+        let (rays, space) = setup(&scene);
+        let (candidates, _) = crate::explore::explore(&scene, &rays, &space, &crate::explore::ExploreParams::default());
+        let probes: Vec<Vec3> = candidates.iter().map(|c| c.position).collect();
+        let (_, stats) = connect(&rays, &space, &probes, &ConnectParams { witness_points: 1, ..Default::default() });
+        assert_eq!(stats.components, 1, "{} probes: {stats:?}", probes.len());
     }
 
     #[test]
