@@ -387,20 +387,6 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
     let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
-    // A grid much coarser than a door can close every corridor of a large
-    // interior (a 200 m maze of 2 m corridors on 0.86 m voxels keeps no
-    // floor): with a scale to trust, look for floors again on the walking grid.
-    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
-    if !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto && params.voxel.is_none() && grid.voxel > 1.001 * walk_voxel {
-        let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
-        if finer < 0.999 * grid.voxel {
-            let (fs, mut stats) = free_space(scene, rays, &FreeSpaceParams { voxel: Some(finer), ..params.clone() })?;
-            stats.height_reason = format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, grid.voxel * scene.metres_per_unit);
-            stats.rays += ray_count;
-            stats.seconds = started.elapsed().as_secs_f64();
-            return Ok((fs, stats));
-        }
-    }
     let (walking, height_reason) = match params.height {
         HeightMode::Fly => (false, "given".to_string()),
         HeightMode::Walk => (true, "given".to_string()),
@@ -414,21 +400,30 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     if walking && params.near_m.is_none() {
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
-    // A large scene's grid is coarser than a door: walk on a finer one.
+    // A large scene's grid is coarser than a door: walk on a finer one. It
+    // can also close every corridor of a large interior (a 200 m maze of 2 m
+    // corridors on 0.86 m voxels keeps no floor): with a scale to trust, look
+    // for floors again on the walking grid.
+    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
+    let look_again = !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto;
     let mut height_reason = height_reason;
-    if walking && grid.voxel > 1.001 * walk_voxel {
+    if (walking || look_again) && grid.voxel > 1.001 * walk_voxel {
         let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
         let door_m = 2.0 * finer * scene.metres_per_unit;
         if params.voxel.is_none() && finer < 0.999 * grid.voxel {
-            let params = FreeSpaceParams { space, height: HeightMode::Walk, voxel: Some(finer), ..params.clone() };
-            let (fs, mut stats) = free_space(scene, rays, &params)?;
+            let height = if walking { HeightMode::Walk } else { params.height };
+            let (fs, mut stats) = free_space(scene, rays, &FreeSpaceParams { space, height, voxel: Some(finer), ..params.clone() })?;
             stats.space_reason = space_reason;
-            stats.height_reason = format!("{height_reason}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", finer * scene.metres_per_unit);
+            stats.height_reason = if walking {
+                format!("{height_reason}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", finer * scene.metres_per_unit)
+            } else {
+                format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, grid.voxel * scene.metres_per_unit)
+            };
             stats.rays += ray_count;
             stats.seconds = started.elapsed().as_secs_f64();
             return Ok((fs, stats));
         }
-        if finer > 1.001 * walk_voxel {
+        if walking && finer > 1.001 * walk_voxel {
             height_reason = format!("{height_reason}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed");
         }
     }
