@@ -77,11 +77,10 @@ pub fn polyline_length(p: &[Vec3]) -> f32 {
     p.windows(2).map(|w| (w[1] - w[0]).length()).sum()
 }
 
-/// Whether the segment stays in navigable space (sampled every half voxel) and
+/// Whether the segment stays in navigable space (every voxel it crosses) and
 /// crosses no geometry.
 pub fn segment_clear(rays: &RayScene, space: &FreeSpace, a: Vec3, b: Vec3) -> bool {
-    let steps = ((b - a).length() / (0.5 * space.grid.voxel)).ceil().max(1.0) as usize;
-    (0..=steps).all(|k| space.is_navigable(a + (b - a) * (k as f32 / steps as f32))) && !rays.occluded(&Ray::segment(a, b))
+    space.segment_navigable(a, b) && !rays.occluded(&Ray::segment(a, b))
 }
 
 /// Connects probes: raw routes between every pair that shares a view, pruned.
@@ -243,19 +242,26 @@ pub fn components(n: usize, paths: &[RawPath]) -> usize {
 }
 
 /// The navigable 26-neighbours of voxel `i` and the cost of the step to each:
-/// its length times 1 + r / clearance, so that routes keep to open space.
+/// its length times 1 + r / clearance, so that routes keep to open space. A
+/// diagonal step is taken only where the voxels it passes between are
+/// navigable too (no cutting a wall's corner).
 fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_ {
     let g = &space.grid;
     let c = g.coords(i);
+    // The voxel `c + d` with only the axes in `mask` moved, if in the grid.
+    let at = move |d: [i64; 3], mask: usize| -> Option<usize> {
+        let n: [usize; 3] = std::array::from_fn(|a| if mask >> a & 1 == 1 { c[a] as i64 + d[a] } else { c[a] as i64 } as usize);
+        // (A step below 0 wraps to a huge index.)
+        n.iter().zip(g.dims).all(|(&v, dim)| v < dim).then(|| g.index(n))
+    };
     (0..27).filter(|&k| k != 13).filter_map(move |k| {
         let d = [k % 3, k / 3 % 3, k / 9].map(|x| x as i64 - 1);
-        let n: [usize; 3] = std::array::from_fn(|a| c[a] as i64 + d[a]).map(|v| v as usize);
-        if n.iter().zip(g.dims).any(|(&v, dim)| v >= dim) {
-            return None; // (a step below 0 wraps to a huge index)
-        }
-        let j = g.index(n);
+        let moved = (0..3).filter(|&a| d[a] != 0).fold(0, |m, a| m | 1 << a);
+        let j = at(d, moved).filter(|&j| space.navigable[j])?;
+        // Every voxel moved along fewer of the step's axes (none for a face step).
+        let corners = (1..moved).filter(|&m| m & moved == m).all(|m| at(d, m).is_some_and(|v| space.navigable[v]));
         let length = ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f32).sqrt() * g.voxel;
-        space.navigable[j].then(|| (j, length * (1.0 + space.near / space.clearance[j].max(1e-6))))
+        corners.then(|| (j, length * (1.0 + space.near / space.clearance[j].max(1e-6))))
     })
 }
 
@@ -491,6 +497,50 @@ mod tests {
         for w in p.windows(2) {
             assert!(segment_clear(&rays, &space, w[0], w[1]), "a joining segment leaves the corridors");
         }
+    }
+
+    #[test]
+    fn a_clear_segment_clips_no_corner_of_the_walls() {
+        // Segments between random navigable points of the maze: where one is
+        // called clear, points a fiftieth of a voxel apart along it are all navigable.
+        use rand::{Rng, SeedableRng};
+        let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
+        let (rays, space) = setup(&scene);
+        let points = space.navigable_points();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut clear = 0;
+        for _ in 0..3000 {
+            let a = points[rng.random_range(0..points.len())];
+            let b = a + (points[rng.random_range(0..points.len())] - a).clamp_length_max(2.0);
+            if !segment_clear(&rays, &space, a, b) {
+                continue;
+            }
+            clear += 1;
+            let n = ((b - a).length() / space.grid.voxel * 50.0).ceil() as usize;
+            for k in 0..=n {
+                let p = a + (b - a) * (k as f32 / n as f32);
+                assert!(space.is_navigable(p), "{a} -> {b} is called clear but leaves navigable space at {p}");
+            }
+        }
+        assert!(clear > 300, "{clear} clear segments");
+    }
+
+    #[test]
+    fn route_steps_cut_no_corner() {
+        // Every step A* and the joining flood may take, from every tenth
+        // navigable voxel of the maze, runs through navigable voxels only.
+        let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
+        let (_, space) = setup(&scene);
+        let g = &space.grid;
+        let mut diagonal = 0;
+        for i in (0..g.len()).filter(|&i| space.navigable[i]).step_by(10) {
+            for (j, _) in steps(&space, i) {
+                let (a, b) = (g.center(g.coords(i)), g.center(g.coords(j)));
+                assert!(space.segment_navigable(a, b), "the step {a} -> {b} cuts a corner");
+                diagonal += usize::from((a - b).length() > 1.5 * g.voxel);
+            }
+        }
+        assert!(diagonal > 1000, "{diagonal} diagonal steps");
     }
 
     #[test]

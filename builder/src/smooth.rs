@@ -11,10 +11,11 @@
 //! (which both evens the rest lengths, shortens the path and unbends it) plus a
 //! repulsion up the clearance field, inverse-square in the clearance, within 3r
 //! of surfaces. A move is taken only if the mass stays navigable (clearance
-//! ≥ r) and both segments to its neighbours stay free of geometry. Endpoints
-//! are fixed. It stops when no mass moves more than a thousandth of a voxel, or
-//! after 400 iterations. Every final segment is then verified by a ray cast
-//! and its clearance measured on the distance field.
+//! ≥ r) and neither segment to its neighbours stops being clear (every voxel
+//! it crosses navigable, no geometry across it). Endpoints are fixed. It
+//! stops when no mass moves more than a thousandth of a voxel, or after 400
+//! iterations. Every final segment is then verified by a ray cast and its
+//! clearance measured over every voxel it crosses.
 //!
 //! Timing: duration = length / walking speed (1.4 m/s through the unit
 //! scale), at least 1.5 s and at most 10 s (a longer path is travelled
@@ -24,7 +25,7 @@
 //! arc length with slow-in/slow-out (smoothstep); view blended with the same
 //! easing from the direction of travel at departure to the arrival direction.
 
-use crate::connect::polyline_length;
+use crate::connect::{polyline_length, segment_clear};
 use crate::orient::yaw_pitch;
 use crate::freespace::FreeSpace;
 use crate::raycast::{Ray, RayScene};
@@ -98,13 +99,18 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
         for i in 1..p.len().saturating_sub(1) {
             let spring = 0.5 * (p[i - 1] + p[i + 1]) - p[i];
             let c = space.clearance_at(p[i]).max(1e-6);
-            let repulsion = if c < 3.0 * r { clearance_gradient(space, p[i]).normalize_or_zero() * spacing * (r / c).powi(2) } else { Vec3::ZERO };
+            // (Inverse-square, but at most four times its value at r: unbounded,
+            // a mass in a voxel of clearance 0 was thrown too far to ever move.)
+            let repulsion = if c < 3.0 * r { clearance_gradient(space, p[i]).normalize_or_zero() * spacing * (r / c).powi(2).min(4.0) } else { Vec3::ZERO };
             let next = p[i] + (spring + repulsion * 0.25) * STEP;
             let moved = (next - p[i]).length();
             if moved == 0.0 || !space.is_navigable(next) {
                 continue;
             }
-            if rays.occluded(&Ray::segment(p[i - 1], next)) || rays.occluded(&Ray::segment(next, p[i + 1])) {
+            // No segment that was clear may stop being clear (one that was
+            // not, where a raw route cut a corner, may stay so while it mends).
+            let clear = |x: Vec3, y: Vec3| segment_clear(rays, space, x, y);
+            if (!clear(p[i - 1], next) && clear(p[i - 1], p[i])) || (!clear(next, p[i + 1]) && clear(p[i], p[i + 1])) {
                 continue;
             }
             p[i] = next;
@@ -116,7 +122,8 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
     }
     stats.blocked_segments = p.windows(2).filter(|w| rays.occluded(&Ray::segment(w[0], w[1]))).count();
     let clearances: Vec<f32> = p.iter().map(|&q| space.clearance_at(q)).collect();
-    stats.min_clearance = clearances.iter().copied().fold(f32::INFINITY, f32::min);
+    // The least over every voxel the path crosses, not only at its masses.
+    stats.min_clearance = p.windows(2).map(|w| space.segment_clearance(w[0], w[1])).fold(f32::INFINITY, f32::min);
     stats.mean_clearance = clearances.iter().sum::<f32>() / clearances.len().max(1) as f32;
     stats.length_after = polyline_length(&p);
     (p, stats)
