@@ -1278,6 +1278,21 @@ mod tests {
     }
 
     #[test]
+    fn a_staircase_joins_the_storeys_in_the_walking_space() {
+        // The house's stairs: floors at 0.15 and 3.15 m, treads with nosings.
+        // Eye height in the living room and on the landing are one part of the
+        // band that paths run through (26-connected, as they step).
+        let scene = BuiltIn::House.generate(1);
+        let (walk, stats) = run(&scene, &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        let (ground, upper) = (Vec3::new(-3.0, 0.15 + 1.6, 0.0), Vec3::new(-3.0, 3.15 + 1.6, -2.0));
+        assert!(walk.is_navigable(ground) && walk.is_navigable(upper), "{ground} {upper}");
+        let (labels, _) = components_26(&walk.grid, &walk.navigable);
+        let label = |p: Vec3| labels[walk.grid.index(walk.grid.cell(p).unwrap())];
+        assert_eq!(label(ground), label(upper), "the stairs join the storeys");
+    }
+
+    #[test]
     fn an_island_is_a_scene_to_be_in_walked_on_its_ground_in_its_houses_and_tunnel() {
         let scene = BuiltIn::Island.generate(1);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();

@@ -27,7 +27,10 @@
 //!    for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
-//!    so the band is connected wherever people can walk.
+//!    and where floor cells joined across a stride (a nosing) the band spans
+//!    the gap along the line between their eyes, so the band is connected
+//!    wherever people can walk. (Without that span, a staircase's storeys
+//!    were apart in the band, and no path climbed it.)
 //!
 //! A probe [`Walk::stand`]s exactly at eye height above the floor under it.
 //! Defaults: eye 1.6 m, head room 0.25 m above the eye, steps up to 0.3 m,
@@ -203,6 +206,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let (near, far): (Vec<_>, Vec<_>) = stride_offsets(grid.voxel * metres_per_unit).into_iter().partition(|&(dx, dz)| dx * dx + dz * dz == 1);
     let mut parent: Vec<u32> = (0..standing.len() as u32).collect();
     let mut hip_rays = 0;
+    // Joins across a stride: the band spans them.
+    let mut bridges: Vec<(u32, u32)> = Vec::new();
     for (pass, offsets) in [near, far].iter().enumerate() {
         let mut pairs: Vec<(u32, u32)> = Vec::new();
         for (a, c) in standing.iter().enumerate() {
@@ -225,6 +230,9 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         let blocked = rays.occluded_batch(&hips, Packing::Single);
         for (&(a, b), &shut) in pairs.iter().zip(&blocked) {
             if !shut {
+                if pass == 1 {
+                    bridges.push((a, b));
+                }
                 let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
                 // The smaller index is the root: labels do not depend on thread count or order.
                 parent[ra.max(rb) as usize] = ra.min(rb);
@@ -269,6 +277,20 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             let i = grid.index([a[0], y, a[2]]);
             band[i] |= fly[i];
         }
+    }
+    // Each voxel on the line between two bridged eyes, and those within half
+    // the band above and below it.
+    let reach = (half_band / grid.voxel).ceil() as usize;
+    for &(a, b) in bridges.iter().filter(|&&(a, _)| kept[region_of[a as usize] as usize]) {
+        let (a, b) = (&standing[a as usize], &standing[b as usize]);
+        grid.walk_segment(centre(a, eye), centre(b, eye), |i| {
+            let [x, y, z] = grid.coords(i);
+            for y in y.saturating_sub(reach)..=(y + reach).min(grid.dims[1] - 1) {
+                let j = grid.index([x, y, z]);
+                band[j] |= fly[j];
+            }
+            true
+        });
     }
     let kept_heights: Vec<f32> = standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| c.floor_y).collect();
     let levels = levels(&kept_heights, 0.25 / metres_per_unit);
