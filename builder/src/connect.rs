@@ -138,7 +138,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
     // A* between parts of the navigable space that never touch would search
     // all of one part before giving up: such pairs are refused at once.
-    let (part, _) = if searches.is_empty() { (Vec::new(), Vec::new()) } else { crate::freespace::components_26(&space.grid, &space.navigable) };
+    let (part, _) = if searches.is_empty() && components(probes.len(), &paths) == 1 { (Vec::new(), Vec::new()) } else { crate::freespace::components_26(&space.grid, &space.navigable) };
     let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
     for (i, j) in searches {
         if part_of(probes[i]) != part_of(probes[j]) {
@@ -166,7 +166,8 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     // (Nearest in a straight line was tried first: probes 2 m apart through
     // a wall got routes of up to 1.7 km.)
     if components(probes.len(), &paths) > 1 {
-        for (i, j, polyline) in walks_between_groups(space, probes, &paths) {
+        let parts: Vec<Option<u32>> = probes.iter().map(|&p| part_of(p)).collect();
+        for (i, j, polyline) in walks_between_groups(space, probes, &parts, &paths) {
             stats.joined += 1;
             paths.push(RawPath { from: i, to: j, polyline });
         }
@@ -270,15 +271,30 @@ fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_
 /// of one and any of the other: a flood over navigable voxels from every
 /// probe at once (Dijkstra, step costs as A*'s) gives each voxel its nearest
 /// probe by walk; where two voxels of probes in different groups touch, a
-/// route runs through them; the cheapest join groups first (Kruskal).
+/// route runs through them; the cheapest join groups first (Kruskal). Only
+/// parts of the space (`parts`, per probe) holding probes of two groups or
+/// more are flooded: the Crytek Sponza's 22 parts took 5 s, for no join.
 /// Returns (probe, probe, polyline), the lower index first.
-fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
+fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
+    let mut groups = Groups::new(probes.len(), paths);
+    let mut first_group: HashMap<u32, usize> = HashMap::new();
+    let mut contested: Vec<u32> = Vec::new();
+    for (k, part) in parts.iter().enumerate() {
+        let Some(part) = *part else { continue };
+        let group = groups.root(k);
+        if *first_group.entry(part).or_insert(group) != group && !contested.contains(&part) {
+            contested.push(part);
+        }
+    }
+    if contested.is_empty() {
+        return Vec::new();
+    }
     let g = &space.grid;
     let cells = g.dims.iter().product::<usize>();
     // Per voxel: cost from its nearest probe, that probe, the voxel before.
     let (mut cost, mut owner, mut parent) = (vec![f32::INFINITY; cells], vec![u32::MAX; cells], vec![u32::MAX; cells]);
     let mut open = BinaryHeap::new();
-    for (k, &p) in probes.iter().enumerate() {
+    for (k, &p) in probes.iter().enumerate().filter(|&(k, _)| parts[k].is_some_and(|part| contested.contains(&part))) {
         if let Some(i) = g.cell(p).map(|c| g.index(c)).filter(|&i| space.navigable[i] && owner[i] == u32::MAX) {
             (cost[i], owner[i], parent[i]) = (0.0, k as u32, i as u32);
             open.push((Reverse(ordered(0.0)), i));
@@ -296,7 +312,6 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], paths: &[RawPath]) -
         }
     }
     // Where the floods of two groups meet: the cheapest crossing per pair of probes.
-    let mut groups = Groups::new(probes.len(), paths);
     let mut crossings: HashMap<(u32, u32), (f32, u32, u32)> = HashMap::new();
     for i in (0..cells).filter(|&i| owner[i] != u32::MAX) {
         for (j, step) in steps(space, i) {
