@@ -16,7 +16,7 @@
 //! first and skipped where a two-arc detour already makes the arc redundant.
 //! Pairs with no route are rejected. Groups of probes left apart (no view
 //! shared across them) but in one part of the navigable space are then joined
-//! by A* between their nearest probes. Arcs whose length exceeds 1.25 times a
+//! along the shortest walk between them. Arcs whose length exceeds 1.25 times a
 //! two-arc detour through a third probe are pruned (longest first, never
 //! disconnecting the graph), so the graph stays readable.
 
@@ -55,7 +55,8 @@ pub struct ConnectStats {
     pub straight: usize,
     pub via_witness: usize,
     pub a_star: usize,
-    /// A* paths joining groups of probes that share no view with each other.
+    /// Paths joining groups of probes that share no view with each other
+    /// (the shortest walk between the groups).
     pub joined: usize,
     pub unroutable: usize,
     pub pruned: usize,

@@ -99,9 +99,7 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
         for i in 1..p.len().saturating_sub(1) {
             let spring = 0.5 * (p[i - 1] + p[i + 1]) - p[i];
             let c = space.clearance_at(p[i]).max(1e-6);
-            // (Inverse-square, but at most four times its value at r: unbounded,
-            // a mass in a voxel of clearance 0 was thrown too far to ever move.)
-            let repulsion = if c < 3.0 * r { clearance_gradient(space, p[i]).normalize_or_zero() * spacing * (r / c).powi(2).min(4.0) } else { Vec3::ZERO };
+            let repulsion = if c < 3.0 * r { clearance_gradient(space, p[i]).normalize_or_zero() * spacing * (r / c).powi(2) } else { Vec3::ZERO };
             let next = p[i] + (spring + repulsion * 0.25) * STEP;
             let moved = (next - p[i]).length();
             if moved == 0.0 || !space.is_navigable(next) {
