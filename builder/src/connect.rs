@@ -23,6 +23,7 @@
 use crate::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
+use petgraph::unionfind::UnionFind;
 use rand::Rng;
 use rayon::prelude::*;
 use std::cmp::Reverse;
@@ -211,36 +212,19 @@ fn prune(n: usize, mut paths: Vec<RawPath>, ratio: f32) -> Vec<RawPath> {
     paths
 }
 
-/// Groups of probes joined by paths (union-find).
-struct Groups {
-    parent: Vec<usize>,
-}
-
-impl Groups {
-    fn new(n: usize, paths: &[RawPath]) -> Groups {
-        let mut groups = Groups { parent: (0..n).collect() };
-        for p in paths {
-            groups.join(p.from, p.to);
-        }
-        groups
+/// Groups of probes joined by paths.
+fn groups(n: usize, paths: &[RawPath]) -> UnionFind<usize> {
+    let mut groups = UnionFind::new(n);
+    for p in paths {
+        groups.union(p.from, p.to);
     }
-    fn root(&mut self, mut x: usize) -> usize {
-        while self.parent[x] != x {
-            self.parent[x] = self.parent[self.parent[x]];
-            x = self.parent[x];
-        }
-        x
-    }
-    fn join(&mut self, a: usize, b: usize) {
-        let (a, b) = (self.root(a), self.root(b));
-        self.parent[a] = b;
-    }
+    groups
 }
 
 /// Connected components of probes joined by paths.
 pub fn components(n: usize, paths: &[RawPath]) -> usize {
-    let mut groups = Groups::new(n, paths);
-    (0..n).filter(|&x| groups.root(x) == x).count()
+    let mut groups = groups(n, paths);
+    (0..n).filter(|&x| groups.find_mut(x) == x).count()
 }
 
 /// The navigable 26-neighbours of voxel `i` and the cost of the step to each:
@@ -277,12 +261,12 @@ fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_
 /// more are flooded: the Crytek Sponza's 22 parts took 5 s, for no join.
 /// Returns (probe, probe, polyline), the lower index first.
 fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
-    let mut groups = Groups::new(probes.len(), paths);
+    let mut groups = groups(probes.len(), paths);
     let mut first_group: HashMap<u32, usize> = HashMap::new();
     let mut contested: Vec<u32> = Vec::new();
     for (k, part) in parts.iter().enumerate() {
         let Some(part) = *part else { continue };
-        let group = groups.root(k);
+        let group = groups.find_mut(k);
         if *first_group.entry(part).or_insert(group) != group && !contested.contains(&part) {
             contested.push(part);
         }
@@ -317,7 +301,7 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>
     for i in (0..cells).filter(|&i| owner[i] != u32::MAX) {
         for (j, step) in steps(space, i) {
             let (a, b) = (owner[i], owner[j]);
-            if a < b && groups.root(a as usize) != groups.root(b as usize) {
+            if a < b && groups.find_mut(a as usize) != groups.find_mut(b as usize) {
                 let total = cost[i] + step + cost[j];
                 let best = crossings.entry((a, b)).or_insert((f32::INFINITY, 0, 0));
                 if total < best.0 {
@@ -339,10 +323,10 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>
     let mut joins = Vec::new();
     for ((a, b), (_, i, j)) in crossings {
         let (a, b) = (a as usize, b as usize);
-        if groups.root(a) == groups.root(b) {
+        if groups.find_mut(a) == groups.find_mut(b) {
             continue;
         }
-        groups.join(a, b);
+        groups.union(a, b);
         // a's probe, the voxels from its own (left out: the probe stands
         // there) to i, from j to b's (left out), b's probe.
         let (mut from_a, from_b) = (back(i as usize), back(j as usize));

@@ -59,6 +59,7 @@ use crate::raycast::{Hit, Packing, Ray, RayScene};
 use crate::walk::{self, Walk, WalkStats};
 use exploremaps_scenes::{Aabb, ScaleSource, Scene};
 use glam::Vec3;
+use petgraph::unionfind::UnionFind;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -958,15 +959,7 @@ fn components_by(grid: &Grid, marked: &[bool], diagonal: bool) -> (Vec<u32>, Vec
         .collect();
     let first: Vec<usize> = row_runs.iter().scan(0, |n, r| { let s = *n; *n += r.len(); Some(s) }).collect();
     let count = first.last().map_or(0, |&f| f + row_runs.last().map_or(0, Vec::len));
-    // The root of a set is its earliest run: the one holding its lowest voxel.
-    let mut parent: Vec<u32> = (0..count as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
-    }
+    let mut parent: UnionFind<u32> = UnionFind::new(count);
     // Rows met before this one in grid order: below, behind, and with
     // diagonals the two behind it one up and one down. Diagonally, runs that
     // only touch end to end meet too.
@@ -981,8 +974,7 @@ fn components_by(grid: &Grid, marked: &[bool], diagonal: bool) -> (Vec<u32>, Vec
             while i < mine.len() && j < theirs.len() {
                 let (a, b) = (mine[i], theirs[j]);
                 if a.0 < b.1 + reach && b.0 < a.1 + reach {
-                    let (ra, rb) = (find(&mut parent, (first[r] + i) as u32), find(&mut parent, (first[q] + j) as u32));
-                    parent[ra.max(rb) as usize] = ra.min(rb);
+                    parent.union((first[r] + i) as u32, (first[q] + j) as u32);
                 }
                 if a.1 <= b.1 {
                     i += 1;
@@ -995,7 +987,7 @@ fn components_by(grid: &Grid, marked: &[bool], diagonal: bool) -> (Vec<u32>, Vec
     let mut run_label = vec![NONE; count];
     let mut sizes = Vec::new();
     for k in 0..count {
-        let root = find(&mut parent, k as u32) as usize;
+        let root = parent.find_mut(k as u32) as usize;
         if run_label[root] == NONE {
             run_label[root] = sizes.len() as u32;
             sizes.push(0);

@@ -39,6 +39,7 @@
 use crate::freespace::Grid;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
+use petgraph::unionfind::UnionFind;
 use rayon::prelude::*;
 
 pub const HEAD_ROOM_M: f32 = 0.25;
@@ -204,7 +205,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     // the same across a stride as between neighbours: a step is a step, and
     // slopes are followed column by column.
     let (near, far): (Vec<_>, Vec<_>) = stride_offsets(grid.voxel * metres_per_unit).into_iter().partition(|&(dx, dz)| dx * dx + dz * dz == 1);
-    let mut parent: Vec<u32> = (0..standing.len() as u32).collect();
+    let mut parent: UnionFind<u32> = UnionFind::new(standing.len());
     let mut hip_rays = 0;
     // Joins across a stride: the band spans them.
     let mut bridges: Vec<(u32, u32)> = Vec::new();
@@ -218,7 +219,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
                     continue;
                 }
                 for &b in &by_column[nx + grid.dims[0] * nz] {
-                    let apart = pass == 0 || root(&mut parent, a as u32) != root(&mut parent, b);
+                    let apart = pass == 0 || !parent.equiv(a as u32, b);
                     if apart && (standing[b as usize].floor_y - c.floor_y).abs() <= rise {
                         pairs.push((a as u32, b));
                     }
@@ -233,14 +234,12 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
                 if pass == 1 {
                     bridges.push((a, b));
                 }
-                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-                // The smaller index is the root: labels do not depend on thread count or order.
-                parent[ra.max(rb) as usize] = ra.min(rb);
+                parent.union(a, b);
             }
         }
     }
     // Step 4: regions, roofs, and which are kept.
-    let roots: Vec<u32> = (0..standing.len() as u32).map(|k| root(&mut parent, k)).collect();
+    let roots: Vec<u32> = (0..standing.len() as u32).map(|k| parent.find_mut(k)).collect();
     let mut region_of = vec![u32::MAX; standing.len()];
     let mut sizes: Vec<usize> = Vec::new();
     let mut roofish: Vec<usize> = Vec::new();
@@ -312,14 +311,6 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
 }
 
 /// Union-find root with path halving.
-fn root(parent: &mut [u32], mut k: u32) -> u32 {
-    while parent[k as usize] != k {
-        parent[k as usize] = parent[parent[k as usize] as usize];
-        k = parent[k as usize];
-    }
-    k
-}
-
 /// Column offsets (dx, dz) ahead of a column within a stride, at least the
 /// next columns along x and z: the half disc with dz > 0, or dz = 0 and dx > 0,
 /// so that each pair of columns is tried once.
