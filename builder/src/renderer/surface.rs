@@ -84,11 +84,53 @@ fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
     mix(top, bottom, fy)
 }
 
+/// sRGB encoding of a linear value in 0..=1, by a table of 4,096 steps
+/// (the inverse of [`srgb_to_linear`] within a level, where it matters: the
+/// table is finer than a byte everywhere but the darkest 1/4,096).
+fn linear_to_srgb(x: f32) -> u8 {
+    static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        (0..=4096)
+            .map(|i| {
+                let c = i as f32 / 4096.0;
+                let e = if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+                (e * 255.0).round().clamp(0.0, 255.0) as u8
+            })
+            .collect()
+    });
+    table[(x.clamp(0.0, 1.0) * 4096.0 + 0.5) as usize]
+}
+
+/// The next level of a texture's mip pyramid: each texel the mean of 2 × 2,
+/// in linear light (averaging sRGB bytes would darken every mix of light
+/// and dark), wrapping at the edges as the texture tiles. (The `image`
+/// crate's resize filters do neither.)
+fn half(img: &image::RgbaImage) -> image::RgbaImage {
+    let (w, h) = (img.width(), img.height());
+    let table = srgb_table();
+    image::RgbaImage::from_fn((w / 2).max(1), (h / 2).max(1), |x, y| {
+        let (mut rgb, mut alpha) = (Vec3::ZERO, 0.0);
+        for (sx, sy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
+            let p = img.get_pixel(sx % w, sy % h);
+            rgb += Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize]);
+            alpha += p[3] as f32;
+        }
+        let c = rgb * 0.25;
+        image::Rgba([linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z), (alpha * 0.25).round() as u8])
+    })
+}
+
 /// The scene's materials as the renderer sees them.
 pub struct Materials<'a> {
     scene: &'a Scene,
     /// Whether any material can be see-through (then visibility tests look at alpha).
     pub has_cutouts: bool,
+    /// Per texture, its mip levels below the full one, made when first read.
+    mips: Vec<std::sync::OnceLock<Vec<image::RgbaImage>>>,
+    /// Per triangle (empty for a scene without textures): half the log2 of
+    /// its area in texture space (the unit square) over its area in the
+    /// scene, so a footprint's size in texels follows from its size in space.
+    texel_density: Vec<f32>,
 }
 
 /// What triangles without a material look like.
@@ -108,7 +150,43 @@ impl<'a> Materials<'a> {
 
     pub fn new(scene: &'a Scene) -> Materials<'a> {
         let has_cutouts = scene.materials.iter().any(|m| m.alpha_mode != AlphaMode::Opaque);
-        Materials { scene, has_cutouts }
+        let textured = !scene.uvs.is_empty() && !scene.textures.is_empty();
+        let texel_density = if !textured {
+            Vec::new()
+        } else {
+            scene
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| scene.positions[i as usize]);
+                    let [p, q, r] = t.map(|i| scene.uvs[i as usize]);
+                    let uv_area = (q - p).perp_dot(r - p).abs();
+                    let area = (b - a).cross(c - a).length();
+                    // Degenerate either way: the full level.
+                    if uv_area > 0.0 && area > 0.0 { 0.5 * (uv_area / area).log2() } else { f32::NEG_INFINITY }
+                })
+                .collect()
+        };
+        let mips = scene.textures.iter().map(|_| std::sync::OnceLock::new()).collect();
+        Materials { scene, has_cutouts, mips, texel_density }
+    }
+
+    /// Whether any triangle is textured (else footprints change nothing).
+    pub fn has_textures(&self) -> bool {
+        !self.texel_density.is_empty()
+    }
+
+    /// A texture's mip levels below the full one, down to 1 × 1.
+    fn levels(&self, texture: usize) -> &[image::RgbaImage] {
+        self.mips[texture].get_or_init(|| {
+            let mut levels: Vec<image::RgbaImage> = Vec::new();
+            let mut last = &self.scene.textures[texture].image;
+            while last.width() > 1 || last.height() > 1 {
+                levels.push(half(last));
+                last = levels.last().expect("just pushed");
+            }
+            levels
+        })
     }
 
     fn uv(&self, triangle: u32, u: f32, v: f32) -> Option<Vec2> {
@@ -144,6 +222,29 @@ impl<'a> Materials<'a> {
         }
     }
 
+    /// Linear base colour at a hit, the texture averaged over a footprint
+    /// `width` across in the scene (trilinear between mip levels; 0: the
+    /// full level, as [`Materials::albedo`]).
+    fn filtered_albedo(&self, hit: &Hit, width: f32) -> Vec3 {
+        let m = self.of(hit.triangle);
+        let [r, g, b, _] = m.base_color;
+        let factor = Vec3::new(r, g, b);
+        let (Some(t), Some(uv)) = (m.base_color_texture, self.uv(hit.triangle, hit.u, hit.v)) else {
+            return factor;
+        };
+        let full = &self.scene.textures[t].image;
+        // The footprint's width in texels of the full level, as a level.
+        let level = if width > 0.0 { width.log2() + self.texel_density[hit.triangle as usize] + 0.5 * (full.width() as f32 * full.height() as f32).log2() } else { f32::NEG_INFINITY };
+        if !(level > 0.0) {
+            return factor * bilinear(full, uv).0;
+        }
+        let levels = self.levels(t);
+        let at = |k: usize| if k == 0 { bilinear(full, uv).0 } else { bilinear(&levels[(k - 1).min(levels.len() - 1)], uv).0 };
+        let k = (level as usize).min(levels.len());
+        let f = (level - k as f32).min(1.0);
+        factor * if f <= 0.0 || k == levels.len() { at(k) } else { at(k) * (1.0 - f) + at(k + 1) * f }
+    }
+
     /// Whether a hit is a hole in a cut-out (blended materials count as
     /// cut-outs at alpha 0.5, which keeps rendering deterministic).
     pub fn is_hole(&self, hit: &Hit) -> bool {
@@ -165,8 +266,19 @@ impl<'a> Materials<'a> {
 
     /// The shading point of a hit seen along `ray`.
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_seen(ray, hit, 0.0)
+    }
+
+    /// [`Materials::surface`] for a ray that stands for a cone `spread`
+    /// radians wide (a pixel's, where one sample through its centre stands
+    /// for the whole pixel): its texture is averaged over the cone's
+    /// footprint (Amanatides 1984's ray cones; the level as in
+    /// Akenine-Möller et al. 2019, "Texture level of detail strategies for
+    /// real-time ray tracing"), so detail finer than a pixel does not alias
+    /// (glitter in still images, shimmer in videos).
+    pub fn surface_seen(&self, ray: &Ray, hit: &Hit, spread: f32) -> Surface {
         let s = self.scene;
-        let mut surface = self.surface_flat(ray, hit);
+        let mut surface = self.flat(ray, hit, spread);
         if !s.normals.is_empty() {
             let geometric = surface.geometric;
             let [a, b, c] = s.triangles[hit.triangle as usize].map(|i| s.normals[i as usize]);
@@ -184,8 +296,23 @@ impl<'a> Materials<'a> {
     /// a final gather's second hit needs (its cache lookup), three vertex
     /// normals fewer to fetch.
     pub fn surface_flat(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.flat(ray, hit, 0.0)
+    }
+
+    fn flat(&self, ray: &Ray, hit: &Hit, spread: f32) -> Surface {
         let geometric = if hit.normal.dot(ray.dir) > 0.0 { -hit.normal } else { hit.normal };
-        Surface { position: ray.at(hit.t), normal: geometric, geometric, albedo: self.base(hit).0.min(Vec3::splat(0.98)), emission: self.of(hit.triangle).emissive }
+        let albedo = if spread > 0.0 && !self.texel_density.is_empty() {
+            // The footprint is an ellipse spread t across and spread t / cos
+            // along the surface's slope: its width is taken as the geometric
+            // mean of the two, so a floor seen at a grazing angle is neither
+            // blurred as much as its long axis asks nor left to alias along it.
+            let length = ray.dir.length();
+            let cos = (hit.normal.dot(ray.dir).abs() / length).max(1e-4);
+            self.filtered_albedo(hit, spread * hit.t * length / cos.sqrt())
+        } else {
+            self.base(hit).0
+        };
+        Surface { position: ray.at(hit.t), normal: geometric, geometric, albedo: albedo.min(Vec3::splat(0.98)), emission: self.of(hit.triangle).emissive }
     }
 }
 

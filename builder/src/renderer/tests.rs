@@ -2,6 +2,8 @@ use super::*;
 use image::Rgb;
 use exploremaps_scenes::mesh::MeshBuilder;
 use exploremaps_scenes::{AlphaMode, Material, Texture};
+use rand::Rng;
+use rand_pcg::Pcg32;
 
 fn ray_scene(scene: &Scene) -> RayScene {
     RayScene::new(&scene.positions, &scene.triangles, 0).unwrap()
@@ -729,4 +731,81 @@ fn the_floor_darkens_at_a_boxs_foot_as_the_reference_does() {
     // Measured: 0.0231 against 0.0346 (the reference's own noise is part of both).
     assert!(error < 0.8 * plain_error, "final {error:.4}, plain grid {plain_error:.4}");
     assert!((m_ours / m_ref - 1.0).abs() < 0.03, "mean {m_ours} against the reference's {m_ref}");
+}
+
+/// A 40 m square floor under the sky and the default sun, textured with a
+/// black-and-white checker of 64 texels repeated every 10 cm (1.6 mm
+/// texels): seen from eye height, every pixel beyond a few metres covers
+/// many squares.
+fn fine_checker_floor() -> Scene {
+    let mut scene = Scene::empty("checker floor");
+    scene.positions = vec![Vec3::new(-20.0, 0.0, -20.0), Vec3::new(20.0, 0.0, -20.0), Vec3::new(20.0, 0.0, 20.0), Vec3::new(-20.0, 0.0, 20.0)];
+    scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new(p.x, p.z) * 10.0).collect();
+    scene.triangles = vec![[0, 2, 1], [0, 3, 2]];
+    let checker = image::RgbaImage::from_fn(64, 64, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 255, 255, 255]) } else { image::Rgba([0, 0, 0, 255]) });
+    scene.textures.push(Texture { name: "checker".into(), image: checker });
+    scene.materials = vec![Material { base_color_texture: Some(0), ..Material::diffuse("checker", [1.0; 3]) }];
+    scene.triangle_material = vec![0; 2];
+    scene.triangle_object = vec![0; 2];
+    scene.objects = vec!["floor".into()];
+    scene
+}
+
+#[test]
+fn one_sample_a_pixel_reads_a_fine_texture_averaged_over_the_pixel() {
+    // A pixel's true colour is its texture's mean over the pixel (what many
+    // jittered samples converge to). A single point sample of a checker far
+    // finer than the pixel is black or white at random; read over the
+    // pixel's footprint it is close to the mean, and averaged in linear
+    // light (a mean of sRGB bytes would give 0.21, not 0.5).
+    let scene = fine_checker_floor();
+    let rays = ray_scene(&scene);
+    let materials = Materials::new(&scene);
+    let eye = Vec3::new(0.0, 1.6, 0.0);
+    let (size, fov) = (48u32, 1.0f32);
+    let pixel = fov / size as f32;
+    let direction = |x: f32, y: f32| Vec3::new((x / size as f32 - 0.5) * fov, -0.35 - (y / size as f32) * fov, -1.0).normalize();
+    let albedo = |d: Vec3, spread: f32| {
+        let mut ray = crate::raycast::Ray::new(eye, d);
+        rays.intersect(&mut ray).map(|h| materials.surface_seen(&ray, &h, spread).albedo.x)
+    };
+    let mut rng = Pcg32::new(5, 0);
+    let (mut filtered_error, mut point_error, mut filtered_sum, mut truth_sum, mut n) = (0.0, 0.0, 0.0, 0.0, 0);
+    for y in 0..size {
+        for x in 0..size {
+            let centre = direction(x as f32 + 0.5, y as f32 + 0.5);
+            let (Some(filtered), Some(point)) = (albedo(centre, pixel), albedo(centre, 0.0)) else { continue };
+            let truth = (0..256).filter_map(|_| albedo(direction(x as f32 + rng.random::<f32>(), y as f32 + rng.random::<f32>()), 0.0)).sum::<f32>() / 256.0;
+            filtered_error += (filtered - truth).abs();
+            point_error += (point - truth).abs();
+            filtered_sum += filtered;
+            truth_sum += truth;
+            n += 1;
+        }
+    }
+    let (filtered_error, point_error) = (filtered_error / n as f32, point_error / n as f32);
+    println!("{n} pixels on the floor: error of one sample against 256, point {point_error:.3}, over the footprint {filtered_error:.3}; means {:.3} and {:.3}", filtered_sum / n as f32, truth_sum / n as f32);
+    assert!(n > size * size / 2, "the view should be mostly floor");
+    assert!(point_error > 0.05, "the checker should alias when point-sampled ({point_error:.3})");
+    assert!(filtered_error < 0.25 * point_error, "over the footprint {filtered_error:.3}, point-sampled {point_error:.3}");
+    assert!((filtered_sum / truth_sum - 1.0).abs() < 0.03, "mean {} against {}", filtered_sum / n as f32, truth_sum / n as f32);
+}
+
+#[test]
+fn renders_at_one_sample_a_pixel_read_textures_over_the_pixel() {
+    // The renderer's own path: a `final` frame of the checker floor at one
+    // sample a pixel against 64 jittered samples (which point-sample), with
+    // the same lighting (sun and the cache; the open floor has no shadows).
+    let scene = fine_checker_floor();
+    let rays = ray_scene(&scene);
+    let eye = Vec3::new(0.0, 1.6, 0.0);
+    let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 1));
+    let params = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed: 3 };
+    let view = |samples: u32| renderer.perspective(&TraceParams { samples, ..params }, eye, 0.0, -0.6, 0.9, 64, 48, 0).color;
+    let (one, many) = (view(1), view(64));
+    let floor: Vec<usize> = (0..one.len()).filter(|&i| many[i].x < 1.5 * mean(&many).x && one[i] != Vec3::ZERO).collect();
+    let error = floor.iter().map(|&i| (one[i] - many[i]).abs().x).sum::<f32>() / floor.iter().map(|&i| many[i].x).sum::<f32>();
+    println!("one sample a pixel against 64: {:.3} of the light, over {} pixels", error, floor.len());
+    assert!(floor.len() > 1000);
+    assert!(error < 0.08, "one sample a pixel is {error:.3} of the light off 64 samples");
 }

@@ -406,7 +406,18 @@ impl<'a> Tracer<'a> {
                 let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
                 // The field's tolerances need the distance along the ray.
                 hits[i] = hit;
-                let s = hit.map(|h| self.materials.surface(&ray, &h));
+                // One sample through a pixel stands for all of it: its
+                // texture is read over the pixel's footprint (the angle to
+                // the pixel below's centre; the rows' spacing in an
+                // equirectangular frame, as its thinned rows trace).
+                let spread = match hit {
+                    Some(_) if spp == 1 && self.materials.has_textures() => {
+                        let (px, py) = at[i];
+                        (project(px / width as f32, (py + 1.0) / height as f32).normalize_or_zero() - ray.dir.normalize_or_zero()).length()
+                    }
+                    _ => 0.0,
+                };
+                let s = hit.map(|h| self.materials.surface_seen(&ray, &h, spread));
                 match &s {
                     None => {
                         let sky = self.lighting.sky.radiance(ray.dir);
