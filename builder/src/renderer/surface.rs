@@ -103,20 +103,26 @@ fn linear_to_srgb(x: f32) -> u8 {
 
 /// The next level of a texture's mip pyramid: each texel the mean of 2 × 2,
 /// in linear light (averaging sRGB bytes would darken every mix of light
-/// and dark), wrapping at the edges as the texture tiles. (The `image`
-/// crate's resize filters do neither.)
-fn half(img: &image::RgbaImage) -> image::RgbaImage {
+/// and dark), for a cut-out's texture weighted by alpha (its holes show no
+/// colour, and often hold black; an opaque material's alpha may mean
+/// anything), wrapping at the edges as the texture tiles. (The `image`
+/// crate's resize filters do none of these.)
+fn half(img: &image::RgbaImage, cutout: bool) -> image::RgbaImage {
     let (w, h) = (img.width(), img.height());
     let table = srgb_table();
     image::RgbaImage::from_fn((w / 2).max(1), (h / 2).max(1), |x, y| {
-        let (mut rgb, mut alpha) = (Vec3::ZERO, 0.0);
+        let (mut weighted, mut plain, mut weights, mut alpha) = (Vec3::ZERO, Vec3::ZERO, 0.0, 0u32);
         for (sx, sy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
             let p = img.get_pixel(sx % w, sy % h);
-            rgb += Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize]);
-            alpha += p[3] as f32;
+            let c = Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize]);
+            let weight = if cutout { p[3] as f32 } else { 1.0 };
+            weighted += c * weight;
+            plain += c;
+            weights += weight;
+            alpha += p[3] as u32;
         }
-        let c = rgb * 0.25;
-        image::Rgba([linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z), (alpha * 0.25).round() as u8])
+        let c = if weights > 0.0 { weighted / weights } else { plain * 0.25 };
+        image::Rgba([linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z), ((alpha + 2) / 4) as u8])
     })
 }
 
@@ -128,7 +134,7 @@ pub struct Materials<'a> {
     /// Per texture, its mip levels below the full one, made when first read.
     mips: Vec<std::sync::OnceLock<Vec<image::RgbaImage>>>,
     /// Per triangle (empty for a scene without textures): half the log2 of
-    /// its area in texture space (the unit square) over its area in the
+    /// its area in texels of its texture's full level over its area in the
     /// scene, so a footprint's size in texels follows from its size in space.
     texel_density: Vec<f32>,
 }
@@ -151,24 +157,23 @@ impl<'a> Materials<'a> {
     pub fn new(scene: &'a Scene) -> Materials<'a> {
         let has_cutouts = scene.materials.iter().any(|m| m.alpha_mode != AlphaMode::Opaque);
         let textured = !scene.uvs.is_empty() && !scene.textures.is_empty();
-        let texel_density = if !textured {
-            Vec::new()
-        } else {
-            scene
-                .triangles
-                .iter()
+        let mips = scene.textures.iter().map(|_| std::sync::OnceLock::new()).collect();
+        let mut materials = Materials { scene, has_cutouts, mips, texel_density: Vec::new() };
+        if textured {
+            materials.texel_density = (0..scene.triangles.len() as u32)
                 .map(|t| {
-                    let [a, b, c] = t.map(|i| scene.positions[i as usize]);
-                    let [p, q, r] = t.map(|i| scene.uvs[i as usize]);
+                    let Some(texture) = materials.of(t).base_color_texture.and_then(|i| scene.textures.get(i)) else { return f32::NEG_INFINITY };
+                    let texels = texture.image.width() as f32 * texture.image.height() as f32;
+                    let [a, b, c] = scene.triangles[t as usize].map(|i| scene.positions[i as usize]);
+                    let [p, q, r] = scene.triangles[t as usize].map(|i| scene.uvs[i as usize]);
                     let uv_area = (q - p).perp_dot(r - p).abs();
                     let area = (b - a).cross(c - a).length();
                     // Degenerate either way: the full level.
-                    if uv_area > 0.0 && area > 0.0 { 0.5 * (uv_area / area).log2() } else { f32::NEG_INFINITY }
+                    if uv_area > 0.0 && area > 0.0 { 0.5 * (texels * uv_area / area).log2() } else { f32::NEG_INFINITY }
                 })
-                .collect()
-        };
-        let mips = scene.textures.iter().map(|_| std::sync::OnceLock::new()).collect();
-        Materials { scene, has_cutouts, mips, texel_density }
+                .collect();
+        }
+        materials
     }
 
     /// Whether any triangle is textured (else footprints change nothing).
@@ -180,9 +185,10 @@ impl<'a> Materials<'a> {
     fn levels(&self, texture: usize) -> &[image::RgbaImage] {
         self.mips[texture].get_or_init(|| {
             let mut levels: Vec<image::RgbaImage> = Vec::new();
+            let cutout = self.scene.materials.iter().any(|m| m.base_color_texture == Some(texture) && m.alpha_mode != AlphaMode::Opaque);
             let mut last = &self.scene.textures[texture].image;
             while last.width() > 1 || last.height() > 1 {
-                levels.push(half(last));
+                levels.push(half(last, cutout));
                 last = levels.last().expect("just pushed");
             }
             levels
@@ -234,7 +240,7 @@ impl<'a> Materials<'a> {
         };
         let full = &self.scene.textures[t].image;
         // The footprint's width in texels of the full level, as a level.
-        let level = if width > 0.0 { width.log2() + self.texel_density[hit.triangle as usize] + 0.5 * (full.width() as f32 * full.height() as f32).log2() } else { f32::NEG_INFINITY };
+        let level = if width > 0.0 { width.log2() + self.texel_density[hit.triangle as usize] } else { f32::NEG_INFINITY };
         if !(level > 0.0) {
             return factor * bilinear(full, uv).0;
         }

@@ -378,6 +378,19 @@ impl<'a> Tracer<'a> {
         let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
         let lamps = self.cache.as_ref().filter(|_| which == Which::All);
         let suns = self.lighting.suns.len();
+        // One sample through a pixel stands for all of it: its texture is
+        // read over the pixel's footprint, the angle from the tile's first
+        // pixel to the one below (in an equirectangular frame, the rows'
+        // spacing, which its thinned rows keep; on a cube face it changes
+        // by under a percent across a tile).
+        let spread = match (spp, pixels.first(), jitter) {
+            (1, Some(&(x, y)), _) if self.materials.has_textures() => {
+                let (x, y) = (x as f32 + 0.5, y as f32 + 0.5);
+                let (w, h) = (width as f32, height as f32);
+                (project(x / w, (y + 1.0) / h).normalize_or_zero() - project(x / w, y / h).normalize_or_zero()).length()
+            }
+            _ => 0.0,
+        };
         for sample in 0..spp {
             rays.clear();
             at.clear();
@@ -406,17 +419,6 @@ impl<'a> Tracer<'a> {
                 let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
                 // The field's tolerances need the distance along the ray.
                 hits[i] = hit;
-                // One sample through a pixel stands for all of it: its
-                // texture is read over the pixel's footprint (the angle to
-                // the pixel below's centre; the rows' spacing in an
-                // equirectangular frame, as its thinned rows trace).
-                let spread = match hit {
-                    Some(_) if spp == 1 && self.materials.has_textures() => {
-                        let (px, py) = at[i];
-                        (project(px / width as f32, (py + 1.0) / height as f32).normalize_or_zero() - ray.dir.normalize_or_zero()).length()
-                    }
-                    _ => 0.0,
-                };
                 let s = hit.map(|h| self.materials.surface_seen(&ray, &h, spread));
                 match &s {
                     None => {
