@@ -248,7 +248,8 @@ impl<'a> Materials<'a> {
             return factor;
         };
         let full = &self.scene.textures[t].image;
-        if !(level > 0.0) {
+        // (NaN, from a degenerate triangle's density, reads the full level too.)
+        if level.is_nan() || level <= 0.0 {
             return factor * bilinear(full, uv).0;
         }
         let levels = self.levels(t);

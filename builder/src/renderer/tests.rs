@@ -766,8 +766,8 @@ fn one_sample_a_pixel_reads_a_fine_texture_averaged_over_the_pixel() {
     let pixel = fov / size as f32;
     let direction = |x: f32, y: f32| Vec3::new((x / size as f32 - 0.5) * fov, -0.35 - (y / size as f32) * fov, -1.0).normalize();
     let albedo = |d: Vec3, spread: f32| {
-        let mut ray = crate::raycast::Ray::new(eye, d);
-        rays.intersect(&mut ray).map(|h| materials.surface_seen(&ray, &h, spread).albedo.x)
+        let ray = crate::raycast::Ray::new(eye, d);
+        rays.intersect(&ray).map(|h| materials.surface_seen(&ray, &h, spread).albedo.x)
     };
     let mut rng = Pcg32::new(5, 0);
     let (mut filtered_error, mut point_error, mut filtered_sum, mut truth_sum, mut n) = (0.0, 0.0, 0.0, 0.0, 0);
