@@ -56,7 +56,9 @@ pub enum Command {
         finalize: bool,
     },
     /// Measure again how much reachable surface a bundle's probes see; rewrites
-    /// coverage.json and the coverage pictures.
+    /// coverage.json and the coverage pictures. Its random choices (the free
+    /// space, the samples) take the seed recorded in the bundle, not --seed,
+    /// so that it measures the space the probes were placed in.
     Coverage {
         /// Bundle folder written by `plan`.
         bundle: PathBuf,

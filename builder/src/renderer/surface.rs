@@ -248,7 +248,7 @@ impl<'a> Materials<'a> {
             return factor;
         };
         let full = &self.scene.textures[t].image;
-        // (NaN, from a degenerate triangle's density, reads the full level too.)
+        // (A NaN level, from a hit with NaN in it, reads the full level too.)
         if level.is_nan() || level <= 0.0 {
             return factor * bilinear(full, uv).0;
         }
