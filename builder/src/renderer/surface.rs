@@ -214,37 +214,27 @@ impl<'a> Materials<'a> {
         Some(a * (1.0 - u - v) + b * u + c * v)
     }
 
-    /// Base colour and alpha at a hit (texture times factor).
-    fn base(&self, hit: &Hit) -> (Vec3, f32) {
-        self.base_at(hit.triangle, hit.u, hit.v)
-    }
-
     /// Linear base colour (texture times factor) at barycentric (u, v) of a triangle.
     pub fn albedo(&self, triangle: u32, u: f32, v: f32) -> Vec3 {
-        self.base_at(triangle, u, v).0
+        self.colour_at(self.of(triangle), triangle, u, v, f32::NEG_INFINITY)
     }
 
-    fn base_at(&self, triangle: u32, u: f32, v: f32) -> (Vec3, f32) {
-        let s = self.scene;
-        let m = self.of(triangle);
-        let [r, g, b, a] = m.base_color;
-        let factor = Vec3::new(r, g, b);
-        match (m.base_color_texture, self.uv(triangle, u, v)) {
-            (Some(t), Some(uv)) => {
-                let (rgb, alpha) = bilinear(&s.textures[t].image, uv);
-                (factor * rgb, a * alpha)
-            }
-            _ => (factor, a),
+    /// Alpha at a hit (texture times factor), read at the full level: cut-outs
+    /// keep their exact outline whatever the distance.
+    fn alpha(&self, m: &Material, hit: &Hit) -> f32 {
+        match (m.base_color_texture, self.uv(hit.triangle, hit.u, hit.v)) {
+            (Some(t), Some(uv)) => m.base_color[3] * bilinear(&self.scene.textures[t].image, uv).1,
+            _ => m.base_color[3],
         }
     }
 
-    /// Linear base colour of material `m` at a hit, its texture read at mip
+    /// Linear base colour of material `m` at barycentric (u, v) of a triangle, its texture read at mip
     /// `level` (fractional: trilinear; 0 or less: the full level, as
     /// [`Materials::albedo`]).
-    fn colour_at(&self, m: &Material, hit: &Hit, level: f32) -> Vec3 {
+    fn colour_at(&self, m: &Material, triangle: u32, u: f32, v: f32, level: f32) -> Vec3 {
         let [r, g, b, _] = m.base_color;
         let factor = Vec3::new(r, g, b);
-        let (Some(t), Some(uv)) = (m.base_color_texture, self.uv(hit.triangle, hit.u, hit.v)) else {
+        let (Some(t), Some(uv)) = (m.base_color_texture, self.uv(triangle, u, v)) else {
             return factor;
         };
         let full = &self.scene.textures[t].image;
@@ -267,12 +257,13 @@ impl<'a> Materials<'a> {
         if !self.has_cutouts {
             return false;
         }
-        let cutoff = match self.of(hit.triangle).alpha_mode {
+        let m = self.of(hit.triangle);
+        let cutoff = match m.alpha_mode {
             AlphaMode::Opaque => return false,
             AlphaMode::Mask { cutoff } => cutoff,
             AlphaMode::Blend => 0.5,
         };
-        self.base(hit).1 < cutoff
+        self.alpha(m, hit) < cutoff
     }
 
     /// The radiance a triangle emits (either side).
@@ -331,7 +322,7 @@ impl<'a> Materials<'a> {
         } else {
             f32::NEG_INFINITY
         };
-        Surface { position: ray.at(hit.t), normal: geometric, geometric, albedo: self.colour_at(m, hit, level).min(Vec3::splat(0.98)), emission: m.emissive }
+        Surface { position: ray.at(hit.t), normal: geometric, geometric, albedo: self.colour_at(m, hit.triangle, hit.u, hit.v, level).min(Vec3::splat(0.98)), emission: m.emissive }
     }
 }
 
