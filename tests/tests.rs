@@ -245,6 +245,7 @@ fn plan_user_probes_and_bad_planning_arguments() {
 
 #[test]
 fn render_fills_in_assets_resumably_and_in_shards() {
+    viewer::web_viewer(); // bundles copy it: built first, never rewritten between them
     let dir = tempfile::tempdir().unwrap();
     let one = dir.path().join("one");
     let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
@@ -378,6 +379,7 @@ fn render_fills_in_assets_resumably_and_in_shards() {
 
 #[test]
 fn a_bundle_is_byte_identical_at_one_and_two_threads() {
+    viewer::web_viewer(); // bundles copy it: built first, never rewritten between them
     let dir = tempfile::tempdir().unwrap();
     let build = |threads: &str| {
         let out = dir.path().join(format!("t{threads}"));
@@ -432,6 +434,10 @@ fn bundle_names(root: &std::path::Path) -> Vec<PathBuf> {
 #[test]
 fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
     use rand::{Rng, SeedableRng};
+    // Bundles copy the built web viewer: built first, so that the viewer
+    // tests' build (once a run) cannot rewrite it between this test's
+    // renders when it was out of date.
+    viewer::web_viewer();
     let dir = tempfile::tempdir().unwrap();
     let planned = dir.path().join("planned");
     let run = exploremaps(&["plan", "maze:3", "-o", planned.to_str().unwrap(), "--samples", "5000"]);

@@ -212,7 +212,7 @@ pub(super) fn skip(var: &str, what: &str) -> bool {
 }
 
 /// Builds the web viewer (web/build.sh; quick when it is up to date) once.
-fn web_viewer() -> PathBuf {
+pub(super) fn web_viewer() -> PathBuf {
     static BUILT: Mutex<Option<PathBuf>> = Mutex::new(None);
     let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(p) = &*built {
