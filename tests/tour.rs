@@ -6,9 +6,9 @@
 //! face the right way round. Needs what tests/viewer.rs needs, unless
 //! EXPLOREMAPS_SKIP_BROWSER=1.
 
-use super::viewer::{serve, skip, synthetic_scene, writer};
+use super::viewer::{push_path, serve, skip, synthetic_scene, writer};
 use super::{exploremaps, stderr};
-use exploremaps_format::{cube_direction, direction, CameraKey, CubeLevel, Graph, Path as GraphPath, PathAssets, Probe, ProbeAssets, Tiles, ViewDirection, CUBE_FACES};
+use exploremaps_format::{cube_direction, direction, CubeLevel, Graph, Probe, ProbeAssets, Tiles, ViewDirection, CUBE_FACES};
 use std::path::Path;
 use std::process::Command;
 
@@ -74,19 +74,7 @@ fn bundle(dir: &Path) {
             assets: ProbeAssets { cube_levels: vec![CubeLevel { size: FACE, faces: names }], equirect: None, thumbnail: Some(thumbnail), tiles },
         });
     }
-    let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb([230, 40, 230]))).collect();
-    write("paths/0.mp4", &exploremaps_builder::video::Encoder::OpenH264.encode(&frames, 25.0).unwrap());
-    let camera = (0..50).map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 }).collect();
-    graph.paths.push(GraphPath {
-        id: 0,
-        from: 0,
-        to: 1,
-        polyline: vec![positions[0], [2.0, 1.5, 0.0], positions[1]],
-        length: 4.0,
-        duration_s: 2.0,
-        camera,
-        assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
-    });
+    push_path(&mut graph, &write);
     graph.bar_order = vec![0, 1];
     write("graph.json", graph.to_json().as_bytes());
 }

@@ -20,7 +20,7 @@ const FACES: [[[u8; 3]; 6]; 3] = [
     [[230, 140, 20], [140, 40, 200], [235, 235, 235], [30, 30, 30], [220, 220, 40], [230, 110, 170]],
     [[90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90]],
 ];
-const VIDEO: [u8; 3] = [230, 40, 230];
+pub(super) const VIDEO: [u8; 3] = [230, 40, 230];
 /// The proxy: a ground quad at y = 0 over x in [−5, 9], z in [−5, 9], its
 /// west half (x < 2) green and seen best from probe 0, its east half orange
 /// and seen best from probe 1.
@@ -59,6 +59,24 @@ pub(super) fn writer(dir: &Path) -> impl Fn(&str, &[u8]) + '_ {
     }
 }
 
+/// Path 0 from probe 0 at (0, 1.5, 0) to probe 1 at (4, 1.5, 0): 2 s facing
+/// +X, its video 50 frames of [`VIDEO`].
+pub(super) fn push_path(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
+    let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb(VIDEO))).collect();
+    write("paths/0.mp4", &exploremaps_builder::video::Encoder::OpenH264.encode(&frames, 25.0).unwrap());
+    let camera = (0..50).map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 }).collect();
+    graph.paths.push(GraphPath {
+        id: 0,
+        from: 0,
+        to: 1,
+        polyline: vec![[0.0, 1.5, 0.0], [2.0, 1.5, 0.0], [4.0, 1.5, 0.0]],
+        length: 4.0,
+        duration_s: 2.0,
+        camera,
+        assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
+    });
+}
+
 /// Probe 0 at the origin facing −Z, probe 1 4 m along +X (a 2 s path between
 /// them; it arrives facing +Z), probe 2 unconnected with a corrupt face.
 pub fn synthetic_bundle(dir: &Path) {
@@ -90,19 +108,7 @@ pub fn synthetic_bundle(dir: &Path) {
             assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail), tiles: None },
         });
     }
-    let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb(VIDEO))).collect();
-    write("paths/0.mp4", &exploremaps_builder::video::Encoder::OpenH264.encode(&frames, 25.0).unwrap());
-    let camera = (0..50).map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 }).collect();
-    graph.paths.push(GraphPath {
-        id: 0,
-        from: 0,
-        to: 1,
-        polyline: vec![positions[0], [2.0, 1.5, 0.0], positions[1]],
-        length: 4.0,
-        duration_s: 2.0,
-        camera,
-        assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
-    });
+    push_path(&mut graph, &write);
     graph.bar_order = vec![0, 1, 2];
     let mut ground = exploremaps_format::meshcode::MeshData::default();
     for (x0, x1, colour) in [(-5.0, 2.0, WEST), (2.0, 9.0, EAST)] {
