@@ -1346,15 +1346,9 @@ mod tests {
 mod shared_scene_tests {
     use super::*;
     use crate::load::{load, LoadOptions};
-    use std::path::Path;
 
     fn shared(relative: &str) -> Option<Scene> {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes").join(relative);
-        if !path.exists() {
-            eprintln!("SKIPPED: {} is absent", path.display());
-            return None;
-        }
-        Some(load(&path, &LoadOptions::default()).unwrap())
+        crate::testing::shared_scene(relative).map(|path| load(&path, &LoadOptions::default()).unwrap())
     }
 
     #[test]

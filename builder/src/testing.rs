@@ -42,3 +42,15 @@ pub fn pillar_room(radius: f32) -> Scene {
     m.cylinder(Vec3::new(5.0, 0.0, 3.0), radius, h, 32);
     m.finish()
 }
+
+/// A third-party test scene in `../shared/scenes` (next to the checkout), by
+/// its path there; `None`, saying SKIPPED, where it is absent.
+pub fn shared_scene(relative: &str) -> Option<std::path::PathBuf> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes").join(relative);
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("SKIPPED: {} is absent (the shared test scenes are not next to this checkout)", path.display());
+        None
+    }
+}

@@ -252,15 +252,7 @@ fn base64_encode(bytes: &[u8]) -> String {
 }
 
 /// The shared third-party scenes, when `../shared/scenes` is there.
-fn shared(relative: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes").join(relative);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("SKIPPED: {} is absent (the shared test scenes are not next to this checkout)", path.display());
-        None
-    }
-}
+use crate::testing::shared_scene as shared;
 
 #[test]
 fn shared_scenes_load_with_their_documented_sizes() {

@@ -248,13 +248,8 @@ mod tests {
     #[ignore]
     fn every_shared_scene_codes_and_decodes() {
         // Slow: the shared third-party scenes (`cargo test -- --ignored`).
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
         for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj", "cornell_box/CornellBox-Original.obj", "wooden_staircase/wooden_staircase.obj", "dream_apartment/dream_apartment.glb"] {
-            let path = root.join(file);
-            if !path.exists() {
-                eprintln!("SKIPPED: {} is absent", path.display());
-                continue;
-            }
+            let Some(path) = crate::testing::shared_scene(file) else { continue };
             let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
             let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
             let bits = coded_round_trip(file, &mesh);

@@ -1294,12 +1294,8 @@ pub(crate) mod tests {
     #[ignore]
     fn no_triangle_of_a_shared_scene_flips() {
         // Slow: the shared third-party scenes (`cargo test -- --ignored`).
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
         for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj"] {
-            let path = root.join(file);
-            if !path.exists() {
-                continue;
-            }
+            let Some(path) = crate::testing::shared_scene(file) else { continue };
             let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
             let (m, _) = super::super::weld::weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
             for ratio in [0.1, 0.01] {
