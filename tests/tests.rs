@@ -7,8 +7,17 @@ use exploremaps_builder::smooth::{MAX_DURATION_S, MIN_DURATION_S};
 mod tour;
 mod viewer;
 
+/// The binary under test. Bundles it renders copy the built web viewer, so
+/// that is built first (once a run; see `viewer::web_viewer`): a rebuild of
+/// an out-of-date viewer by the viewer tests could otherwise land between
+/// two bundles that a test compares byte for byte.
+fn exe() -> &'static str {
+    viewer::web_viewer();
+    env!("CARGO_BIN_EXE_exploremaps")
+}
+
 fn exploremaps(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(args).env("RUST_LOG", "warn").output().expect("run exploremaps")
+    Command::new(exe()).args(args).env("RUST_LOG", "warn").output().expect("run exploremaps")
 }
 
 fn stdout(o: &Output) -> String {
@@ -245,7 +254,6 @@ fn plan_user_probes_and_bad_planning_arguments() {
 
 #[test]
 fn render_fills_in_assets_resumably_and_in_shards() {
-    viewer::web_viewer(); // bundles copy it: built first, never rewritten between them
     let dir = tempfile::tempdir().unwrap();
     let one = dir.path().join("one");
     let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
@@ -379,7 +387,6 @@ fn render_fills_in_assets_resumably_and_in_shards() {
 
 #[test]
 fn a_bundle_is_byte_identical_at_one_and_two_threads() {
-    viewer::web_viewer(); // bundles copy it: built first, never rewritten between them
     let dir = tempfile::tempdir().unwrap();
     let build = |threads: &str| {
         let out = dir.path().join(format!("t{threads}"));
@@ -434,10 +441,6 @@ fn bundle_names(root: &std::path::Path) -> Vec<PathBuf> {
 #[test]
 fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
     use rand::{Rng, SeedableRng};
-    // Bundles copy the built web viewer: built first, so that the viewer
-    // tests' build (once a run) cannot rewrite it between this test's
-    // renders when it was out of date.
-    viewer::web_viewer();
     let dir = tempfile::tempdir().unwrap();
     let planned = dir.path().join("planned");
     let run = exploremaps(&["plan", "maze:3", "-o", planned.to_str().unwrap(), "--samples", "5000"]);
@@ -470,7 +473,7 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
         // count is drawn from the first two thirds.)
         let files = rng.random_range(2..reference.len() * 2 / 3);
         let extra = duration.mul_f64(rng.random_range(0.0..0.5) / reference.len() as f64);
-        let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(render_args(&b)).env("RUST_LOG", "error").stdout(std::process::Stdio::null()).spawn().unwrap();
+        let mut child = Command::new(exe()).args(render_args(&b)).env("RUST_LOG", "error").stdout(std::process::Stdio::null()).spawn().unwrap();
         let started = std::time::Instant::now();
         while bundle_names(&b).iter().filter(|n| !n.to_string_lossy().ends_with(".tmp")).count() < files && child.try_wait().unwrap().is_none() {
             std::thread::sleep(std::time::Duration::from_millis(2));
@@ -504,7 +507,7 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     let run = exploremaps(&["plan", "maze:3", "-o", b.to_str().unwrap(), "--samples", "5000"]);
     assert!(run.status.success(), "{}", stderr(&run));
     let args = ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "256", "--video-width", "256"];
-    let mut child = Command::new(env!("CARGO_BIN_EXE_exploremaps")).args(args).env("RUST_LOG", "warn").stdout(std::process::Stdio::null()).spawn().unwrap();
+    let mut child = Command::new(exe()).args(args).env("RUST_LOG", "warn").stdout(std::process::Stdio::null()).spawn().unwrap();
     let started = std::time::Instant::now();
     while !b.join("probes/1/pano.jpg").exists() && started.elapsed().as_secs() < 120 {
         std::thread::sleep(std::time::Duration::from_millis(20));
@@ -546,7 +549,7 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
 fn a_slurm_job_array_renders_what_one_process_does_and_finalize_names_what_is_missing() {
     // scripts/slurm-test.sh starts a one-node cluster on localhost (it says
     // SKIPPED where Slurm or root is missing).
-    let run = Command::new("scripts/slurm-test.sh").arg(env!("CARGO_BIN_EXE_exploremaps")).output().unwrap();
+    let run = Command::new("scripts/slurm-test.sh").arg(exe()).output().unwrap();
     println!("{}", stdout(&run));
     assert!(run.status.success(), "{}{}", stdout(&run), stderr(&run));
     assert!(stdout(&run).contains("slurm-test: passed") || stdout(&run).contains("SKIPPED"), "{}", stdout(&run));

@@ -383,8 +383,8 @@ impl<'a> Tracer<'a> {
         // pixel to the one below (in an equirectangular frame, the rows'
         // spacing, which its thinned rows keep; on a cube face it changes
         // by under a percent across a tile).
-        let spread = match (spp, pixels.first(), jitter) {
-            (1, Some(&(x, y)), _) if self.materials.has_textures() => {
+        let spread = match (spp, pixels.first()) {
+            (1, Some(&(x, y))) if self.materials.has_textures() => {
                 let (x, y) = (x as f32 + 0.5, y as f32 + 0.5);
                 let (w, h) = (width as f32, height as f32);
                 (project(x / w, (y + 1.0) / h).normalize_or_zero() - project(x / w, y / h).normalize_or_zero()).length()
