@@ -676,7 +676,10 @@ impl<'a> Source<'a> {
         Some(((window >> shift) & ((1u64 << bits) - 1)) as u32)
     }
     /// A number coded as its bit length (a symbol of `model`) and the bits
-    /// below its leading one (raw).
+    /// below its leading one (raw). Always inlined too, so the state stays
+    /// in a register through the loops over records (the copies of
+    /// non-manifold vertices: 3 % of the Dabrovic Sponza's 664 triangles).
+    #[inline(always)]
     pub(crate) fn value(&mut self, model: usize) -> Result<u32, CodingError> {
         self.try_value(model).ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))
     }
