@@ -20,7 +20,7 @@ const FACES: [[[u8; 3]; 6]; 3] = [
     [[230, 140, 20], [140, 40, 200], [235, 235, 235], [30, 30, 30], [220, 220, 40], [230, 110, 170]],
     [[90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90], [90, 90, 90]],
 ];
-pub(super) const VIDEO: [u8; 3] = [230, 40, 230];
+const VIDEO: [u8; 3] = [230, 40, 230];
 /// The proxy: a ground quad at y = 0 over x in [−5, 9], z in [−5, 9], its
 /// west half (x < 2) green and seen best from probe 0, its east half orange
 /// and seen best from probe 1.
