@@ -548,6 +548,8 @@ struct Model {
     /// Symbol s spans quantiles `cdf[s]..cdf[s + 1]`; at most 64 symbols
     /// (checked when read), so a symbol masked to six bits indexes it unchecked.
     cdf: [u16; 65],
+    /// `cdf[s + 1] - cdf[s]`, read in one step.
+    size: [u16; 64],
     symbols: usize,
     table: Option<Box<[u8; 1 << PRECISION]>>,
 }
@@ -602,7 +604,8 @@ impl<'a> Source<'a> {
                 *c = sum as u16;
             }
             cdf[n] = 1 << PRECISION;
-            tables.push(Model { cdf, symbols: n, table: None });
+            let size = std::array::from_fn(|s| cdf[s + 1].wrapping_sub(cdf[s]));
+            tables.push(Model { cdf, size, symbols: n, table: None });
         }
         let count = input.varint()? as usize;
         if count > input.bytes.len() / 4 {
@@ -643,10 +646,9 @@ impl<'a> Source<'a> {
         let symbol = match &m.table {
             Some(table) => table[quantile],
             None => m.fill_table()[quantile],
-        } as usize
-            & 63;
-        let (low, high) = (m.cdf[symbol], m.cdf[symbol + 1]);
-        self.state = (self.state >> PRECISION) * (high - low) as u64 + (quantile - low as usize) as u64;
+        } as usize;
+        let (low, size) = (m.cdf[symbol], m.size[symbol]);
+        self.state = (self.state >> PRECISION) * size as u64 + (quantile - low as usize) as u64;
         if self.state < 1 << 32 {
             if let Some(word) = self.pop() {
                 self.state = self.state << 32 | word as u64;
