@@ -667,8 +667,11 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         return corrupt("a start loop of fewer than three vertices");
     }
     let loop_vertices: u64 = code.start_loops.iter().map(|&k| k as u64).sum();
-    let mut ends = Vec::new();
+    // (Sized up front where the first pass can tell: regrowing them was a few
+    // per cent of a small mesh's decoding.)
+    let mut ends = Vec::with_capacity(loops_in + 1 + symbols.len() / 16);
     let mut depth = 0u32;
+    let mut splits = 0usize;
     let mut merges = 0usize;
     let dummy_starts = code.dummy_starts as usize;
     let mut implied = Vec::with_capacity(dummy_starts.min(symbols.len()));
@@ -688,7 +691,10 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
             continue;
         }
         match s {
-            S => depth += 1,
+            S => {
+                depth += 1;
+                splits += 1;
+            }
             D => {
                 marked.push((started + new_vertices as u64).min(NONE as u64) as u32);
                 new_vertices += 1;
@@ -728,7 +734,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     }
     // Backwards over each component: lengths of the loops, so of each S's
     // right loop. They are found last S first, so the forward pass pops them.
-    let mut right_lens: Vec<u32> = Vec::new();
+    let mut right_lens: Vec<u32> = Vec::with_capacity(splits);
     let mut stack: Vec<u32> = Vec::new();
     let mut merge_index = code.merges.len();
     let mut end = symbols.len();
@@ -801,7 +807,8 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let (keep, kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
     let mut out = Decoded { triangles: Vec::with_capacity(code.triangle_count as usize), predictors: Vec::with_capacity(code.vertex_count as usize), keep, kept_vertices };
     let mut loops = Loops::default();
-    loops.nodes.reserve(code.triangle_count as usize + 3);
+    // A node a vertex, and one more for each S's and M's tip.
+    loops.nodes.reserve(code.vertex_count as usize + splits + merges);
     let mut waiting: Vec<(u32, u32)> = Vec::new(); // (gate node, length)
     let mut i = 0usize;
     let mut merge_index = 0usize;
