@@ -5,6 +5,7 @@
 // count, u32 triangle count, f32 xyz per vertex, u32 indices (little endian).
 'use strict';
 const fs = require('fs');
+const medianRate = require('./median_rate.js');
 const draco3d = require(process.env.DRACO3D || 'draco3d');
 
 (async () => {
@@ -29,9 +30,7 @@ const draco3d = require(process.env.DRACO3D || 'draco3d');
   console.log(`bytes ${length}`);
 
   const decoder = new dec.Decoder();
-  const start = process.hrtime.bigint();
-  let runs = 0, seconds = 0;
-  while (runs < 3 || seconds < 0.5) {
+  const rate = medianRate(() => {
     const buffer = new dec.DecoderBuffer();
     buffer.Init(bytes, bytes.length);
     const decoded = new dec.Mesh();
@@ -39,8 +38,6 @@ const draco3d = require(process.env.DRACO3D || 'draco3d');
     if (!status.ok() || decoded.num_faces() !== nt) throw new Error(`Draco decoding failed: ${status.error_msg()}`);
     dec.destroy(decoded);
     dec.destroy(buffer);
-    runs++;
-    seconds = Number(process.hrtime.bigint() - start) / 1e9;
-  }
-  console.log(`decode ${(nt * runs / seconds / 1e6).toFixed(2)}`);
+  });
+  console.log(`decode ${(nt * rate / 1e6).toFixed(2)}`);
 })().catch((e) => { console.error(e.message); process.exit(1); });

@@ -22,7 +22,8 @@
 //!    `draco3d` 1.5.7, installed into `target/bench-node` on first run;
 //!    Edgebreaker, 14-bit positions, other settings default); decoding speed
 //!    natively and in Node's WebAssembly (ours: the format crate's
-//!    `wasm_decode` example, built by this bench; Draco: its npm module).
+//!    `wasm_decode` example, built by this bench; Draco: its npm module),
+//!    each the median rate of 5 ms batches over half a second.
 //! 3. The progressive stream as the bundle sends it (the scene simplified
 //!    to 25 000 triangles, a 2 500-triangle base coded whole, then vertex
 //!    splits in packets of 750 triangles, geometry only): bytes received
@@ -204,15 +205,9 @@ fn main() {
     for (name, mesh) in &coding {
         let encoded = meshcode::encode(&mesh.to_coded(), 14).expect("codes");
         let n = mesh.triangles.len() as f64;
-        let decode_rate = {
-            let t = Instant::now();
-            let mut runs = 0;
-            while runs < 3 || t.elapsed().as_secs_f64() < 0.5 {
-                std::hint::black_box(meshcode::decode(&encoded.bytes).expect("decodes"));
-                runs += 1;
-            }
-            n * runs as f64 / t.elapsed().as_secs_f64() / 1e6
-        };
+        let decode_rate = n * median_rate(|| {
+            std::hint::black_box(meshcode::decode(&encoded.bytes).expect("decodes"));
+        }) / 1e6;
         let wasm_rate = wasm.as_ref().map_or(0.0, |module| wasm_decode(module, &encoded.bytes).unwrap_or_else(|e| {
             println!("wasm decode skipped: {e}");
             0.0
@@ -273,17 +268,13 @@ fn main() {
         let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
         let last_error = curve.last().map_or(0.0, |p| p.1);
         curves.push((name.clone(), curve, (whole as f64, last_error)));
-        let t = Instant::now();
-        let mut runs = 0;
-        while runs < 3 || t.elapsed().as_secs_f64() < 0.5 {
+        let rate = added as f64 * median_rate(|| {
             let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
             for p in &packets {
                 r.apply_packet(&p.bytes).expect("applies");
             }
             std::hint::black_box(r);
-            runs += 1;
-        }
-        let rate = added as f64 * runs as f64 / t.elapsed().as_secs_f64() / 1e6;
+        }) / 1e6;
         println!(
             "{name:<16} splits {split_bytes} B for {added} triangles ({:.2} B/tri, {} packets); base + splits {} B vs the level whole {whole} B ({:.2}x); apply {rate:.1} M tri/s",
             split_bytes as f64 / added as f64,
@@ -479,6 +470,27 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
 /// A scene's stream: its name, (bytes received, RMS error in % of the diagonal) per
 /// packet, and the whole level's (bytes, error).
 type Curve = (String, Vec<(f64, f64)>, (f64, f64));
+
+/// Runs of `f` a second: the median over batches of at least 5 ms each,
+/// for half a second of batches in all. The machine's speed drifts and
+/// other work takes the core now and then; a mean over the whole half
+/// second counts those pauses, the median of batches does not (the same
+/// estimator as `median_rate.js` gives the Node scripts, so rates compare).
+fn median_rate(mut f: impl FnMut()) -> f64 {
+    let start = Instant::now();
+    let mut rates = Vec::new();
+    while rates.len() < 3 || start.elapsed().as_secs_f64() < 0.5 {
+        let t = Instant::now();
+        let mut runs = 0;
+        while runs == 0 || t.elapsed().as_secs_f64() < 0.005 {
+            f();
+            runs += 1;
+        }
+        rates.push(runs as f64 / t.elapsed().as_secs_f64());
+    }
+    rates.sort_by(f64::total_cmp);
+    rates[rates.len() / 2]
+}
 
 /// Bytes received against RMS error (log scale), a polyline a scene and a
 /// dot for its level sent whole, as SVG with axes and a legend.

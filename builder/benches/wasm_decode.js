@@ -2,6 +2,7 @@
 // node wasm_decode.js MODULE.wasm FILE prints "decode <M triangles a second>".
 'use strict';
 const fs = require('fs');
+const medianRate = require('./median_rate.js');
 
 (async () => {
   const { instance } = await WebAssembly.instantiate(fs.readFileSync(process.argv[2]), {});
@@ -9,13 +10,10 @@ const fs = require('fs');
   const { buffer, decode, memory } = instance.exports;
   const ptr = buffer(bytes.length);
   new Uint8Array(memory.buffer, ptr, bytes.length).set(bytes);
-  let runs = 0, seconds = 0, triangles = 0;
-  const start = process.hrtime.bigint();
-  while (runs < 3 || seconds < 0.5) {
+  let triangles = 0;
+  const rate = medianRate(() => {
     triangles = decode(bytes.length);
     if (triangles < 0) throw new Error('the file does not decode');
-    runs++;
-    seconds = Number(process.hrtime.bigint() - start) / 1e9;
-  }
-  console.log(`decode ${(triangles * runs / seconds / 1e6).toFixed(2)}`);
+  });
+  console.log(`decode ${(triangles * rate / 1e6).toFixed(2)}`);
 })().catch((e) => { console.error(e.message); process.exit(1); });
