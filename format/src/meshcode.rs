@@ -546,7 +546,7 @@ impl<'a> Reader<'a> {
 /// of the 4,096 quantiles.
 struct Model {
     /// Symbol s spans quantiles `cdf[s]..cdf[s + 1]`; at most 64 symbols
-    /// (checked when read), so a symbol masked to six bits indexes it unchecked.
+    /// (checked when read).
     cdf: [u16; 65],
     /// `cdf[s + 1] - cdf[s]`, read in one step.
     size: [u16; 64],
