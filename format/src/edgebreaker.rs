@@ -667,8 +667,9 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         return corrupt("a start loop of fewer than three vertices");
     }
     let loop_vertices: u64 = code.start_loops.iter().map(|&k| k as u64).sum();
-    // (Sized up front where the first pass can tell: regrowing them was a few
-    // per cent of a small mesh's decoding.)
+    // Arrays are sized up front (regrowing them was a few per cent of a small
+    // mesh's decoding): from the first pass's counts where it has them, and
+    // here, before it, a guess of a component per 16 symbols.
     let mut ends = Vec::with_capacity(loops_in + 1 + symbols.len() / 16);
     let mut depth = 0u32;
     let mut splits = 0usize;
