@@ -38,7 +38,8 @@
 //! clearance ≥ r (the voxel-quantized distance transform), is never in a pocket
 //! enclosed by back faces (so never under the ground or inside a closed solid),
 //! and in `inside` mode lies inside the scene's bounding box (never above the
-//! highest roof or beyond the terrain's edge). `auto` never looks at how a
+//! highest roof or beyond the terrain's edge; a flat scene lower than a person
+//! stands gets a storey of sky above its ground, see `room_box`). `auto` never looks at how a
 //! particular scene is shaped beyond these measures: which way the surface faces
 //! (out of the box or into it), and whether floors and a trustworthy scale exist.
 //!
@@ -147,6 +148,9 @@ const FACED_SHARE: f32 = 0.1;
 /// Largest near distance when walking, or when the scale is trusted: about a
 /// person's half width.
 const PERSON_NEAR_M: f32 = 0.3;
+
+/// The open sky a flat scene gets above its lowest point, metres (see `room_box`).
+const STOREY_M: f32 = 3.0;
 /// Largest walking voxel: a door 0.8 m wide and 2.0 m high always leaves a
 /// free column (two voxels fit the width) whose eye voxel (1.6 m) is below
 /// the lintel, and its clearance (one voxel) passes the near distance 0.3 m.
@@ -393,7 +397,15 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         Some(m) => m / scene.metres_per_unit,
         None => params.near_rel * bounds.diagonal(),
     };
-    let grid = make_grid(&bounds, params.max_cells, params.voxel);
+    // Which way the surface faces decides `auto`'s space; a scene to be in
+    // that is too flat to stand in gets a storey of sky (see `room_box`).
+    let facing_out = facing_out(scene, rays, &bounds, params.seed);
+    let inside = match params.space {
+        SpaceMode::Auto => facing_out <= FACING_OUT_OBJECT,
+        given => given == SpaceMode::Inside,
+    };
+    let (room, sky) = if inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
+    let grid = make_grid(&room, params.max_cells, params.voxel);
     let occupied = voxelize(scene, &grid);
     let clearance: Vec<f32> = distance_transform(&grid, &occupied).into_iter().map(|d2| d2.sqrt() * grid.voxel).collect();
 
@@ -402,18 +414,17 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         .into_par_iter()
         .map(|i| {
             let p = grid.center(grid.coords(i));
-            p.cmpge(bounds.min).all() && p.cmple(bounds.max).all()
+            p.cmpge(room.min).all() && p.cmple(room.max).all()
         })
         .collect();
     let free_in_box: Vec<bool> = (0..grid.len()).map(|i| in_box[i] && !occupied[i]).collect();
-    let solids = classify_solids(&grid, &free_in_box, &clearance, &bounds, rays);
+    let solids = classify_solids(&grid, &free_in_box, &clearance, &room, rays);
     let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
     let mut ray_count = solids.rays;
 
-    let facing_out = facing_out(scene, rays, &bounds, params.seed);
     ray_count += FACING_SAMPLES;
-    let (space, space_reason) = match params.space {
-        SpaceMode::Auto if facing_out > FACING_OUT_OBJECT => {
+    let (space, mut space_reason) = match params.space {
+        SpaceMode::Auto if !inside => {
             (SpaceMode::Outside, format!("auto: an object, {:.0} % of its surface faces out of its box", 100.0 * facing_out))
         }
         SpaceMode::Auto => (
@@ -422,6 +433,9 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         ),
         given => (given, "given".to_string()),
     };
+    if sky {
+        space_reason += &format!("; lower than a person stands ({:.2} units high), so it has open sky up to {:.2} units above its lowest point", bounds.extent().y, room.extent().y);
+    }
 
     // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
     // stated, or guessed with rooms of a plausible height.
@@ -461,7 +475,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let look_again = !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto;
     let mut height_reason = height_reason;
     if (walking || look_again) && grid.voxel > 1.001 * walk_voxel {
-        let finer = make_grid(&bounds, params.max_cells, Some(walk_voxel)).voxel;
+        let finer = make_grid(&room, params.max_cells, Some(walk_voxel)).voxel;
         let door_m = 2.0 * finer * scene.metres_per_unit;
         if params.voxel.is_none() && finer < 0.999 * grid.voxel {
             let height = if walking { HeightMode::Walk } else { params.height };
@@ -604,6 +618,25 @@ fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
     let hits = rays.intersect_batch(&list, Packing::Single);
     let out = list.iter().zip(&hits).filter(|(r, h)| h.is_none() && r.dir.y < 0.5).count();
     out as f32 / list.len() as f32
+}
+
+/// The box a scene to be in is navigated in, and whether it was raised: the
+/// scene's own, except for a flat scene (a plaza, a field, a ground plane
+/// alone), lower than a person stands (eye height and head room) and more
+/// than four times as wide as it is high. Its own box leaves no room above
+/// its ground, so it gets open sky up to a storey (`STOREY_M`, at least
+/// that standing height) above its lowest point. Rooms are never that low,
+/// so no room's roof is opened; a scale that is only guessed may misjudge a
+/// miniature, which the width condition keeps out.
+fn room_box(bounds: &Aabb, eye_m: f32, metres_per_unit: f32) -> (Aabb, bool) {
+    let (extent, standing_m) = (bounds.extent(), eye_m + walk::HEAD_ROOM_M);
+    let flat = extent.y * metres_per_unit < standing_m && extent.x.max(extent.z) > 4.0 * extent.y;
+    if !flat {
+        return (*bounds, false);
+    }
+    let mut room = *bounds;
+    room.max.y = bounds.min.y + STOREY_M.max(standing_m) / metres_per_unit;
+    (room, true)
 }
 
 /// The grid over the padded box: `max_cells` on its long side, or voxels of
@@ -1315,6 +1348,37 @@ mod tests {
         assert_eq!(label(tunnel + Vec3::Y * 1.6), label(hill + Vec3::Y * 1.6), "and so does the tunnel");
         let w = stats.walk.unwrap();
         assert!(w.roofs >= 1, "the houses' flat roofs are left out: {w:?}");
+    }
+
+    #[test]
+    fn a_flat_plaza_or_a_bare_ground_plane_has_sky_to_stand_in() {
+        // A 40 m plaza whose tallest things are 1.2 m hedges: its own box ends
+        // below eye height. Walked on at eye height, never above the sky given.
+        let mut m = MeshBuilder::new("plaza");
+        m.terrain(-20.0, -20.0, 20.0, 20.0, 8, |_, _| 0.0);
+        for k in 0..4 {
+            let x = -15.0 + 8.0 * k as f32;
+            m.cuboid(Vec3::new(x, 0.0, -5.0), Vec3::new(x + 4.0, 1.2, -4.2));
+            m.cuboid(Vec3::new(x, 0.0, 6.0), Vec3::new(x + 2.0, 0.5, 6.5));
+        }
+        let mut plaza = m.finish();
+        (plaza.scale_source, plaza.metres_per_unit) = (ScaleSource::File, 1.0);
+        let (walk, stats) = run(&plaza, &FreeSpaceParams::default()).unwrap();
+        assert_eq!((stats.space, stats.height), ("inside", "walk"), "{stats:?}");
+        assert!(stats.space_reason.contains("sky"), "{stats:?}");
+        assert!(walk.is_navigable(Vec3::new(0.0, 1.6, 0.0)) && walk.is_navigable(Vec3::new(-14.0, 1.6, 15.0)), "eye height on the plaza");
+        let (fly, _) = run(&plaza, &fly(SpaceMode::Inside)).unwrap();
+        assert!(fly.is_navigable(Vec3::new(0.0, 2.2, 0.0)) && !fly.is_navigable(Vec3::new(0.0, 3.5, 0.0)), "the sky given ends a storey up");
+        assert!(!fly.is_open(Vec3::new(0.0, -0.5, 0.0)), "never under the ground");
+        // A ground plane alone (no height at all) is flown over, not refused.
+        let mut m = MeshBuilder::new("field");
+        m.terrain(-40.0, -25.0, 40.0, 25.0, 4, |_, _| 0.0);
+        let (field, stats) = run(&m.finish(), &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.space, "inside", "{stats:?}");
+        assert!(field.is_navigable(Vec3::new(0.0, 1.6, 0.0)), "{stats:?}");
+        // Rooms are never that low: the gallery's box is its own.
+        let gallery = BuiltIn::Gallery.generate(1);
+        assert!(!room_box(&gallery.bounds(), 1.6, gallery.metres_per_unit).1);
     }
 
     #[test]
