@@ -1,6 +1,7 @@
 //! glTF 2.0 (`.gltf` with its buffers, or `.glb`) through the `gltf` crate:
 //! node transforms applied, base colour factor and texture, alpha mode and
-//! cutoff, emissive factor times `KHR_materials_emissive_strength`. Units are
+//! cutoff, emissive factor times `KHR_materials_emissive_strength`; Draco
+//! compressed meshes are decoded first (`draco.rs`). Units are
 //! metres by the glTF specification. Images are decoded one by one so a broken
 //! image is a warning, not a failed load.
 
@@ -17,10 +18,12 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
     // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
     // before checking it exists (mesh.rs:151): that panic is a malformed file.
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let plain = super::draco::transcode(path, bytes, dir, max_triangles)?;
+    let bytes = plain.as_deref().unwrap_or(bytes);
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
         .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
     let gltf::Gltf { document, blob } = parsed.map_err(bad)?;
-    let dir = path.parent().unwrap_or(Path::new("."));
     check_external_files(path, dir, &document)?;
     let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
 
@@ -184,20 +187,22 @@ fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> R
                 Err(_) => return Err(LoadError::malformed(path, format!("{what}'s URI '{uri}' does not decode to a UTF-8 file name"))),
             }
         };
-        match std::fs::metadata(&file) {
-            Ok(m) if !m.is_file() => {
-                return Err(LoadError::malformed(path, format!("{what} names {}, which is not a regular file", file.display())));
-            }
-            Ok(m) if m.len() > MAX_EXTERNAL_BYTES => {
-                return Err(LoadError::malformed(
-                    path,
-                    format!("{what} names {}, of {:.1} GiB; buffers and images of at most {} GiB are read", file.display(), m.len() as f64 / (1u64 << 30) as f64, MAX_EXTERNAL_BYTES >> 30),
-                ));
-            }
-            _ => {}
-        }
+        check_file(path, &file, &what)?;
     }
     Ok(())
+}
+
+/// A file a glTF names must be a regular file of at most `MAX_EXTERNAL_BYTES`
+/// (a missing one passes: its reader's error names it).
+pub(super) fn check_file(path: &Path, file: &Path, what: &str) -> Result<(), LoadError> {
+    match std::fs::metadata(file) {
+        Ok(m) if !m.is_file() => Err(LoadError::malformed(path, format!("{what} names {}, which is not a regular file", file.display()))),
+        Ok(m) if m.len() > MAX_EXTERNAL_BYTES => Err(LoadError::malformed(
+            path,
+            format!("{what} names {}, of {:.1} GiB; buffers and images of at most {} GiB are read", file.display(), m.len() as f64 / (1u64 << 30) as f64, MAX_EXTERNAL_BYTES >> 30),
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// The most node instances a scene's hierarchy may make.

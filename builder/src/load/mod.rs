@@ -6,6 +6,7 @@
 //! and say what to do; a texture that cannot be read is a warning, not an error,
 //! and its material keeps its plain colour.
 
+mod draco;
 mod gltf;
 mod obj;
 mod ply;

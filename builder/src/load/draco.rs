@@ -1,0 +1,217 @@
+//! Draco-compressed glTF (`KHR_draco_mesh_compression`), decoded by the
+//! pure-Rust `draco-core` into a plain glTF in memory before the `gltf` crate
+//! reads it, so the glTF loader and its validation stay as they are.
+//!
+//! Each compressed primitive's indices and named attributes get accessors of
+//! plain `u32` and `f32` data in new buffer views, in the binary chunk of the
+//! GLB made (after a GLB's own chunk, which stays its first buffer; a `.gltf`
+//! gets the chunk as a new first buffer). The extension is then dropped from
+//! the primitive and the file's lists.
+
+use super::LoadError;
+use draco_core::{decoder_buffer::DecoderBuffer, mesh::Mesh, mesh_decoder::MeshDecoder};
+use serde_json::{json, Value};
+use std::path::Path;
+
+const EXTENSION: &str = "KHR_draco_mesh_compression";
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const JSON_CHUNK: u32 = 0x4E4F_534A;
+const BIN_CHUNK: u32 = 0x004E_4942;
+
+/// The file as a plain GLB when it uses Draco compression; `None` otherwise
+/// (and for anything unreadable, which `gltf` then reports as it does).
+/// `max_triangles` bounds each primitive's declared index count before decoding.
+pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Vec<u8>>, LoadError> {
+    let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
+    let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
+    let used = |list: &str| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == EXTENSION));
+    if !used("extensionsUsed") && !used("extensionsRequired") {
+        return Ok(None);
+    }
+    let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
+    let buffers = read_buffers(path, &doc, bin, dir)?;
+
+    // Decoded data goes to the binary chunk: after a GLB's own (its first
+    // buffer), or as a new first buffer before a `.gltf`'s.
+    let glb_chunk = bin.is_some() && doc.get("buffers").and_then(|b| b.get(0)).is_some_and(|b| b.get("uri").is_none());
+    let mut data: Vec<u8> = if glb_chunk { bin.unwrap_or(&[]).to_vec() } else { Vec::new() };
+    let old_views = doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
+    let mut views: Vec<Value> = Vec::new();
+    let mut accessors = doc.get("accessors").and_then(Value::as_array).cloned().unwrap_or_default();
+    let meshes = doc.get_mut("meshes").and_then(Value::as_array_mut).map(std::mem::take).unwrap_or_default();
+    let mut new_meshes = Vec::with_capacity(meshes.len());
+    for (m, mut mesh) in meshes.into_iter().enumerate() {
+        for (p, primitive) in mesh.get_mut("primitives").and_then(Value::as_array_mut).into_iter().flatten().enumerate() {
+            let Some(ext) = primitive.get_mut("extensions").and_then(Value::as_object_mut).and_then(|e| e.remove(EXTENSION)) else { continue };
+            let at = format!("mesh {m} primitive {p}");
+            let view = ext.get("bufferView").and_then(Value::as_u64).ok_or_else(|| bad(format!("{at} names no bufferView")))?;
+            let compressed = view_bytes(&doc, &buffers, view as usize).ok_or_else(|| bad(format!("{at}'s bufferView {view} lies outside its buffer")))?;
+            let indices = primitive.get("indices").and_then(Value::as_u64);
+            let declared = indices.and_then(|a| accessors.get(a as usize)).and_then(|a| a.get("count")).and_then(Value::as_u64).unwrap_or(0);
+            if declared / 3 > max_triangles {
+                return Err(LoadError::TooLarge { path: path.to_path_buf(), count: declared / 3, limit: max_triangles });
+            }
+            let mesh = decode(compressed).map_err(|e| bad(format!("{at} does not decode: {e}")))?;
+
+            // Indices: u32, one accessor.
+            let faces = mesh.faces();
+            data.resize(data.len().next_multiple_of(4), 0);
+            let start = data.len();
+            for face in faces {
+                for corner in face.iter() {
+                    data.extend_from_slice(&corner.0.to_le_bytes());
+                }
+            }
+            views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+            let indices_accessor = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
+            match indices {
+                Some(a) if (a as usize) < accessors.len() => accessors[a as usize] = indices_accessor,
+                _ => {
+                    accessors.push(indices_accessor);
+                    primitive["indices"] = json!(accessors.len() - 1);
+                }
+            }
+            // Attributes: f32, each to its accessor, with the components it declares.
+            let ids: Vec<(String, u64)> = ext.get("attributes").and_then(Value::as_object).into_iter().flatten().filter_map(|(k, v)| Some((k.clone(), v.as_u64()?))).collect();
+            for (name, id) in ids {
+                let accessor = primitive.get("attributes").and_then(|a| a.get(&name)).and_then(Value::as_u64);
+                let Some(a) = accessor.filter(|&a| (a as usize) < accessors.len()) else { continue };
+                let kind = accessors[a as usize].get("type").and_then(Value::as_str).unwrap_or("VEC3").to_string();
+                let components = match kind.as_str() {
+                    "SCALAR" => 1,
+                    "VEC2" => 2,
+                    "VEC3" => 3,
+                    "VEC4" => 4,
+                    other => return Err(bad(format!("{at}'s attribute {name} is of type {other}"))),
+                };
+                let attribute = u32::try_from(id).ok().and_then(|id| mesh.attribute_by_unique_id(id)).ok_or_else(|| bad(format!("{at} has no attribute {id} for {name}")))?;
+                let mut values = attribute.read_f32s(mesh.num_points(), components);
+                if attribute.normalized() {
+                    let scale = match attribute.data_type() {
+                        draco_core::draco_types::DataType::Uint8 => 255.0,
+                        draco_core::draco_types::DataType::Int8 => 127.0,
+                        draco_core::draco_types::DataType::Uint16 => 65535.0,
+                        draco_core::draco_types::DataType::Int16 => 32767.0,
+                        _ => 1.0,
+                    };
+                    values.iter_mut().for_each(|v| *v = (*v / scale).max(-1.0));
+                }
+                let start = data.len();
+                values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
+                views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+                let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": mesh.num_points(), "type": kind });
+                // Positions keep their bounds (glTF requires them).
+                for key in ["min", "max"] {
+                    if let Some(b) = accessors[a as usize].get(key) {
+                        plain[key] = b.clone();
+                    }
+                }
+                accessors[a as usize] = plain;
+            }
+        }
+        new_meshes.push(mesh);
+    }
+
+    let mut all_views = doc.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
+    let mut all_buffers = doc.get("buffers").and_then(Value::as_array).cloned().unwrap_or_default();
+    if glb_chunk {
+        all_buffers[0]["byteLength"] = json!(data.len());
+    } else {
+        // A new first buffer: every other one moves up one.
+        for v in &mut all_views {
+            if let Some(b) = v.get("buffer").and_then(Value::as_u64) {
+                v["buffer"] = json!(b + 1);
+            }
+        }
+        all_buffers.insert(0, json!({ "byteLength": data.len() }));
+    }
+    all_views.extend(views);
+    doc["meshes"] = json!(new_meshes);
+    doc["accessors"] = json!(accessors);
+    doc["bufferViews"] = json!(all_views);
+    doc["buffers"] = json!(all_buffers);
+    for list in ["extensionsUsed", "extensionsRequired"] {
+        if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
+            l.retain(|e| e != EXTENSION);
+        }
+    }
+    Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &data)))
+}
+
+/// Decodes one Draco stream; `draco-core` panicking on a hostile stream is an error too.
+fn decode(bytes: &[u8]) -> Result<Mesh, String> {
+    std::panic::catch_unwind(|| {
+        let mut mesh = Mesh::new();
+        MeshDecoder::new().decode(&mut DecoderBuffer::new(bytes), &mut mesh).map(|()| mesh).map_err(|e| format!("{e:?}"))
+    })
+    .unwrap_or_else(|_| Err("the decoder stopped on damaged data".into()))
+}
+
+/// A GLB's JSON and binary chunks, or a `.gltf`'s JSON and no chunk.
+fn split(bytes: &[u8]) -> Option<(&[u8], Option<&[u8]>)> {
+    if !bytes.starts_with(GLB_MAGIC) {
+        return Some((bytes, None));
+    }
+    let word = |at: usize| bytes.get(at..at + 4).map(|w| u32::from_le_bytes(w.try_into().unwrap()) as usize);
+    let (json_len, json_kind) = (word(12)?, word(16)? as u32);
+    let json = bytes.get(20..20usize.checked_add(json_len)?)?;
+    if json_kind != JSON_CHUNK {
+        return None;
+    }
+    let next = (20 + json_len).next_multiple_of(4);
+    let bin = match (word(next), word(next + 4)) {
+        (Some(len), Some(kind)) if kind as u32 == BIN_CHUNK => Some(bytes.get(next + 8..(next + 8).checked_add(len)?)?),
+        _ => None,
+    };
+    Some((json, bin))
+}
+
+/// Each buffer's bytes: the GLB chunk, a data URI, or a file beside the scene
+/// (checked as the glTF loader checks files). Unreadable ones are empty; a
+/// view into one is an error where it is used.
+fn read_buffers(path: &Path, doc: &Value, bin: Option<&[u8]>, dir: &Path) -> Result<Vec<Vec<u8>>, LoadError> {
+    let mut out = Vec::new();
+    for b in doc.get("buffers").and_then(Value::as_array).into_iter().flatten() {
+        let bytes = match b.get("uri").and_then(Value::as_str) {
+            None => bin.unwrap_or(&[]).to_vec(),
+            Some(uri) if uri.starts_with("data:") => {
+                let payload = uri.split_once(";base64,").map_or("", |(_, p)| p);
+                base64::decode(payload).unwrap_or_default()
+            }
+            Some(uri) => {
+                let file = urlencoding::decode(uri).map(|n| dir.join(&*n)).map_err(|_| LoadError::malformed(path, format!("buffer URI '{uri}' does not decode to a UTF-8 file name")))?;
+                super::gltf::check_file(path, &file, "a buffer")?;
+                std::fs::read(&file).unwrap_or_default()
+            }
+        };
+        out.push(bytes);
+    }
+    Ok(out)
+}
+
+/// The bytes of buffer view `view`, if it lies inside its buffer.
+fn view_bytes<'a>(doc: &Value, buffers: &'a [Vec<u8>], view: usize) -> Option<&'a [u8]> {
+    let v = doc.get("bufferViews")?.get(view)?;
+    let buffer = buffers.get(v.get("buffer")?.as_u64()? as usize)?;
+    let start = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+    buffer.get(start..start.checked_add(v.get("byteLength")?.as_u64()? as usize)?)
+}
+
+/// A GLB of a JSON chunk and a binary chunk, each padded to four bytes.
+pub(super) fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let (json_len, bin_len) = (json.len().next_multiple_of(4), bin.len().next_multiple_of(4));
+    let total = 12 + 8 + json_len + 8 + bin_len;
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(GLB_MAGIC);
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json_len as u32).to_le_bytes());
+    out.extend_from_slice(&JSON_CHUNK.to_le_bytes());
+    out.extend_from_slice(json);
+    out.resize(20 + json_len, b' ');
+    out.extend_from_slice(&(bin_len as u32).to_le_bytes());
+    out.extend_from_slice(&BIN_CHUNK.to_le_bytes());
+    out.extend_from_slice(bin);
+    out.resize(total, 0);
+    out
+}
