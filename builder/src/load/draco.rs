@@ -148,7 +148,7 @@ fn decode(bytes: &[u8]) -> Result<Mesh, String> {
 }
 
 /// A GLB's JSON and binary chunks, or a `.gltf`'s JSON and no chunk.
-fn split(bytes: &[u8]) -> Option<(&[u8], Option<&[u8]>)> {
+pub(super) fn split(bytes: &[u8]) -> Option<(&[u8], Option<&[u8]>)> {
     if !bytes.starts_with(GLB_MAGIC) {
         return Some((bytes, None));
     }

@@ -1,6 +1,8 @@
 //! glTF 2.0 (`.gltf` with its buffers, or `.glb`) through the `gltf` crate:
 //! node transforms applied, base colour factor and texture, alpha mode and
-//! cutoff, emissive factor times `KHR_materials_emissive_strength`; Draco
+//! cutoff, emissive factor times `KHR_materials_emissive_strength`, the
+//! diffuse of `KHR_materials_pbrSpecularGlossiness`, `KHR_texture_transform`
+//! on the colour texture; Draco
 //! compressed meshes are decoded first (`draco.rs`). Units are
 //! metres by the glTF specification. Images are decoded one by one so a broken
 //! image is a warning, not a failed load.
@@ -23,7 +25,13 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let bytes = plain.as_deref().unwrap_or(bytes);
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
         .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
-    let gltf::Gltf { document, blob } = parsed.map_err(bad)?;
+    let gltf::Gltf { document, blob } = parsed.map_err(|e| match unsupported_required(bytes) {
+        Some(names) => LoadError::malformed(
+            path,
+            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco compression, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
+        ),
+        None => bad(e),
+    })?;
     check_external_files(path, dir, &document)?;
     let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
 
@@ -54,14 +62,24 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     }
     let missing = texture_index.iter().filter(|t| t.is_none()).count();
 
+    // Each material's colour texture coordinates: the set it reads and its
+    // `KHR_texture_transform` (applied to the coordinates of the primitives
+    // drawn with it, as a material has one texture here).
+    let mut uv_maps: Vec<UvMap> = Vec::new();
     let mut materials: Vec<Material> = document
         .materials()
         .map(|m| {
-            let pbr = m.pbr_metallic_roughness();
-            let texture = pbr.base_color_texture().and_then(|t| texture_index.get(t.texture().source().index()).copied().flatten());
+            // `KHR_materials_pbrSpecularGlossiness`'s diffuse, where given,
+            // stands for the base colour (older exporters write only it).
+            let (factor, info) = match m.pbr_specular_glossiness() {
+                Some(sg) => (sg.diffuse_factor(), sg.diffuse_texture()),
+                None => (m.pbr_metallic_roughness().base_color_factor(), m.pbr_metallic_roughness().base_color_texture()),
+            };
+            uv_maps.push(info.as_ref().map_or(UvMap::default(), UvMap::of));
+            let texture = info.and_then(|t| texture_index.get(t.texture().source().index()).copied().flatten());
             Material {
                 name: m.name().map(str::to_string).unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
-                base_color: pbr.base_color_factor(),
+                base_color: factor,
                 base_color_texture: texture,
                 alpha_mode: match m.alpha_mode() {
                     gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
@@ -117,8 +135,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
                     }
                     _ => with_normals = false,
                 }
-                match reader.read_tex_coords(0) {
-                    Some(uv) => scene.uvs.extend(uv.into_f32().map(Vec2::from)),
+                let uv_map = primitive.material().index().and_then(|m| uv_maps.get(m)).copied().unwrap_or_default();
+                match reader.read_tex_coords(uv_map.set) {
+                    Some(uv) => scene.uvs.extend(uv.into_f32().map(|uv| uv_map.apply(Vec2::from(uv)))),
                     None => scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
                 }
                 scene.uvs.truncate(scene.positions.len());
@@ -144,6 +163,42 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         scene.normals.clear();
     }
     Ok(scene)
+}
+
+/// Which texture coordinates a material's colour texture reads, and their
+/// `KHR_texture_transform` (offset · rotation · scale, as the extension
+/// defines it), as the two rows of a 2×3 affine map.
+#[derive(Clone, Copy, Debug)]
+struct UvMap {
+    set: u32,
+    rows: [[f32; 3]; 2],
+}
+
+impl Default for UvMap {
+    fn default() -> UvMap {
+        UvMap { set: 0, rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] }
+    }
+}
+
+impl UvMap {
+    fn of(info: &gltf::texture::Info) -> UvMap {
+        let Some(t) = info.texture_transform() else { return UvMap { set: info.tex_coord(), ..UvMap::default() } };
+        let ([ox, oy], [sx, sy], (sin, cos)) = (t.offset(), t.scale(), t.rotation().sin_cos());
+        UvMap { set: t.tex_coord().unwrap_or(info.tex_coord()), rows: [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]] }
+    }
+    fn apply(&self, uv: Vec2) -> Vec2 {
+        let [a, b] = self.rows;
+        Vec2::new(a[0] * uv.x + a[1] * uv.y + a[2], b[0] * uv.x + b[1] * uv.y + b[2])
+    }
+}
+
+/// The extensions a file requires that `gltf` does not read, when its JSON
+/// can be read at all.
+fn unsupported_required(bytes: &[u8]) -> Option<String> {
+    let (json, _) = super::draco::split(bytes)?;
+    let doc: serde_json::Value = serde_json::from_slice(json).ok()?;
+    let names: Vec<&str> = doc.get("extensionsRequired")?.as_array()?.iter().filter_map(|e| e.as_str()).filter(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(e)).collect();
+    (!names.is_empty()).then(|| names.join(", "))
 }
 
 /// Converts a decoded glTF image to RGBA8 (8- and 16-bit formats; others are rare).

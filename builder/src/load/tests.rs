@@ -238,6 +238,47 @@ fn gltf_node_transforms_are_applied() {
     assert_eq!(scene.scale_source, ScaleSource::File);
 }
 
+#[test]
+fn gltf_specular_glossiness_diffuse_and_texture_transforms_are_read() {
+    // One triangle with texture coordinates (0,0), (1,0), (0,1), drawn with a
+    // specular-glossiness material whose diffuse texture is offset, scaled and
+    // rotated by KHR_texture_transform.
+    let dir = tempfile::tempdir().unwrap();
+    let mut data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    data.extend([0f32, 0., 1., 0., 0., 1.].iter().flat_map(|v| v.to_le_bytes()));
+    let mut png = Vec::new();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    let make = |rotation: f32, required: &[&str]| {
+        serde_json::json!({
+            "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness", "KHR_texture_transform"], "extensionsRequired": required,
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
+            "materials": [{"extensions": {"KHR_materials_pbrSpecularGlossiness": {"diffuseFactor": [0.5, 0.6, 0.7, 1.0],
+                "diffuseTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.25], "scale": [2.0, 3.0], "rotation": rotation}}}}}}],
+            "textures": [{"source": 0}],
+            "images": [{"uri": format!("data:image/png;base64,{}", base64_encode(&png))}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]},
+                          {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC2"}],
+            "bufferViews": [{"buffer": 0, "byteLength": 60}],
+            "buffers": [{"byteLength": 60, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+        })
+        .to_string()
+    };
+    let scene = load_default(&write(dir.path(), "sg.gltf", make(0.0, &["KHR_texture_transform"]).as_bytes())).unwrap();
+    assert_eq!(scene.materials[0].base_color, [0.5, 0.6, 0.7, 1.0]);
+    assert_eq!(scene.materials[0].base_color_texture, Some(0));
+    assert_eq!(scene.uvs, [glam::Vec2::new(0.5, 0.25), glam::Vec2::new(2.5, 0.25), glam::Vec2::new(0.5, 3.25)]);
+    // A quarter turn: u' = sy·v + ox, v' = -sx·u + oy.
+    let scene = load_default(&write(dir.path(), "rot.gltf", make(std::f32::consts::FRAC_PI_2, &[]).as_bytes())).unwrap();
+    for (uv, want) in scene.uvs.iter().zip([glam::Vec2::new(0.5, 0.25), glam::Vec2::new(0.5, -1.75), glam::Vec2::new(3.5, 0.25)]) {
+        assert!((*uv - want).length() < 1e-5, "{uv} against {want}");
+    }
+    // An extension nothing here reads, when required, is named in the error.
+    let path = write(dir.path(), "meshopt.gltf", make(0.0, &["EXT_meshopt_compression"]).as_bytes());
+    let text = error_text(&path);
+    assert!(text.contains("EXT_meshopt_compression") && text.contains("export the scene again"), "{text}");
+}
+
 fn base64_encode(bytes: &[u8]) -> String {
     base64::encode(bytes)
 }
