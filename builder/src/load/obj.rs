@@ -40,7 +40,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     materials.push(Material::diffuse("default", [0.7, 0.7, 0.7]));
 
     let mut scene = empty_scene(materials, textures);
-    let with_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
+    // Normals only where every vertex has one: faces that give none beside
+    // faces that do leave tobj's lists of different lengths.
+    let with_normals = models.iter().all(|m| !m.mesh.normals.is_empty() && m.mesh.normals.len() == m.mesh.positions.len());
     let mut object_index: HashMap<String, u32> = HashMap::new();
     for model in &models {
         let mesh = &model.mesh;

@@ -39,6 +39,16 @@ fn obj_polygon_is_fan_triangulated_without_normals() {
 }
 
 #[test]
+fn obj_faces_with_and_without_normals_and_uvs_load_with_geometric_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\nf 3 2 4\nf 1 2 5\n";
+    let scene = load_default(&write(dir.path(), "mixed.obj", obj.as_bytes())).unwrap();
+    assert_eq!(scene.triangles.len(), 3);
+    assert!(scene.normals.is_empty(), "geometric normals are used");
+    assert!(scene.validate().is_ok());
+}
+
+#[test]
 fn obj_negative_indices_refer_backwards() {
     let dir = tempfile::tempdir().unwrap();
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 2\nv 1 0 2\nv 0 1 2\nf -3 -2 -1\n";
