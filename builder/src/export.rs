@@ -3,7 +3,8 @@
 //! loaders. Every file is written atomically.
 
 use crate::files::write_atomic;
-use exploremaps_scenes::{AlphaMode, Scene};
+use exploremaps_scenes::{AlphaMode, Light, Scene};
+use glam::{Quat, Vec3};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -173,17 +174,37 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         })
         .collect();
     let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
-    let document = json!({
+    // Lights as KHR_lights_punctual, each on a node of its own, in candela
+    // and lux at the loader's 683 lumens a watt (so they load back as they are).
+    let mut nodes = vec![json!({ "mesh": 0, "name": scene.name })];
+    let mut lights = Vec::new();
+    for light in &scene.lights {
+        let (node, kind, power) = match *light {
+            Light::Point { position, intensity } => (json!({ "translation": position.to_array() }), "point", intensity),
+            // The light shines along its node's -Z: turn +Z to the sun.
+            Light::Sun { direction, irradiance } => (json!({ "rotation": Quat::from_rotation_arc(Vec3::Z, direction.normalize()).to_array() }), "directional", irradiance),
+        };
+        let peak = power.max_element().max(f32::MIN_POSITIVE);
+        lights.push(json!({ "type": kind, "color": (power / peak).to_array(), "intensity": peak * crate::load::LUMENS_PER_WATT }));
+        let mut node = node;
+        node["extensions"] = json!({ "KHR_lights_punctual": { "light": lights.len() - 1 } });
+        nodes.push(node);
+    }
+    let mut document = json!({
         "asset": { "version": "2.0", "generator": "ExploreMaps" },
         "extensionsUsed": ["KHR_materials_emissive_strength"],
         "scene": 0,
-        "scenes": [{ "nodes": [0] }],
-        "nodes": [{ "mesh": 0, "name": scene.name }],
+        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "nodes": nodes,
         "meshes": [{ "primitives": primitives }],
         "materials": materials,
         "textures": textures,
         "images": images,
     });
+    if !lights.is_empty() {
+        document["extensionsUsed"] = json!(["KHR_materials_emissive_strength", "KHR_lights_punctual"]);
+        document["extensions"] = json!({ "KHR_lights_punctual": { "lights": lights } });
+    }
     write_atomic(path, &glb.finish(document)).map_err(io(path))
 }
 

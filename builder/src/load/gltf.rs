@@ -1,6 +1,7 @@
 //! glTF 2.0 (`.gltf` with its buffers, or `.glb`) through the `gltf` crate:
 //! node transforms applied, base colour factor and texture, alpha mode and
-//! cutoff, emissive factor times `KHR_materials_emissive_strength`, the
+//! cutoff, emissive factor times `KHR_materials_emissive_strength`,
+//! `KHR_lights_punctual` lights (at 683 lumens a watt), the
 //! diffuse of `KHR_materials_pbrSpecularGlossiness`, `KHR_texture_transform`
 //! on the colour texture; Draco
 //! compressed meshes are decoded first (`draco.rs`). Units are
@@ -9,7 +10,7 @@
 
 use super::obj::empty_scene;
 use super::{check_triangle_count, LoadError};
-use exploremaps_scenes::{AlphaMode, Material, ScaleSource, Scene, Texture};
+use exploremaps_scenes::{AlphaMode, Light, Material, ScaleSource, Scene, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -114,6 +115,11 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
             return Err(LoadError::malformed(path, "node hierarchy deeper than 64 levels (a cycle?)"));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(light) = node.light() {
+            if let Some(l) = punctual_light(path, &light, world) {
+                scene.lights.push(l);
+            }
+        }
         if let Some(mesh) = node.mesh() {
             let object = scene.objects.len() as u32;
             scene.objects.push(node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node {}", node.index())));
@@ -163,6 +169,32 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         scene.normals.clear();
     }
     Ok(scene)
+}
+
+/// Lumens a watt: `KHR_lights_punctual` gives candela and lux, the renderer
+/// radiant intensity and irradiance; Blender converts its watts to those
+/// units at this efficacy, so its lights come back as they were made.
+pub(crate) const LUMENS_PER_WATT: f32 = 683.0;
+
+/// A `KHR_lights_punctual` light in the scene's lights. A spot light is lit as
+/// a point light of its intensity (the renderer has no cones), said once per light.
+fn punctual_light(path: &Path, light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Option<Light> {
+    use gltf::khr_lights_punctual::Kind;
+    let power = Vec3::from(light.color()) * light.intensity() / LUMENS_PER_WATT;
+    if !power.is_finite() || power.min_element() < 0.0 || power == Vec3::ZERO {
+        return None;
+    }
+    match light.kind() {
+        // A directional light shines along its node's -Z: the sun lies toward +Z.
+        Kind::Directional => Some(Light::Sun { direction: world.transform_vector3(Vec3::Z).try_normalize()?, irradiance: power }),
+        kind => {
+            if matches!(kind, Kind::Spot { .. }) {
+                tracing::warn!("{}: spot light {} is lit as a point light (no cone)", path.display(), light.name().unwrap_or("without a name"));
+            }
+            let position = world.transform_point3(Vec3::ZERO);
+            position.is_finite().then_some(Light::Point { position, intensity: power })
+        }
+    }
 }
 
 /// Which texture coordinates a material's colour texture reads, and their

@@ -8,10 +8,11 @@
 
 mod draco;
 mod gltf;
+pub(crate) use gltf::LUMENS_PER_WATT;
 mod obj;
 mod ply;
 
-use exploremaps_scenes::{guess_metres_per_unit, ScaleSource, Scene, Texture};
+use exploremaps_scenes::{guess_metres_per_unit, Light, ScaleSource, Scene, Texture};
 use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -102,6 +103,12 @@ fn finish(path: &Path, scene: &mut Scene, options: &LoadOptions) -> Result<(), L
         let y_from_up = Quat::from_rotation_arc(up, Vec3::Y);
         scene.positions.iter_mut().for_each(|p| *p = y_from_up * *p);
         scene.normals.iter_mut().for_each(|n| *n = y_from_up * *n);
+        for light in &mut scene.lights {
+            match light {
+                Light::Point { position, .. } => *position = y_from_up * *position,
+                Light::Sun { direction, .. } => *direction = y_from_up * *direction,
+            }
+        }
     }
     scene.drop_bad_triangles();
     let stats = scene.stats;

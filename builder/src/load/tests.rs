@@ -2,7 +2,7 @@
 //! input, round trips through the exporters, and the shared real scenes.
 
 use super::*;
-use exploremaps_scenes::{AlphaMode, BuiltIn};
+use exploremaps_scenes::{AlphaMode, BuiltIn, Light};
 use std::fs;
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -210,6 +210,18 @@ fn builtin_scene_round_trips_through_obj_and_glb() {
         assert!((a.min - b.min).length() < 1e-4 && (a.max - b.max).length() < 1e-4, "{name}");
         let lamp = back.materials.iter().find(|m| m.name == "lamp").expect("lamp material");
         assert_eq!(lamp.emissive, Vec3::splat(8.0), "{name}");
+        if name.ends_with(".glb") {
+            // The lights come back (OBJ has none), in the loader's node order.
+            assert_eq!(back.lights.len(), original.lights.len(), "{name}");
+            let same = |a: &Light, b: &Light| match (a, b) {
+                (Light::Point { position: pa, intensity: ia }, Light::Point { position: pb, intensity: ib }) => (*pa - *pb).length() < 1e-4 && (*ia - *ib).length() < 1e-4 * ia.length(),
+                (Light::Sun { direction: da, irradiance: ea }, Light::Sun { direction: db, irradiance: eb }) => (da.normalize() - *db).length() < 1e-5 && (*ea - *eb).length() < 1e-4 * ea.length(),
+                _ => false,
+            };
+            for a in &original.lights {
+                assert!(back.lights.iter().any(|b| same(a, b)), "{name}: {a:?} did not come back");
+            }
+        }
         let t = back.materials.iter().find(|m| m.name == "floor_marble").unwrap().base_color_texture.unwrap();
         assert_eq!(back.textures[t].image, original.textures[0].image, "{name}");
         // Texture coordinates per triangle, compared independently of triangle order.
@@ -287,6 +299,53 @@ fn gltf_specular_glossiness_diffuse_and_texture_transforms_are_read() {
     let path = write(dir.path(), "meshopt.gltf", make(0.0, &["EXT_meshopt_compression"]).as_bytes());
     let text = error_text(&path);
     assert!(text.contains("EXT_meshopt_compression") && text.contains("export the scene again"), "{text}");
+}
+
+#[test]
+fn gltf_punctual_lights_are_read_in_the_renderers_units_and_turn_with_the_up_axis() {
+    // A triangle, a point light of 683 cd at (1, 2, 3) under a node moved by
+    // (10, 0, 0), a sun of 1366 lux shining down (-Z turned to -Y), and a spot.
+    let dir = tempfile::tempdir().unwrap();
+    let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0, 1, 3]}], "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 683.0},
+            {"type": "directional", "intensity": 1366.0},
+            {"type": "spot", "intensity": 68.3, "spot": {"outerConeAngle": 0.5}}]}},
+        "nodes": [{"mesh": 0, "translation": [10.0, 0.0, 0.0], "children": [2]},
+                  {"rotation": [-0.70710677, 0.0, 0.0, 0.70710677], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+                  {"translation": [1.0, 2.0, 3.0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+                  {"extensions": {"KHR_lights_punctual": {"light": 2}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": 36, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&positions))}]
+    });
+    let path = write(dir.path(), "lights.gltf", gltf.to_string().as_bytes());
+    let scene = load_default(&path).unwrap();
+    let near = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+    let mut point = None;
+    let mut sun = None;
+    for l in &scene.lights {
+        match *l {
+            exploremaps_scenes::Light::Point { position, intensity } if intensity.x > 0.5 => point = Some((position, intensity)),
+            exploremaps_scenes::Light::Sun { direction, irradiance } => sun = Some((direction, irradiance)),
+            _ => {}
+        }
+    }
+    assert_eq!(scene.lights.len(), 3, "{:?}", scene.lights);
+    let (position, intensity) = point.unwrap();
+    assert!(near(position, Vec3::new(11.0, 2.0, 3.0)) && near(intensity, Vec3::new(1.0, 0.5, 0.25)), "{position} {intensity}");
+    let (direction, irradiance) = sun.unwrap();
+    assert!(near(direction, Vec3::Y) && near(irradiance, Vec3::splat(2.0)), "{direction} {irradiance}");
+    // With Z as the file's up, the sun (toward +Y in the file) turns to -Z.
+    let turned = load(&path, &LoadOptions { up: Vec3::Z, ..Default::default() }).unwrap();
+    let sun = turned.lights.iter().find_map(|l| match *l {
+        exploremaps_scenes::Light::Sun { direction, .. } => Some(direction),
+        _ => None,
+    });
+    assert!(near(sun.unwrap(), Vec3::NEG_Z), "{sun:?}");
 }
 
 fn base64_encode(bytes: &[u8]) -> String {
