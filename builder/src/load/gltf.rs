@@ -3,8 +3,8 @@
 //! cutoff, emissive factor times `KHR_materials_emissive_strength`,
 //! `KHR_lights_punctual` lights (at 683 lumens a watt), the
 //! diffuse of `KHR_materials_pbrSpecularGlossiness`, `KHR_texture_transform`
-//! on the colour texture; Draco
-//! compressed meshes are decoded first (`draco.rs`). Units are
+//! on the colour texture; Draco-compressed meshes and quantized attributes
+//! are decoded first (`gltf_decode.rs`). Units are
 //! metres by the glTF specification. Images are decoded one by one so a broken
 //! image is a warning, not a failed load.
 
@@ -22,14 +22,14 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
     // before checking it exists (mesh.rs:151): that panic is a malformed file.
     let dir = path.parent().unwrap_or(Path::new("."));
-    let plain = super::draco::transcode(path, bytes, dir, max_triangles)?;
+    let plain = super::gltf_decode::transcode(path, bytes, dir, max_triangles)?;
     let bytes = plain.as_deref().unwrap_or(bytes);
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
         .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
     let gltf::Gltf { document, blob } = parsed.map_err(|e| match unsupported_required(bytes) {
         Some(names) => LoadError::malformed(
             path,
-            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco compression, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
+            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco compression, mesh quantization, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
         ),
         None => bad(e),
     })?;
@@ -227,7 +227,7 @@ impl UvMap {
 /// The extensions a file requires that `gltf` does not read, when its JSON
 /// can be read at all.
 fn unsupported_required(bytes: &[u8]) -> Option<String> {
-    let (json, _) = super::draco::split(bytes)?;
+    let (json, _) = super::gltf_decode::split(bytes)?;
     let doc: serde_json::Value = serde_json::from_slice(json).ok()?;
     let names: Vec<&str> = doc.get("extensionsRequired")?.as_array()?.iter().filter_map(|e| e.as_str()).filter(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(e)).collect();
     (!names.is_empty()).then(|| names.join(", "))

@@ -6,7 +6,7 @@
 //! and say what to do; a texture that cannot be read is a warning, not an error,
 //! and its material keeps its plain colour.
 
-mod draco;
+mod gltf_decode;
 mod gltf;
 pub(crate) use gltf::LUMENS_PER_WATT;
 mod obj;

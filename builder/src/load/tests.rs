@@ -348,6 +348,37 @@ fn gltf_punctual_lights_are_read_in_the_renderers_units_and_turn_with_the_up_axi
     assert!(near(sun.unwrap(), Vec3::NEG_Z), "{sun:?}");
 }
 
+#[test]
+fn gltf_quantized_attributes_load_like_floats() {
+    // KHR_mesh_quantization as gltfpack writes it: positions as normalized
+    // shorts under a node's scale, normals as normalized bytes, texture
+    // coordinates as unsigned bytes (not normalized) at a stride of 4.
+    let dir = tempfile::tempdir().unwrap();
+    let mut data: Vec<u8> = [0i16, 0, 0, 0, 32767, 0, 0, 0, 0, 32767, 0, 0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    data.extend([0i8, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0].map(|v| v as u8));
+    data.extend([0u8, 0, 0, 0, 4, 0, 0, 0, 0, 2, 0, 0]);
+    let gltf = |required: &str| serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "extensionsUsed": [required], "extensionsRequired": [required],
+        "nodes": [{"mesh": 0, "scale": [2.0, 2.0, 2.0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [32767, 32767, 0]},
+            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC2"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 24, "byteStride": 8}, {"buffer": 0, "byteOffset": 24, "byteLength": 12, "byteStride": 4},
+                        {"buffer": 0, "byteOffset": 36, "byteLength": 12, "byteStride": 4}],
+        "buffers": [{"byteLength": 48, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+    }).to_string();
+    let scene = load_default(&write(dir.path(), "q.gltf", gltf("KHR_mesh_quantization").as_bytes())).unwrap();
+    assert_eq!(scene.triangle(0), [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)]);
+    assert!(scene.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", scene.normals);
+    assert_eq!(scene.uvs, [glam::Vec2::ZERO, glam::Vec2::new(4.0, 0.0), glam::Vec2::new(0.0, 2.0)]);
+    // A view too short for its count is an error naming the accessor, not a panic.
+    let short = gltf("KHR_mesh_quantization").replace("\"count\":3,\"type\":\"VEC2\"", "\"count\":300,\"type\":\"VEC2\"");
+    assert!(short.contains("\"count\":300"));
+    assert!(error_text(&write(dir.path(), "short.gltf", short.as_bytes())).contains("accessor 2 (TEXCOORD_0)"));
+}
+
 fn base64_encode(bytes: &[u8]) -> String {
     base64::encode(bytes)
 }
@@ -437,7 +468,7 @@ fn as_glb(text: &str) -> Vec<u8> {
     let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
     let uri = json["buffers"][0].as_object_mut().unwrap().remove("uri").unwrap();
     let bytes = base64::decode(uri.as_str().unwrap().split_once(";base64,").unwrap().1).unwrap();
-    super::draco::glb(json.to_string().as_bytes(), &bytes)
+    super::gltf_decode::glb(json.to_string().as_bytes(), &bytes)
 }
 
 #[test]

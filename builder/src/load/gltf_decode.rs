@@ -1,12 +1,15 @@
-//! Draco-compressed glTF (`KHR_draco_mesh_compression`), decoded by the
-//! pure-Rust `draco-core` into a plain glTF in memory before the `gltf` crate
-//! reads it, so the glTF loader and its validation stay as they are.
+//! The glTF extensions the `gltf` crate cannot read, decoded into a plain
+//! glTF in memory before it reads the file, so the glTF loader and its
+//! validation stay as they are: Draco-compressed meshes
+//! (`KHR_draco_mesh_compression`, decoded by the pure-Rust `draco-core`) and
+//! quantized attributes (`KHR_mesh_quantization`: byte and short positions,
+//! normals and texture coordinates, as `gltfpack` writes them).
 //!
-//! Each compressed primitive's indices and named attributes get accessors of
-//! plain `u32` and `f32` data in new buffer views, in the binary chunk of the
-//! GLB made (after a GLB's own chunk, which stays its first buffer; a `.gltf`
-//! gets the chunk as a new first buffer). The extension is then dropped from
-//! the primitive and the file's lists.
+//! Each compressed primitive's indices and named attributes, and each
+//! quantized attribute, get accessors of plain `u32` and `f32` data in new
+//! buffer views, in the binary chunk of the GLB made (after a GLB's own chunk,
+//! which stays its first buffer; a `.gltf` gets the chunk as a new first
+//! buffer). The extensions are then dropped from the file's lists.
 
 use super::LoadError;
 use draco_core::{decoder_buffer::DecoderBuffer, mesh::Mesh, mesh_decoder::MeshDecoder};
@@ -14,18 +17,21 @@ use serde_json::{json, Value};
 use std::path::Path;
 
 const EXTENSION: &str = "KHR_draco_mesh_compression";
+const QUANTIZATION: &str = "KHR_mesh_quantization";
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const JSON_CHUNK: u32 = 0x4E4F_534A;
 const BIN_CHUNK: u32 = 0x004E_4942;
 
-/// The file as a plain GLB when it uses Draco compression; `None` otherwise
+/// The file as a plain GLB when it uses Draco compression or quantized
+/// attributes; `None` otherwise
 /// (and for anything unreadable, which `gltf` then reports as it does).
 /// `max_triangles` bounds each primitive's declared index count before decoding.
 pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Vec<u8>>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
-    let used = |list: &str| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == EXTENSION));
-    if !used("extensionsUsed") && !used("extensionsRequired") {
+    let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
+    let quantized = used(QUANTIZATION);
+    if !used(EXTENSION) && !quantized {
         return Ok(None);
     }
     let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
@@ -111,6 +117,35 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
         }
         new_meshes.push(mesh);
     }
+    if quantized {
+        // Every attribute read that is not already f32 (an accessor shared by
+        // primitives is converted once: it is f32 after).
+        for mesh in &new_meshes {
+            for primitive in mesh.get("primitives").and_then(Value::as_array).into_iter().flatten() {
+                for (name, a) in primitive.get("attributes").and_then(Value::as_object).into_iter().flatten() {
+                    let read = name == "POSITION" || name == "NORMAL" || name.starts_with("TEXCOORD_");
+                    let Some(a) = a.as_u64().map(|a| a as usize).filter(|&a| read && a < accessors.len()) else { continue };
+                    if accessors[a].get("componentType").and_then(Value::as_u64) == Some(5126) {
+                        continue;
+                    }
+                    let (values, kind) = dequantize(&doc, &buffers, &accessors[a]).ok_or_else(|| {
+                        LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
+                    })?;
+                    data.resize(data.len().next_multiple_of(4), 0);
+                    let start = data.len();
+                    values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
+                    views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+                    let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": accessors[a]["count"], "type": kind });
+                    if name == "POSITION" {
+                        // glTF requires a position accessor's bounds: those of the values.
+                        let (lo, hi) = values.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))));
+                        (plain["min"], plain["max"]) = (json!(lo), json!(hi));
+                    }
+                    accessors[a] = plain;
+                }
+            }
+        }
+    }
 
     let mut all_views = doc.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
     let mut all_buffers = doc.get("buffers").and_then(Value::as_array).cloned().unwrap_or_default();
@@ -132,10 +167,58 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     doc["buffers"] = json!(all_buffers);
     for list in ["extensionsUsed", "extensionsRequired"] {
         if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
-            l.retain(|e| e != EXTENSION);
+            l.retain(|e| e != EXTENSION && e != QUANTIZATION);
         }
     }
     Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &data)))
+}
+
+/// A quantized accessor's values as f32, with its type: components of
+/// signed or unsigned bytes or shorts (normalized ones to [-1, 1] or [0, 1]),
+/// read at the view's stride. `None` for other types or data outside the view.
+fn dequantize(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec<f32>, String)> {
+    let kind = accessor.get("type")?.as_str()?;
+    let components = match kind {
+        "SCALAR" => 1,
+        "VEC2" => 2,
+        "VEC3" => 3,
+        "VEC4" => 4,
+        _ => return None,
+    };
+    let (size, top): (usize, f32) = match accessor.get("componentType")?.as_u64()? {
+        5120 => (1, 127.0),
+        5121 => (1, 255.0),
+        5122 => (2, 32767.0),
+        5123 => (2, 65535.0),
+        _ => return None,
+    };
+    let signed = matches!(accessor["componentType"].as_u64(), Some(5120 | 5122));
+    let normalized = accessor.get("normalized").and_then(Value::as_bool).unwrap_or(false);
+    let count = accessor.get("count")?.as_u64()? as usize;
+    let view_index = accessor.get("bufferView")?.as_u64()? as usize;
+    let view_bytes = view_bytes(doc, buffers, view_index)?;
+    let stride = doc["bufferViews"][view_index].get("byteStride").and_then(Value::as_u64).map_or(components * size, |s| s as usize);
+    // A stride under an element would let a small view claim any count.
+    if stride < components * size {
+        return None;
+    }
+    let offset = accessor.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+    let end = count.checked_sub(1).map_or(Some(offset), |last| last.checked_mul(stride)?.checked_add(offset + components * size))?;
+    let bytes = view_bytes.get(offset..end)?;
+    let mut out = Vec::with_capacity(count * components);
+    for i in 0..count {
+        for k in 0..components {
+            let at = i * stride + k * size;
+            let raw = match (size, signed) {
+                (1, true) => bytes[at] as i8 as f32,
+                (1, false) => bytes[at] as f32,
+                (_, true) => i16::from_le_bytes([bytes[at], bytes[at + 1]]) as f32,
+                (_, false) => u16::from_le_bytes([bytes[at], bytes[at + 1]]) as f32,
+            };
+            out.push(if normalized { (raw / top).max(-1.0) } else { raw });
+        }
+    }
+    Some((out, kind.to_string()))
 }
 
 /// Decodes one Draco stream; `draco-core` panicking on a hostile stream is an error too.
