@@ -550,6 +550,7 @@ fn info(scene: &Scene) -> Result<()> {
     println!("textures    {} ({} could not be loaded)", scene.textures.len(), scene.stats.missing_textures);
     println!("lights      {points} point, {suns} sun");
     println!("normals     {}", if scene.normals.is_empty() { "none (geometric normals will be used)" } else { "per vertex" });
+    println!("colours     {}", if scene.colours.is_empty() { "materials and textures" } else { "per vertex, times materials and textures" });
     println!("bounds      min ({:.3}, {:.3}, {:.3})  max ({:.3}, {:.3}, {:.3})", b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z);
     println!("extent      {:.3} x {:.3} x {:.3} units, diagonal {:.3}", e.x, e.y, e.z, b.diagonal());
     println!("scale       1 unit = {m} m ({scale}): {:.2} x {:.2} x {:.2} m", e.x * m, e.y * m, e.z * m);

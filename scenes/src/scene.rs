@@ -113,6 +113,9 @@ pub struct Scene {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates; empty when the source had none.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex linear RGB colours (scans and photogrammetry carry them),
+    /// multiplying the material's colour; empty when the source had none.
+    pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Per triangle: index into `materials`.
     pub triangle_material: Vec<u32>,
@@ -135,6 +138,7 @@ impl Scene {
             positions: Vec::new(),
             normals: Vec::new(),
             uvs: Vec::new(),
+            colours: Vec::new(),
             triangles: Vec::new(),
             triangle_material: Vec::new(),
             triangle_object: Vec::new(),
@@ -190,8 +194,8 @@ impl Scene {
         if self.triangle_material.len() != t || self.triangle_object.len() != t {
             return Err("per-triangle material/object lists differ in length from the triangles".into());
         }
-        if !self.normals.is_empty() && self.normals.len() != n || !self.uvs.is_empty() && self.uvs.len() != n {
-            return Err("normals or uvs are not one per vertex".into());
+        if [self.normals.len(), self.uvs.len(), self.colours.len()].iter().any(|&k| k != 0 && k != n) {
+            return Err("normals, uvs or colours are not one per vertex".into());
         }
         if let Some(i) = self.triangles.iter().flatten().find(|&&i| i as usize >= n) {
             return Err(format!("vertex index {i} out of range ({n} vertices)"));

@@ -109,6 +109,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     }
     check_triangle_count(path, count, max_triangles)?;
     let mut with_normals = true;
+    let mut with_colours = true;
     let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > 64 {
@@ -146,6 +147,11 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
                     Some(uv) => scene.uvs.extend(uv.into_f32().map(|uv| uv_map.apply(Vec2::from(uv)))),
                     None => scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
                 }
+                // Vertex colours (linear, as glTF states them) where every primitive has them.
+                match reader.read_colors(0) {
+                    Some(c) if with_colours => scene.colours.extend(c.into_rgb_f32().map(Vec3::from)),
+                    _ => with_colours = false,
+                }
                 scene.uvs.truncate(scene.positions.len());
                 scene.uvs.resize(scene.positions.len(), Vec2::ZERO);
                 let indices: Vec<u32> = match reader.read_indices() {
@@ -167,6 +173,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     }
     if !with_normals || scene.normals.len() != scene.positions.len() {
         scene.normals.clear();
+    }
+    if !with_colours || scene.colours.len() != scene.positions.len() {
+        scene.colours.clear();
     }
     Ok(scene)
 }

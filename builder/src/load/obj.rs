@@ -43,6 +43,8 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     // Normals only where every vertex has one: faces that give none beside
     // faces that do leave tobj's lists of different lengths.
     let with_normals = models.iter().all(|m| !m.mesh.normals.is_empty() && m.mesh.normals.len() == m.mesh.positions.len());
+    // Vertex colours (`v x y z r g b`, as scanning tools write, sRGB 0-1) where every vertex has one.
+    let with_colours = models.iter().all(|m| !m.mesh.vertex_color.is_empty() && m.mesh.vertex_color.len() == m.mesh.positions.len());
     let mut object_index: HashMap<String, u32> = HashMap::new();
     for model in &models {
         let mesh = &model.mesh;
@@ -51,6 +53,10 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         scene.positions.extend(mesh.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
         if with_normals {
             scene.normals.extend(mesh.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+        }
+        if with_colours {
+            let decode = super::ply::srgb_decode;
+            scene.colours.extend(mesh.vertex_color.chunks_exact(3).map(|c| Vec3::new(decode(c[0].clamp(0.0, 1.0)), decode(c[1].clamp(0.0, 1.0)), decode(c[2].clamp(0.0, 1.0)))));
         }
         if mesh.texcoords.len() == count * 2 {
             scene.uvs.extend(mesh.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], 1.0 - t[1])));

@@ -1,5 +1,6 @@
 //! PLY (ASCII and binary, either endianness) through `ply-rs-bw`: `vertex`
-//! elements with x, y, z (and optional nx, ny, nz and u, v / s, t), `face`
+//! elements with x, y, z (and optional nx, ny, nz, u, v / s, t and red, green,
+//! blue), `face`
 //! elements with a `vertex_indices` (or `vertex_index`) list, fan-triangulated.
 
 use super::obj::empty_scene;
@@ -36,6 +37,28 @@ fn index_list(p: &Property) -> Option<Vec<i64>> {
     })
 }
 
+/// A vertex's colour, linear: `red`, `green`, `blue` (or `diffuse_red`, …),
+/// bytes as sRGB-encoded 0-255 as scanners write them, floats as 0-1 sRGB.
+fn colour(v: &DefaultElement) -> Option<Vec3> {
+    let channel = |name: &str| {
+        let p = v.get(name).or_else(|| v.get(&format!("diffuse_{name}")))?;
+        let x = match *p {
+            Property::UChar(b) => b as f32 / 255.0,
+            Property::Float(f) => f,
+            Property::Double(f) => f as f32,
+            Property::UShort(s) => s as f32 / 65535.0,
+            _ => return None,
+        };
+        Some(srgb_decode(x.clamp(0.0, 1.0)))
+    };
+    Some(Vec3::new(channel("red")?, channel("green")?, channel("blue")?))
+}
+
+/// sRGB's transfer function, decoded.
+pub(super) fn srgb_decode(x: f32) -> f32 {
+    if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+}
+
 pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
     let parser = Parser::<DefaultElement>::new();
     let bad = |e: ply_rs_bw::parser::ParseError| LoadError::malformed(path, format!("not a valid PLY file ({e}); it may be truncated or corrupt"));
@@ -58,6 +81,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     scene.objects.push(path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
     let mut has_normals = true;
     let mut uvs = Vec::new();
+    let mut colours = Vec::new();
     for (i, v) in vertices.iter().enumerate() {
         let (Some(x), Some(y), Some(z)) = (get(v, "x"), get(v, "y"), get(v, "z")) else {
             return Err(LoadError::malformed(path, format!("vertex {i} lacks numeric x, y, z properties")));
@@ -71,6 +95,12 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         if let (Some(a), Some(b)) = uv {
             uvs.push(Vec2::new(a as f32, 1.0 - b as f32));
         }
+        if let Some(c) = colour(v) {
+            colours.push(c);
+        }
+    }
+    if colours.len() == scene.positions.len() {
+        scene.colours = colours;
     }
     if !has_normals {
         scene.normals.clear();

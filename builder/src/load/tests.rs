@@ -165,6 +165,41 @@ fn truncated_files_are_errors_or_shorter_scenes_never_panics() {
 }
 
 #[test]
+fn vertex_colours_load_from_ply_obj_and_gltf_and_colour_the_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // sRGB bytes (PLY) and fractions (OBJ) decode to linear; glTF's are linear.
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 128 128 128\n3 0 1 2\n";
+    let obj = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0.50196 0.50196 0.50196\nf 1 2 3\n";
+    let grey = 0.21586;
+    for scene in [load_default(&write(d, "c.ply", ply.as_bytes())).unwrap(), load_default(&write(d, "c.obj", obj.as_bytes())).unwrap()] {
+        assert_eq!(scene.colours.len(), 3);
+        assert!((scene.colours[0] - Vec3::X).length() < 1e-6 && (scene.colours[1] - Vec3::Y).length() < 1e-6);
+        assert!((scene.colours[2] - Vec3::splat(grey)).length() < 1e-4, "{:?}", scene.colours);
+        // The surface's colour is the material's times the colours, interpolated.
+        let materials = crate::renderer::Materials::new(&scene);
+        let base = Vec3::from_slice(&scene.materials[0].base_color[..3]);
+        assert!((materials.albedo(0, 0.0, 0.0) - Vec3::X * base).length() < 1e-5);
+        assert!((materials.albedo(0, 0.5, 0.5) - (Vec3::Y + Vec3::splat(grey)) * 0.5 * base).length() < 1e-4);
+    }
+    let mut data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    data.extend([0.25f32, 0.5, 0.75, 1., 1., 1., 0., 0., 0.].iter().flat_map(|v| v.to_le_bytes()));
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]},
+                      {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 72}],
+        "buffers": [{"byteLength": 72, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+    });
+    let scene = load_default(&write(d, "c.gltf", gltf.to_string().as_bytes())).unwrap();
+    assert_eq!(scene.colours, [Vec3::new(0.25, 0.5, 0.75), Vec3::ONE, Vec3::ZERO]);
+    // Without colours on every vertex there are none.
+    let plain = load_default(&write(d, "q.obj", QUAD_OBJ.as_bytes())).unwrap();
+    assert!(plain.colours.is_empty());
+}
+
+#[test]
 fn ply_ascii_and_binary_load_the_same_mesh() {
     let dir = tempfile::tempdir().unwrap();
     let header = |format: &str| format!("ply\nformat {format} 1.0\ncomment two triangles\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");

@@ -228,12 +228,18 @@ impl<'a> Materials<'a> {
         }
     }
 
-    /// Linear base colour of material `m` at barycentric (u, v) of a triangle, its texture read at mip
+    /// Linear base colour of material `m` at barycentric (u, v) of a triangle
+    /// (times the vertex colours, where the scene has them), its texture read at mip
     /// `level` (fractional: trilinear; 0 or less: the full level, as
     /// [`Materials::albedo`]).
     fn colour_at(&self, m: &Material, triangle: u32, u: f32, v: f32, level: f32) -> Vec3 {
         let [r, g, b, _] = m.base_color;
-        let factor = Vec3::new(r, g, b);
+        let mut factor = Vec3::new(r, g, b);
+        let s = self.scene;
+        if !s.colours.is_empty() {
+            let [a, b, c] = s.triangles[triangle as usize].map(|i| s.colours[i as usize]);
+            factor *= a * (1.0 - u - v) + b * u + c * v;
+        }
         let (Some(t), Some(uv)) = (m.base_color_texture, self.uv(triangle, u, v)) else {
             return factor;
         };
