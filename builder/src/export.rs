@@ -179,14 +179,13 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     let mut nodes = vec![json!({ "mesh": 0, "name": scene.name })];
     let mut lights = Vec::new();
     for light in &scene.lights {
-        let (node, kind, power) = match *light {
+        let (mut node, kind, power) = match *light {
             Light::Point { position, intensity } => (json!({ "translation": position.to_array() }), "point", intensity),
             // The light shines along its node's -Z: turn +Z to the sun.
             Light::Sun { direction, irradiance } => (json!({ "rotation": Quat::from_rotation_arc(Vec3::Z, direction.normalize()).to_array() }), "directional", irradiance),
         };
         let peak = power.max_element().max(f32::MIN_POSITIVE);
         lights.push(json!({ "type": kind, "color": (power / peak).to_array(), "intensity": peak * crate::load::LUMENS_PER_WATT }));
-        let mut node = node;
         node["extensions"] = json!({ "KHR_lights_punctual": { "light": lights.len() - 1 } });
         nodes.push(node);
     }

@@ -185,14 +185,13 @@ fn dequantize(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec
         "VEC4" => 4,
         _ => return None,
     };
-    let (size, top): (usize, f32) = match accessor.get("componentType")?.as_u64()? {
-        5120 => (1, 127.0),
-        5121 => (1, 255.0),
-        5122 => (2, 32767.0),
-        5123 => (2, 65535.0),
+    let (size, top, signed): (usize, f32, bool) = match accessor.get("componentType")?.as_u64()? {
+        5120 => (1, 127.0, true),
+        5121 => (1, 255.0, false),
+        5122 => (2, 32767.0, true),
+        5123 => (2, 65535.0, false),
         _ => return None,
     };
-    let signed = matches!(accessor["componentType"].as_u64(), Some(5120 | 5122));
     let normalized = accessor.get("normalized").and_then(Value::as_bool).unwrap_or(false);
     let count = accessor.get("count")?.as_u64()? as usize;
     let view_index = accessor.get("bufferView")?.as_u64()? as usize;

@@ -55,8 +55,8 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
             scene.normals.extend(mesh.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
         }
         if with_colours {
-            let decode = super::ply::srgb_decode;
-            scene.colours.extend(mesh.vertex_color.chunks_exact(3).map(|c| Vec3::new(decode(c[0].clamp(0.0, 1.0)), decode(c[1].clamp(0.0, 1.0)), decode(c[2].clamp(0.0, 1.0)))));
+            let decode = |x: f32| crate::renderer::srgb_decode(x.clamp(0.0, 1.0));
+            scene.colours.extend(mesh.vertex_color.chunks_exact(3).map(|c| Vec3::new(decode(c[0]), decode(c[1]), decode(c[2]))));
         }
         if mesh.texcoords.len() == count * 2 {
             scene.uvs.extend(mesh.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], 1.0 - t[1])));

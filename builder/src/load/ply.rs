@@ -4,6 +4,7 @@
 //! elements with a `vertex_indices` (or `vertex_index`) list, fan-triangulated.
 
 use super::obj::empty_scene;
+use crate::renderer::{srgb_decode, srgb_to_linear};
 use super::{check_triangle_count, LoadError};
 use exploremaps_scenes::{Material, Scene};
 use glam::{Vec2, Vec3};
@@ -37,26 +38,17 @@ fn index_list(p: &Property) -> Option<Vec<i64>> {
     })
 }
 
-/// A vertex's colour, linear: `red`, `green`, `blue` (or `diffuse_red`, …),
+/// A vertex's colour, linear, from the properties `names` (red, green, blue):
 /// bytes as sRGB-encoded 0-255 as scanners write them, floats as 0-1 sRGB.
-fn colour(v: &DefaultElement) -> Option<Vec3> {
-    let channel = |name: &str| {
-        let p = v.get(name).or_else(|| v.get(&format!("diffuse_{name}")))?;
-        let x = match *p {
-            Property::UChar(b) => b as f32 / 255.0,
-            Property::Float(f) => f,
-            Property::Double(f) => f as f32,
-            Property::UShort(s) => s as f32 / 65535.0,
-            _ => return None,
-        };
-        Some(srgb_decode(x.clamp(0.0, 1.0)))
+fn colour(v: &DefaultElement, names: &[&str; 3]) -> Option<Vec3> {
+    let channel = |name: &str| match *v.get(name)? {
+        Property::UChar(b) => Some(srgb_to_linear(b)),
+        Property::UShort(s) => Some(srgb_decode(s as f32 / 65535.0)),
+        Property::Float(f) => Some(srgb_decode(f.clamp(0.0, 1.0))),
+        Property::Double(f) => Some(srgb_decode((f as f32).clamp(0.0, 1.0))),
+        _ => None,
     };
-    Some(Vec3::new(channel("red")?, channel("green")?, channel("blue")?))
-}
-
-/// sRGB's transfer function, decoded.
-pub(super) fn srgb_decode(x: f32) -> f32 {
-    if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+    Some(Vec3::new(channel(names[0])?, channel(names[1])?, channel(names[2])?))
 }
 
 pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
@@ -82,6 +74,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let mut has_normals = true;
     let mut uvs = Vec::new();
     let mut colours = Vec::new();
+    // The colour properties' names, from the header: `red` or `diffuse_red`, ….
+    let declared = |name: &str| header.elements.get("vertex").is_some_and(|e| e.properties.contains_key(name));
+    let names = if declared("red") { Some(["red", "green", "blue"]) } else { declared("diffuse_red").then_some(["diffuse_red", "diffuse_green", "diffuse_blue"]) };
     for (i, v) in vertices.iter().enumerate() {
         let (Some(x), Some(y), Some(z)) = (get(v, "x"), get(v, "y"), get(v, "z")) else {
             return Err(LoadError::malformed(path, format!("vertex {i} lacks numeric x, y, z properties")));
@@ -95,7 +90,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         if let (Some(a), Some(b)) = uv {
             uvs.push(Vec2::new(a as f32, 1.0 - b as f32));
         }
-        if let Some(c) = colour(v) {
+        if let Some(c) = names.as_ref().and_then(|n| colour(v, n)) {
             colours.push(c);
         }
     }

@@ -39,7 +39,7 @@ mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
-pub use surface::{srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
+pub use surface::{srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 pub use gather::GatherParams;
 pub use trace::{Frame, TraceParams, Tracer};
 

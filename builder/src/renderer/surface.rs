@@ -44,17 +44,19 @@ pub fn srgb_to_linear(c: u8) -> f32 {
     srgb_table()[c as usize]
 }
 
+/// sRGB's transfer function, decoded: an encoded value in [0, 1] to linear.
+pub fn srgb_decode(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 fn srgb_table() -> &'static [f32; 256] {
     static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
-        std::array::from_fn(|i| {
-            let c = i as f32 / 255.0;
-            if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        })
+        std::array::from_fn(|i| srgb_decode(i as f32 / 255.0))
     })
 }
 
