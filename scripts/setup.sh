@@ -7,13 +7,14 @@ set -euo pipefail
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
-# Debian packages: libclang for embree4-sys's bindgen; pkg-config to find a
+# Debian packages: g++ for meshoptimizer (glTF's meshopt compression);
+# libclang for embree4-sys's bindgen; pkg-config to find a
 # system Embree; python3-pip to fetch the Embree wheel when pip is missing;
 # ffmpeg (libx264) for transition videos half the size of the built-in
 # encoder's; Mesa's lavapipe (Vulkan on the CPU) for the viewer's GPU tests;
 # Chromium, Xvfb, xdotool and ImageMagick for the viewer's browser and window
 # tests; Node for Playwright; bc for scripts' timings.
-packages=(libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1
+packages=(g++ libclang1-14 libclang-common-14-dev pkg-config ffmpeg mesa-vulkan-drivers libvulkan1
           chromium xvfb xauth xdotool imagemagick bc)
 python3 -m pip --version >/dev/null 2>&1 || packages+=(python3-pip)
 command -v node >/dev/null 2>&1 || packages+=(nodejs)

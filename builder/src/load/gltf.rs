@@ -3,15 +3,17 @@
 //! cutoff, emissive factor times `KHR_materials_emissive_strength`,
 //! `KHR_lights_punctual` lights (at 683 lumens a watt), the
 //! diffuse of `KHR_materials_pbrSpecularGlossiness`, `KHR_texture_transform`
-//! on the colour texture; Draco-compressed meshes and quantized attributes
-//! are decoded first (`gltf_decode.rs`). Units are
-//! metres by the glTF specification. Images are decoded one by one so a broken
-//! image is a warning, not a failed load.
+//! on the colour texture; Draco- and meshoptimizer-compressed data,
+//! quantized attributes and WebP-only textures are made plain first
+//! (`gltf_decode.rs`). Units are metres by the glTF specification. Images
+//! are decoded here, each on its own, so a broken image is a warning, not a
+//! failed load.
 
 use super::obj::empty_scene;
 use super::{check_triangle_count, LoadError};
 use exploremaps_scenes::{AlphaMode, Light, Material, ScaleSource, Scene, Texture};
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The largest buffer or image file a glTF may name (`gltf` reads it whole).
@@ -29,29 +31,17 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let gltf::Gltf { document, blob } = parsed.map_err(|e| match unsupported_required(bytes) {
         Some(names) => LoadError::malformed(
             path,
-            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco compression, mesh quantization, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
+            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco and meshoptimizer compression, mesh quantization, WebP textures, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
         ),
         None => bad(e),
     })?;
     check_external_files(path, dir, &document)?;
     let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
 
-    let textures: Vec<Option<Texture>> = document
-        .images()
-        .map(|image| {
-            let name = image.name().map(str::to_string).unwrap_or_else(|| format!("image {}", image.index()));
-            match gltf::image::Data::from_source(image.source(), Some(dir), &buffers) {
-                Ok(data) => to_rgba(&data).map(|image| Texture { name: name.clone(), image }).or_else(|| {
-                    tracing::warn!("{}: {name} has an unsupported pixel format {:?}; using the material's colour", path.display(), data.format);
-                    None
-                }),
-                Err(e) => {
-                    tracing::warn!("{}: {name} cannot be decoded ({e}); using the material's colour", path.display());
-                    None
-                }
-            }
-        })
-        .collect();
+    // Images are decoded here rather than by `gltf` (PNG and JPEG only, no
+    // size limit), in parallel, each a warning if it fails.
+    let images: Vec<gltf::Image> = document.images().collect();
+    let textures: Vec<Option<Texture>> = images.par_iter().map(|image| decode_gltf_image(path, dir, image, &buffers)).collect();
     // Keep only decoded images; map glTF image index to scene texture index.
     let mut texture_index = Vec::new();
     let mut scene_textures = Vec::new();
@@ -242,22 +232,6 @@ fn unsupported_required(bytes: &[u8]) -> Option<String> {
     (!names.is_empty()).then(|| names.join(", "))
 }
 
-/// Converts a decoded glTF image to RGBA8 (8- and 16-bit formats; others are rare).
-fn to_rgba(data: &gltf::image::Data) -> Option<image::RgbaImage> {
-    use gltf::image::Format;
-    let px = &data.pixels;
-    let rgba: Vec<u8> = match data.format {
-        Format::R8 => px.iter().flat_map(|&r| [r, r, r, 255]).collect(),
-        Format::R8G8 => px.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
-        Format::R8G8B8 => px.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
-        Format::R8G8B8A8 => px.clone(),
-        Format::R16G16B16 => px.chunks_exact(6).flat_map(|c| [c[1], c[3], c[5], 255]).collect(),
-        Format::R16G16B16A16 => px.chunks_exact(8).flat_map(|c| [c[1], c[3], c[5], c[7]]).collect(),
-        _ => return None,
-    };
-    image::RgbaImage::from_raw(data.width, data.height, rgba)
-}
-
 /// Checks the files a glTF's buffers and images name before `gltf` reads them
 /// whole: each must be a regular file (a URI naming /dev/zero or a pipe would
 /// never end) of at most `MAX_EXTERNAL_BYTES`, and its name must decode to
@@ -273,19 +247,61 @@ fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> R
         gltf::image::Source::View { .. } => None,
     });
     for (what, uri) in buffers.chain(images) {
-        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
-            PathBuf::from(rest)
-        } else if uri.contains(':') {
-            continue; // data: URIs are decoded in memory; other schemes are refused by gltf
-        } else {
-            match urlencoding::decode(uri) {
-                Ok(name) => dir.join(&*name),
-                Err(_) => return Err(LoadError::malformed(path, format!("{what}'s URI '{uri}' does not decode to a UTF-8 file name"))),
-            }
-        };
-        check_file(path, &file, &what)?;
+        // data: URIs are decoded in memory; other schemes are refused by gltf.
+        if let Some(file) = uri_file(dir, uri) {
+            let file = file.map_err(|()| LoadError::malformed(path, format!("{what}'s URI '{uri}' does not decode to a UTF-8 file name")))?;
+            check_file(path, &file, &what)?;
+        }
     }
     Ok(())
+}
+
+/// The file a URI names (relative to the glTF's directory, or a `file:`
+/// URI); `None` for a `data:` URI or another scheme, `Err` for a name that
+/// does not decode to UTF-8.
+fn uri_file(dir: &Path, uri: &str) -> Option<Result<PathBuf, ()>> {
+    if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+        Some(Ok(PathBuf::from(rest)))
+    } else if uri.contains(':') {
+        None
+    } else {
+        Some(urlencoding::decode(uri).map(|name| dir.join(&*name)).map_err(|_| ()))
+    }
+}
+
+/// One glTF image as a texture: from its buffer view, a `data:` URI or a
+/// file beside the scene (already checked by `check_external_files`); a
+/// warning and `None` where it cannot be read or decoded.
+fn decode_gltf_image(path: &Path, dir: &Path, image: &gltf::Image, buffers: &[gltf::buffer::Data]) -> Option<Texture> {
+    let warn = |name: &str, why: &str| {
+        tracing::warn!("{}: texture {name} {why}; using the material's colour", path.display());
+        None
+    };
+    let name = image.name().map(str::to_string);
+    match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let name = name.unwrap_or_else(|| format!("image {}", image.index()));
+            let start = view.offset();
+            match buffers.get(view.buffer().index()).and_then(|b| b.get(start..start.checked_add(view.length())?)) {
+                Some(bytes) => super::decode_image(path, &name, image::ImageReader::new(std::io::Cursor::new(bytes))),
+                None => warn(&name, &format!("lies outside its buffer (buffer view {})", view.index())),
+            }
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            let name = name.unwrap_or_else(|| if uri.starts_with("data:") { format!("image {}", image.index()) } else { uri.to_string() });
+            match uri_file(dir, uri) {
+                Some(Ok(file)) => match image::ImageReader::open(&file) {
+                    Ok(reader) => super::decode_image(path, &name, reader),
+                    Err(e) => warn(&name, &format!("cannot be read from {} ({e})", file.display())),
+                },
+                Some(Err(())) => warn(&name, "has a URI that does not decode to a UTF-8 file name"),
+                None => match uri.strip_prefix("data:").and_then(|d| d.split_once(";base64,")).map(|(_, payload)| base64::decode(payload)) {
+                    Some(Ok(bytes)) => super::decode_image(path, &name, image::ImageReader::new(std::io::Cursor::new(&bytes[..]))),
+                    _ => warn(&name, "has a URI that is neither a file nor base64 data"),
+                },
+            }
+        }
+    }
 }
 
 /// A file a glTF names must be a regular file of at most `MAX_EXTERNAL_BYTES`

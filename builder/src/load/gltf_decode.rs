@@ -1,15 +1,20 @@
 //! The glTF extensions the `gltf` crate cannot read, decoded into a plain
 //! glTF in memory before it reads the file, so the glTF loader and its
-//! validation stay as they are: Draco-compressed meshes
-//! (`KHR_draco_mesh_compression`, decoded by the pure-Rust `draco-core`) and
-//! quantized attributes (`KHR_mesh_quantization`: byte and short positions,
-//! normals and texture coordinates, as `gltfpack` writes them).
+//! validation stay as they are: meshoptimizer-compressed buffer views
+//! (`EXT_meshopt_compression` and `KHR_meshopt_compression`, decoded by
+//! meshoptimizer itself, whose decoders are written for untrusted input),
+//! Draco-compressed meshes (`KHR_draco_mesh_compression`, decoded by the
+//! pure-Rust `draco-core`), quantized attributes (`KHR_mesh_quantization`:
+//! byte and short positions, normals and texture coordinates, as `gltfpack`
+//! writes them), and textures whose image is given only by
+//! `EXT_texture_webp` or `KHR_texture_basisu` (the image is then named as the
+//! texture's source; WebP decodes, KTX2 is a warning).
 //!
-//! Each compressed primitive's indices and named attributes, and each
-//! quantized attribute, get accessors of plain `u32` and `f32` data in new
-//! buffer views, in the binary chunk of the GLB made (after a GLB's own chunk,
-//! which stays its first buffer; a `.gltf` gets the chunk as a new first
-//! buffer). The extensions are then dropped from the file's lists.
+//! Decoded data goes in new buffer views of the binary chunk of the GLB made
+//! (a GLB's own chunk, which stays its first buffer; a `.gltf` gets the
+//! chunk as a new first buffer). Each compressed primitive's indices and
+//! named attributes, and each quantized attribute, get accessors of plain
+//! `u32` and `f32` data. The extensions are then dropped from the file's lists.
 
 use super::LoadError;
 use draco_core::{decoder_buffer::DecoderBuffer, mesh::Mesh, mesh_decoder::MeshDecoder};
@@ -18,29 +23,55 @@ use std::path::Path;
 
 const EXTENSION: &str = "KHR_draco_mesh_compression";
 const QUANTIZATION: &str = "KHR_mesh_quantization";
+const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
+const IMAGE_SOURCES: [&str; 2] = ["EXT_texture_webp", "KHR_texture_basisu"];
+/// The most bytes meshoptimizer-compressed views may decode to, together.
+const MAX_DECODED_BYTES: u64 = 4 << 30;
 const GLB_MAGIC: &[u8; 4] = b"glTF";
 const JSON_CHUNK: u32 = 0x4E4F_534A;
 const BIN_CHUNK: u32 = 0x004E_4942;
 
-/// The file as a plain GLB when it uses Draco compression or quantized
-/// attributes; `None` otherwise
-/// (and for anything unreadable, which `gltf` then reports as it does).
-/// `max_triangles` bounds each primitive's declared index count before decoding.
+/// The file as a plain GLB when it uses any of the extensions above; `None`
+/// otherwise (and for anything unreadable, which `gltf` then reports as it
+/// does). `max_triangles` bounds each primitive's declared index count and
+/// each compressed view's count before decoding.
 pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Vec<u8>>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
     let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
     let quantized = used(QUANTIZATION);
-    if !used(EXTENSION) && !quantized {
+    if !used(EXTENSION) && !quantized && !MESHOPT.iter().any(|e| used(e)) && !IMAGE_SOURCES.iter().any(|e| used(e)) {
         return Ok(None);
     }
     let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
-    let buffers = read_buffers(path, &doc, bin, dir)?;
+    let mut buffers = read_buffers(path, &doc, bin, dir)?;
 
-    // Decoded data goes to the binary chunk: after a GLB's own (its first
-    // buffer), or as a new first buffer before a `.gltf`'s.
+    // Decoded data goes to the binary chunk, `buffers[0]`: a GLB's own, or
+    // a new first buffer before a `.gltf`'s (every view then moves up one).
     let glb_chunk = bin.is_some() && doc.get("buffers").and_then(|b| b.get(0)).is_some_and(|b| b.get("uri").is_none());
-    let mut data: Vec<u8> = if glb_chunk { bin.unwrap_or(&[]).to_vec() } else { Vec::new() };
+    if !glb_chunk {
+        let shift = |at: &mut Value| {
+            if let Some(b) = at.get("buffer").and_then(Value::as_u64) {
+                at["buffer"] = json!(b + 1);
+            }
+        };
+        for v in doc.get_mut("bufferViews").and_then(Value::as_array_mut).into_iter().flatten() {
+            shift(v);
+            for e in MESHOPT {
+                if let Some(x) = v.get_mut("extensions").and_then(|x| x.get_mut(e)) {
+                    shift(x);
+                }
+            }
+        }
+        buffers.insert(0, Vec::new());
+        match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+            Some(list) => list.insert(0, json!({ "byteLength": 0 })),
+            None => doc["buffers"] = json!([{ "byteLength": 0 }]),
+        }
+    }
+    decode_meshopt_views(path, &mut doc, &mut buffers, max_triangles)?;
+    name_image_sources(&mut doc);
+
     let old_views = doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
     let mut views: Vec<Value> = Vec::new();
     let mut accessors = doc.get("accessors").and_then(Value::as_array).cloned().unwrap_or_default();
@@ -60,6 +91,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             let mesh = decode(compressed).map_err(|e| bad(format!("{at} does not decode: {e}")))?;
 
             // Indices: u32, one accessor.
+            let data = &mut buffers[0];
             let faces = mesh.faces();
             data.resize(data.len().next_multiple_of(4), 0);
             let start = data.len();
@@ -102,6 +134,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     };
                     values.iter_mut().for_each(|v| *v = (*v / scale).max(-1.0));
                 }
+                let data = &mut buffers[0];
                 let start = data.len();
                 values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
                 views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
@@ -131,6 +164,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     let (values, kind) = dequantize(&doc, &buffers, &accessors[a]).ok_or_else(|| {
                         LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
                     })?;
+                    let data = &mut buffers[0];
                     data.resize(data.len().next_multiple_of(4), 0);
                     let start = data.len();
                     values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
@@ -148,29 +182,120 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     }
 
     let mut all_views = doc.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
-    let mut all_buffers = doc.get("buffers").and_then(Value::as_array).cloned().unwrap_or_default();
-    if glb_chunk {
-        all_buffers[0]["byteLength"] = json!(data.len());
-    } else {
-        // A new first buffer: every other one moves up one.
-        for v in &mut all_views {
-            if let Some(b) = v.get("buffer").and_then(Value::as_u64) {
-                v["buffer"] = json!(b + 1);
-            }
-        }
-        all_buffers.insert(0, json!({ "byteLength": data.len() }));
-    }
     all_views.extend(views);
+    doc["buffers"][0]["byteLength"] = json!(buffers[0].len());
     doc["meshes"] = json!(new_meshes);
     doc["accessors"] = json!(accessors);
     doc["bufferViews"] = json!(all_views);
-    doc["buffers"] = json!(all_buffers);
     for list in ["extensionsUsed", "extensionsRequired"] {
         if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
-            l.retain(|e| e != EXTENSION && e != QUANTIZATION);
+            l.retain(|e| ![EXTENSION, QUANTIZATION].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
         }
     }
-    Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &data)))
+    Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &buffers[0])))
+}
+
+/// Decodes every meshoptimizer-compressed buffer view into the chunk
+/// (`buffers[0]`) and points the view there; fallback buffers (which hold
+/// no data) become a byte of inline data so `gltf` can load them.
+fn decode_meshopt_views(path: &Path, doc: &mut Value, buffers: &mut [Vec<u8>], max_triangles: u64) -> Result<(), LoadError> {
+    let mut total = 0u64;
+    let count = doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
+    for i in 0..count {
+        let view = &doc["bufferViews"][i];
+        let Some((name, ext)) = MESHOPT.iter().find_map(|e| Some((*e, view.get("extensions")?.get(*e)?.clone()))) else { continue };
+        let bad = |detail: &str| LoadError::malformed(path, format!("buffer view {i} {detail} (in its {name} data); the file may be truncated or corrupt"));
+        let field = |key: &str| ext.get(key).and_then(Value::as_u64);
+        let (Some(buffer), Some(length), Some(stride), Some(count)) = (field("buffer"), field("byteLength"), field("byteStride"), field("count")) else {
+            return Err(bad("lacks one of buffer, byteLength, byteStride and count"));
+        };
+        let offset = field("byteOffset").unwrap_or(0);
+        let mode = ext.get("mode").and_then(Value::as_str).unwrap_or("");
+        let filter = ext.get("filter").and_then(Value::as_str).unwrap_or("NONE");
+        let size = count.checked_mul(stride).filter(|&n| total + n <= MAX_DECODED_BYTES).ok_or_else(|| bad(&format!("decodes to over {} GiB", MAX_DECODED_BYTES >> 30)))?;
+        // Indices, or vertices, past three a triangle of the most allowed.
+        if count / 3 > max_triangles {
+            return Err(LoadError::TooLarge { path: path.to_path_buf(), count: count / 3, limit: max_triangles });
+        }
+        let source = buffers.get(buffer as usize).and_then(|b| b.get(offset as usize..offset.checked_add(length)? as usize)).ok_or_else(|| bad("lies outside its buffer"))?.to_vec();
+        let decoded = meshopt_decode(&source, count as usize, stride as usize, mode, filter).map_err(|e| bad(&e))?;
+        total += size;
+        let data = &mut buffers[0];
+        data.resize(data.len().next_multiple_of(16), 0);
+        let start = data.len();
+        data.extend_from_slice(&decoded);
+        let view = &mut doc["bufferViews"][i];
+        (view["buffer"], view["byteOffset"], view["byteLength"]) = (json!(0), json!(start), json!(size));
+        if let Some(x) = view.get_mut("extensions").and_then(Value::as_object_mut) {
+            x.remove(name);
+        }
+    }
+    for (b, buffer) in doc.get_mut("buffers").and_then(Value::as_array_mut).into_iter().flatten().enumerate().skip(1) {
+        let fallback = MESHOPT.iter().any(|e| buffer.get("extensions").and_then(|x| x.get(*e)).and_then(|x| x.get("fallback")).and_then(Value::as_bool) == Some(true));
+        if fallback && buffer.get("uri").is_none() {
+            *buffer = json!({ "byteLength": 1, "uri": "data:application/octet-stream;base64,AA==" });
+            tracing::debug!("{}: fallback buffer {b} replaced by decoded data", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// One meshoptimizer-compressed view decoded: `count` elements of `stride`
+/// bytes, then its filter applied. The parameters meshoptimizer asserts on
+/// are checked first, so bad ones are errors rather than an abort.
+fn meshopt_decode(source: &[u8], count: usize, stride: usize, mode: &str, filter: &str) -> Result<Vec<u8>, String> {
+    use meshopt::ffi;
+    let mut out = vec![0u8; count * stride];
+    let (dst, src) = (out.as_mut_ptr().cast(), source.as_ptr());
+    let index_stride = stride == 2 || stride == 4;
+    // SAFETY: `out` holds `count * stride` bytes and `source` its length;
+    // the sizes meshoptimizer asserts on are checked in each arm.
+    let status = unsafe {
+        match mode {
+            "ATTRIBUTES" if stride % 4 == 0 && (4..=256).contains(&stride) => ffi::meshopt_decodeVertexBuffer(dst, count, stride, src, source.len()),
+            "TRIANGLES" if index_stride && count % 3 == 0 => ffi::meshopt_decodeIndexBuffer(dst, count, stride, src, source.len()),
+            "INDICES" if index_stride => ffi::meshopt_decodeIndexSequence(dst, count, stride, src, source.len()),
+            _ => return Err(format!("has mode {mode:?} with a stride of {stride} bytes and {count} elements, which meshoptimizer does not decode")),
+        }
+    };
+    if status != 0 {
+        return Err(format!("does not decode (meshoptimizer's error {status})"));
+    }
+    let ok = match (filter, mode) {
+        ("NONE", _) => true,
+        ("OCTAHEDRAL" | "COLOR", "ATTRIBUTES") => stride == 4 || stride == 8,
+        ("QUATERNION", "ATTRIBUTES") => stride == 8,
+        ("EXPONENTIAL", "ATTRIBUTES") => true,
+        _ => false,
+    };
+    if !ok {
+        return Err(format!("has filter {filter:?} on mode {mode:?} with a stride of {stride} bytes, which meshoptimizer does not decode"));
+    }
+    // SAFETY: as above; each filter works in place on `count` elements of `stride` bytes.
+    unsafe {
+        match filter {
+            "OCTAHEDRAL" => ffi::meshopt_decodeFilterOct(dst, count, stride),
+            "QUATERNION" => ffi::meshopt_decodeFilterQuat(dst, count, stride),
+            "EXPONENTIAL" => ffi::meshopt_decodeFilterExp(dst, count, stride),
+            "COLOR" => ffi::meshopt_decodeFilterColor(dst, count, stride),
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// Textures whose image is named only by `EXT_texture_webp` or
+/// `KHR_texture_basisu` get it as their source (a fallback source, where
+/// given, is kept: every reader decodes it).
+fn name_image_sources(doc: &mut Value) {
+    for texture in doc.get_mut("textures").and_then(Value::as_array_mut).into_iter().flatten() {
+        if texture.get("source").is_some() {
+            continue;
+        }
+        if let Some(source) = IMAGE_SOURCES.iter().find_map(|e| texture.get("extensions")?.get(*e)?.get("source").cloned()) {
+            texture["source"] = source;
+        }
+    }
 }
 
 /// A quantized accessor's values as f32, with its type: components of
@@ -253,9 +378,12 @@ pub(super) fn split(bytes: &[u8]) -> Option<(&[u8], Option<&[u8]>)> {
 /// view into one is an error where it is used.
 fn read_buffers(path: &Path, doc: &Value, bin: Option<&[u8]>, dir: &Path) -> Result<Vec<Vec<u8>>, LoadError> {
     let mut out = Vec::new();
-    for b in doc.get("buffers").and_then(Value::as_array).into_iter().flatten() {
+    for (i, b) in doc.get("buffers").and_then(Value::as_array).into_iter().flatten().enumerate() {
         let bytes = match b.get("uri").and_then(Value::as_str) {
-            None => bin.unwrap_or(&[]).to_vec(),
+            // A GLB's chunk is its first buffer; others without a URI (a
+            // meshoptimizer fallback) hold nothing.
+            None if i == 0 => bin.unwrap_or(&[]).to_vec(),
+            None => Vec::new(),
             Some(uri) if uri.starts_with("data:") => {
                 let payload = uri.split_once(";base64,").map_or("", |(_, p)| p);
                 base64::decode(payload).unwrap_or_default()

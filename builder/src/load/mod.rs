@@ -179,29 +179,45 @@ pub(crate) fn resolve_path(dir: &Path, relative: &str) -> Option<PathBuf> {
 pub(crate) const MAX_TEXTURE_SIDE: u32 = 16384;
 
 /// Decodes an image file into a texture; on failure logs a warning naming both
-/// files and returns `None`, so the material keeps its colour. Images over
-/// `MAX_TEXTURE_SIDE` are refused from their header, before any allocation.
+/// files and returns `None`, so the material keeps its colour.
 pub(crate) fn decode_texture(scene_path: &Path, texture_path: &Path) -> Option<Texture> {
-    let decoded = image::ImageReader::open(texture_path).and_then(|r| r.with_guessed_format()).map_err(image::ImageError::IoError).and_then(|mut reader| {
+    let name = texture_path.display().to_string();
+    match image::ImageReader::open(texture_path) {
+        Ok(reader) => decode_image(scene_path, &name, reader),
+        Err(e) => {
+            tracing::warn!("{}: texture {name} cannot be read ({e}); using the material's colour", scene_path.display());
+            None
+        }
+    }
+}
+
+/// Decodes an image (its format guessed from its first bytes: PNG, JPEG, TGA,
+/// DDS, BMP, TIFF, GIF or WebP) into a texture named `name`, or warns naming
+/// the scene and the image and returns `None`. Images over `MAX_TEXTURE_SIDE`
+/// are refused from their header, before any allocation.
+pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Path, name: &str, reader: image::ImageReader<R>) -> Option<Texture> {
+    let decoded = (|| {
+        let mut reader = reader.with_guessed_format().map_err(|e| format!("cannot be read ({e})"))?;
+        if reader.format().is_none() {
+            let mut magic = [0u8; 12];
+            let ktx2 = std::io::Read::read_exact(&mut reader.into_inner(), &mut magic).is_ok() && magic == *b"\xABKTX 20\xBB\r\n\x1A\n";
+            return Err(if ktx2 { "is a KTX2 (Basis Universal) image, which ExploreMaps cannot decode" } else { "is in no image format ExploreMaps reads" }.to_string()
+                + " (PNG, JPEG, TGA, DDS, BMP, TIFF, GIF and WebP are read)");
+        }
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_TEXTURE_SIDE);
         limits.max_image_height = Some(MAX_TEXTURE_SIDE);
         limits.max_alloc = Some(2 * (MAX_TEXTURE_SIDE as u64).pow(2) * 4);
         reader.limits(limits);
-        reader.decode()
-    });
+        reader.decode().map_err(|e| match e {
+            image::ImageError::Limits(_) => format!("is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes (scale the image down to use it)"),
+            e => format!("cannot be decoded ({e})"),
+        })
+    })();
     match decoded {
-        Ok(img) => Some(Texture { name: texture_path.display().to_string(), image: img.to_rgba8() }),
-        Err(image::ImageError::Limits(_)) => {
-            tracing::warn!(
-                "{}: texture {} is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes; using the material's colour (scale the image down to use it)",
-                scene_path.display(),
-                texture_path.display()
-            );
-            None
-        }
-        Err(e) => {
-            tracing::warn!("{}: texture {} cannot be decoded ({e}); using the material's colour", scene_path.display(), texture_path.display());
+        Ok(img) => Some(Texture { name: name.to_string(), image: img.to_rgba8() }),
+        Err(why) => {
+            tracing::warn!("{}: texture {name} {why}; using the material's colour", scene_path.display());
             None
         }
     }

@@ -331,9 +331,51 @@ fn gltf_specular_glossiness_diffuse_and_texture_transforms_are_read() {
         assert!((*uv - want).length() < 1e-5, "{uv} against {want}");
     }
     // An extension nothing here reads, when required, is named in the error.
-    let path = write(dir.path(), "meshopt.gltf", make(0.0, &["EXT_meshopt_compression"]).as_bytes());
+    let path = write(dir.path(), "unknown.gltf", make(0.0, &["EXT_some_future_extension"]).as_bytes());
     let text = error_text(&path);
-    assert!(text.contains("EXT_meshopt_compression") && text.contains("export the scene again"), "{text}");
+    assert!(text.contains("EXT_some_future_extension") && text.contains("export the scene again"), "{text}");
+}
+
+#[test]
+fn textures_in_tga_bmp_and_webp_decode_and_ktx2_keeps_the_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let encoded = |format: image::ImageFormat, rgba: [u8; 4]| {
+        let mut bytes = Vec::new();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba(rgba)).write_to(&mut std::io::Cursor::new(&mut bytes), format).unwrap();
+        bytes
+    };
+    // OBJ: a TGA colour map and a BMP cut-out map.
+    write(dir.path(), "wall.tga", &encoded(image::ImageFormat::Tga, [200, 100, 50, 255]));
+    write(dir.path(), "mask.bmp", &encoded(image::ImageFormat::Bmp, [0, 0, 0, 255]));
+    write(dir.path(), "m.mtl", b"newmtl wall\nKd 1 1 1\nmap_Kd wall.tga\nmap_d mask.bmp\n");
+    let scene = load_default(&write(dir.path(), "t.obj", format!("mtllib m.mtl\nusemtl wall\n{QUAD_OBJ}").as_bytes())).unwrap();
+    let t = scene.materials[0].base_color_texture.expect("TGA and BMP decode");
+    assert_eq!(scene.textures[t].image.get_pixel(0, 0).0, [200, 100, 50, 0]);
+    assert_eq!(scene.stats.missing_textures, 0);
+
+    // glTF: one texture given only by EXT_texture_webp, one only by
+    // KHR_texture_basisu (a KTX2 image, which is not decoded).
+    let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 1.].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n and then some texture data";
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "extensionsUsed": ["EXT_texture_webp", "KHR_texture_basisu"], "extensionsRequired": ["EXT_texture_webp", "KHR_texture_basisu"],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}, {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 1}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}, {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1.0], "baseColorTexture": {"index": 1}}}],
+        "textures": [{"extensions": {"EXT_texture_webp": {"source": 0}}}, {"extensions": {"KHR_texture_basisu": {"source": 1}}}],
+        "images": [{"uri": format!("data:image/webp;base64,{}", base64_encode(&encoded(image::ImageFormat::WebP, [10, 20, 30, 255])))},
+                   {"uri": format!("data:image/ktx2;base64,{}", base64_encode(ktx2))}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]},
+                      {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC2"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 60}],
+        "buffers": [{"byteLength": 60, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+    });
+    let scene = load_default(&write(dir.path(), "t.gltf", gltf.to_string().as_bytes())).unwrap();
+    let t = scene.materials[0].base_color_texture.expect("the WebP image decodes");
+    assert_eq!(scene.textures[t].image.get_pixel(1, 1).0, [10, 20, 30, 255]);
+    assert_eq!(scene.materials[1].base_color_texture, None);
+    assert_eq!(scene.materials[1].base_color, [0.2, 0.4, 0.6, 1.0]);
+    assert_eq!(scene.stats.missing_textures, 1);
 }
 
 #[test]
@@ -551,6 +593,98 @@ fn damaged_draco_data_is_an_error_naming_the_file_never_a_panic() {
     // A stream cut in half never decodes.
     let path = write(dir.path(), "half.gltf", grid_gltf(6, true, |s| s.truncate(s.len() / 2)).as_bytes());
     assert!(error_text(&path).contains("does not decode"));
+}
+
+/// The plain grid glTF with its three views compressed by meshoptimizer
+/// (`EXT_meshopt_compression`) as `gltfpack` lays them out: the compressed
+/// data in buffer 0, a fallback buffer 1 holding nothing. Positions go
+/// through the exponential filter when `exp_filter`. `edit` changes view k's
+/// extension object before writing.
+fn meshopt_gltf(n: u32, exp_filter: bool, edit: impl Fn(usize, &mut serde_json::Value)) -> String {
+    let mut json: serde_json::Value = serde_json::from_str(&grid_gltf(n, false, |_| ())).unwrap();
+    let uri = json["buffers"][0]["uri"].as_str().unwrap().to_string();
+    let bytes = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
+    let count = json["accessors"][0]["count"].as_u64().unwrap() as usize;
+    let mut packed = Vec::new();
+    for (k, (mode, stride)) in [("ATTRIBUTES", 12), ("ATTRIBUTES", 8), ("TRIANGLES", 4)].into_iter().enumerate() {
+        let view = json["bufferViews"][k].clone();
+        let (at, len) = (view["byteOffset"].as_u64().unwrap() as usize, view["byteLength"].as_u64().unwrap() as usize);
+        let raw = &bytes[at..at + len];
+        let (encoded, elements, filter) = if mode == "TRIANGLES" {
+            let indices: Vec<u32> = raw.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+            (meshopt::encode_index_buffer(&indices, count).unwrap(), indices.len(), "NONE")
+        } else if k == 0 && exp_filter {
+            let floats: Vec<f32> = raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+            let mut filtered = vec![[0u8; 12]; count];
+            // SAFETY: `filtered` holds `count` elements of 12 bytes, `floats` 3 a vertex.
+            unsafe { meshopt::ffi::meshopt_encodeFilterExp(filtered.as_mut_ptr().cast(), count, 12, 15, floats.as_ptr(), meshopt::ffi::meshopt_EncodeExpMode_meshopt_EncodeExpSeparate) };
+            (meshopt::encode_vertex_buffer(&filtered).unwrap(), count, "EXPONENTIAL")
+        } else if stride == 12 {
+            let v: Vec<[u8; 12]> = raw.chunks_exact(12).map(|c| c.try_into().unwrap()).collect();
+            (meshopt::encode_vertex_buffer(&v).unwrap(), count, "NONE")
+        } else {
+            let v: Vec<[u8; 8]> = raw.chunks_exact(8).map(|c| c.try_into().unwrap()).collect();
+            (meshopt::encode_vertex_buffer(&v).unwrap(), count, "NONE")
+        };
+        packed.resize(packed.len().next_multiple_of(4), 0);
+        let mut ext = serde_json::json!({"buffer": 0, "byteOffset": packed.len(), "byteLength": encoded.len(), "byteStride": stride, "count": elements, "mode": mode, "filter": filter});
+        packed.extend_from_slice(&encoded);
+        edit(k, &mut ext);
+        let view = &mut json["bufferViews"][k];
+        view["buffer"] = serde_json::json!(1);
+        if mode == "ATTRIBUTES" {
+            view["byteStride"] = serde_json::json!(stride);
+        }
+        view["extensions"] = serde_json::json!({"EXT_meshopt_compression": ext});
+    }
+    json["buffers"] = serde_json::json!([
+        {"byteLength": packed.len(), "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&packed))},
+        {"byteLength": bytes.len(), "extensions": {"EXT_meshopt_compression": {"fallback": true}}}
+    ]);
+    json["extensionsUsed"] = serde_json::json!(["EXT_meshopt_compression"]);
+    json["extensionsRequired"] = serde_json::json!(["EXT_meshopt_compression"]);
+    json.to_string()
+}
+
+#[test]
+fn meshopt_compressed_gltf_loads_like_the_plain_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = load_default(&write(dir.path(), "plain.gltf", grid_gltf(12, false, |_| ()).as_bytes())).unwrap();
+    for exp_filter in [false, true] {
+        for name in ["meshopt.gltf", "meshopt.glb"] {
+            let text = meshopt_gltf(12, exp_filter, |_, _| ());
+            let bytes = if name.ends_with(".glb") { as_glb(&text) } else { text.into_bytes() };
+            let scene = load_default(&write(dir.path(), name, &bytes)).unwrap();
+            // The codecs are lossless: the same triangles, vertices and
+            // texture coordinates; the exponential filter keeps 15 bits of
+            // mantissa (positions up to 12 here: within 12 / 2^14).
+            assert_eq!(scene.triangles, plain.triangles, "{name}");
+            assert_eq!(scene.uvs, plain.uvs, "{name}");
+            let tolerance = if exp_filter { 12.0 / 16384.0 } else { 0.0 };
+            for (p, q) in scene.positions.iter().zip(&plain.positions) {
+                assert!((*p - *q).abs().max_element() <= tolerance, "{name}, filter {exp_filter}: {p} against {q}");
+            }
+        }
+    }
+}
+
+#[test]
+fn damaged_meshopt_data_is_an_error_naming_the_file_never_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let edits: [(&str, fn(usize, &mut serde_json::Value)); 7] = [
+        ("does not decode", |k, e| if k == 2 { e["byteLength"] = serde_json::json!(e["byteLength"].as_u64().unwrap() / 2) }),
+        ("does not decode", |k, e| if k == 0 { e["byteLength"] = serde_json::json!(5) }),
+        ("stride of 6 bytes", |k, e| if k == 0 { e["byteStride"] = serde_json::json!(6) }),
+        ("mode \"STRIPS\"", |k, e| if k == 2 { e["mode"] = serde_json::json!("STRIPS") }),
+        ("filter \"QUATERNION\"", |k, e| if k == 0 { e["filter"] = serde_json::json!("QUATERNION") }),
+        ("lies outside its buffer", |k, e| if k == 1 { e["byteOffset"] = serde_json::json!(1u64 << 40) }),
+        ("over 4 GiB", |k, e| if k == 0 { e["count"] = serde_json::json!(1u64 << 40) }),
+    ];
+    for (i, (expected, edit)) in edits.iter().enumerate() {
+        let path = write(dir.path(), &format!("m{i}.gltf"), meshopt_gltf(6, false, edit).as_bytes());
+        let text = std::panic::catch_unwind(|| error_text(&path)).unwrap_or_else(|_| panic!("case {i} panicked"));
+        assert!(text.contains(expected) && text.contains("EXT_meshopt_compression"), "case {i}: {text}");
+    }
 }
 
 /// The shared third-party scenes, when `../shared/scenes` is there.
