@@ -4,7 +4,7 @@
 //! `KHR_lights_punctual` lights (at 683 lumens a watt), the
 //! diffuse of `KHR_materials_pbrSpecularGlossiness`, `KHR_texture_transform`
 //! on the colour texture; Draco- and meshoptimizer-compressed data,
-//! quantized attributes and WebP-only textures are made plain first
+//! quantized attributes, GPU instancing and WebP-only textures are made plain first
 //! (`gltf_decode.rs`). Units are metres by the glTF specification. Images
 //! are decoded here, each on its own, so a broken image is a warning, not a
 //! failed load.
@@ -31,7 +31,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let gltf::Gltf { document, blob } = parsed.map_err(|e| match unsupported_required(bytes) {
         Some(names) => LoadError::malformed(
             path,
-            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco and meshoptimizer compression, mesh quantization, WebP textures, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
+            format!("the file requires the glTF extension {names}, which ExploreMaps cannot read; export the scene again without it (Draco and meshoptimizer compression, mesh quantization, GPU instancing, WebP textures, KHR_materials_pbrSpecularGlossiness and KHR_texture_transform are read)"),
         ),
         None => bad(e),
     })?;
@@ -318,7 +318,7 @@ pub(super) fn check_file(path: &Path, file: &Path, what: &str) -> Result<(), Loa
 }
 
 /// The most node instances a scene's hierarchy may make.
-const MAX_NODE_INSTANCES: u64 = 1 << 24;
+pub(super) const MAX_NODE_INSTANCES: u64 = 1 << 24;
 
 /// The triangles and node instances a node and its descendants make, from
 /// the accessors' counts, before any data is read; saturating and memoized

@@ -6,7 +6,8 @@
 //! Draco-compressed meshes (`KHR_draco_mesh_compression`, decoded by the
 //! pure-Rust `draco-core`), quantized attributes (`KHR_mesh_quantization`:
 //! byte and short positions, normals and texture coordinates, as `gltfpack`
-//! writes them), and textures whose image is given only by
+//! writes them), meshes drawn many times by `EXT_mesh_gpu_instancing` (a
+//! child node per instance), and textures whose image is given only by
 //! `EXT_texture_webp` or `KHR_texture_basisu` (the image is then named as the
 //! texture's source; WebP decodes, KTX2 is a warning).
 //!
@@ -25,6 +26,7 @@ const EXTENSION: &str = "KHR_draco_mesh_compression";
 const QUANTIZATION: &str = "KHR_mesh_quantization";
 const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 const IMAGE_SOURCES: [&str; 2] = ["EXT_texture_webp", "KHR_texture_basisu"];
+const INSTANCING: &str = "EXT_mesh_gpu_instancing";
 /// The most bytes meshoptimizer-compressed views may decode to, together.
 const MAX_DECODED_BYTES: u64 = 4 << 30;
 const GLB_MAGIC: &[u8; 4] = b"glTF";
@@ -40,7 +42,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
     let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
     let quantized = used(QUANTIZATION);
-    if !used(EXTENSION) && !quantized && !MESHOPT.iter().any(|e| used(e)) && !IMAGE_SOURCES.iter().any(|e| used(e)) {
+    if ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|e| used(e)) {
         return Ok(None);
     }
     let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
@@ -71,6 +73,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     }
     decode_meshopt_views(path, &mut doc, &mut buffers, max_triangles)?;
     name_image_sources(&mut doc);
+    expand_instances(path, &mut doc, &buffers)?;
 
     let old_views = doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
     let mut views: Vec<Value> = Vec::new();
@@ -161,7 +164,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     if accessors[a].get("componentType").and_then(Value::as_u64) == Some(5126) {
                         continue;
                     }
-                    let (values, kind) = dequantize(&doc, &buffers, &accessors[a]).ok_or_else(|| {
+                    let (values, kind) = read_accessor(&doc, &buffers, &accessors[a]).ok_or_else(|| {
                         LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
                     })?;
                     let data = &mut buffers[0];
@@ -189,7 +192,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     doc["bufferViews"] = json!(all_views);
     for list in ["extensionsUsed", "extensionsRequired"] {
         if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
-            l.retain(|e| ![EXTENSION, QUANTIZATION].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
+            l.retain(|e| ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
         }
     }
     Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &buffers[0])))
@@ -252,8 +255,8 @@ fn meshopt_decode(source: &[u8], count: usize, stride: usize, mode: &str, filter
     // the sizes meshoptimizer asserts on are checked in each arm.
     let status = unsafe {
         match mode {
-            "ATTRIBUTES" if stride % 4 == 0 && (4..=256).contains(&stride) => ffi::meshopt_decodeVertexBuffer(dst, count, stride, src, source.len()),
-            "TRIANGLES" if index_stride && count % 3 == 0 => ffi::meshopt_decodeIndexBuffer(dst, count, stride, src, source.len()),
+            "ATTRIBUTES" if stride.is_multiple_of(4) && (4..=256).contains(&stride) => ffi::meshopt_decodeVertexBuffer(dst, count, stride, src, source.len()),
+            "TRIANGLES" if index_stride && count.is_multiple_of(3) => ffi::meshopt_decodeIndexBuffer(dst, count, stride, src, source.len()),
             "INDICES" if index_stride => ffi::meshopt_decodeIndexSequence(dst, count, stride, src, source.len()),
             _ => return Err(format!("has mode {mode:?} with a stride of {stride} bytes and {count} elements, which meshoptimizer does not decode")),
         }
@@ -298,10 +301,62 @@ fn name_image_sources(doc: &mut Value) {
     }
 }
 
-/// A quantized accessor's values as f32, with its type: components of
+/// Nodes drawn many times by `EXT_mesh_gpu_instancing` get a child node per
+/// instance (its translation, rotation and scale, in the node's space, as
+/// the extension defines them) drawing the node's mesh, which the node
+/// itself then no longer draws.
+fn expand_instances(path: &Path, doc: &mut Value, buffers: &[Vec<u8>]) -> Result<(), LoadError> {
+    let count = doc.get("nodes").and_then(Value::as_array).map_or(0, Vec::len);
+    let mut added: Vec<Value> = Vec::new();
+    for i in 0..count {
+        let Some(attributes) = doc["nodes"][i].get("extensions").and_then(|e| e.get(INSTANCING)).and_then(|e| e.get("attributes")).cloned() else { continue };
+        let bad = |detail: String| LoadError::malformed(path, format!("node {i}'s {INSTANCING} {detail}; the file may be truncated or corrupt"));
+        let read = |name: &str, components: usize| -> Result<Option<Vec<f32>>, LoadError> {
+            let Some(a) = attributes.get(name) else { return Ok(None) };
+            let accessor = a.as_u64().and_then(|a| doc.get("accessors")?.get(a as usize)).ok_or_else(|| bad(format!("{name} names no accessor")))?;
+            match read_accessor(doc, buffers, accessor) {
+                Some((values, _)) if values.len() % components == 0 && accessor.get("count").and_then(Value::as_u64) == Some((values.len() / components) as u64) => Ok(Some(values)),
+                _ => Err(bad(format!("{name} is not an accessor of {components}-component vectors inside its buffer"))),
+            }
+        };
+        let (t, r, s) = (read("TRANSLATION", 3)?, read("ROTATION", 4)?, read("SCALE", 3)?);
+        let counts: Vec<usize> = [(&t, 3), (&r, 4), (&s, 3)].iter().filter_map(|(v, k)| v.as_ref().map(|v| v.len() / k)).collect();
+        let Some(&n) = counts.first() else { continue };
+        if counts.iter().any(|&c| c != n) {
+            return Err(bad(format!("attributes give different instance counts ({counts:?})")));
+        }
+        if added.len() + n > super::gltf::MAX_NODE_INSTANCES as usize {
+            return Err(LoadError::malformed(path, format!("its {INSTANCING} instances number more than {}", super::gltf::MAX_NODE_INSTANCES)));
+        }
+        let Some(mesh) = doc["nodes"][i].as_object_mut().and_then(|n| n.remove("mesh")) else { continue };
+        let mut children = doc["nodes"][i].get("children").and_then(Value::as_array).cloned().unwrap_or_default();
+        for k in 0..n {
+            let mut node = json!({ "mesh": mesh });
+            if let Some(t) = &t {
+                node["translation"] = json!(&t[3 * k..3 * k + 3]);
+            }
+            if let Some(r) = &r {
+                let q = glam::Vec4::from_slice(&r[4 * k..4 * k + 4]);
+                node["rotation"] = json!(if q.length_squared() > 0.0 { q.normalize() } else { glam::Vec4::W }.to_array());
+            }
+            if let Some(s) = &s {
+                node["scale"] = json!(&s[3 * k..3 * k + 3]);
+            }
+            children.push(json!(count + added.len()));
+            added.push(node);
+        }
+        doc["nodes"][i]["children"] = json!(children);
+    }
+    if let Some(nodes) = doc.get_mut("nodes").and_then(Value::as_array_mut) {
+        nodes.extend(added);
+    }
+    Ok(())
+}
+
+/// An accessor's values as f32, with its type: components of floats, or of
 /// signed or unsigned bytes or shorts (normalized ones to [-1, 1] or [0, 1]),
 /// read at the view's stride. `None` for other types or data outside the view.
-fn dequantize(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec<f32>, String)> {
+fn read_accessor(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec<f32>, String)> {
     let kind = accessor.get("type")?.as_str()?;
     let components = match kind {
         "SCALAR" => 1,
@@ -315,6 +370,7 @@ fn dequantize(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec
         5121 => (1, 255.0, false),
         5122 => (2, 32767.0, true),
         5123 => (2, 65535.0, false),
+        5126 => (4, 1.0, true),
         _ => return None,
     };
     let normalized = accessor.get("normalized").and_then(Value::as_bool).unwrap_or(false);
@@ -334,6 +390,7 @@ fn dequantize(doc: &Value, buffers: &[Vec<u8>], accessor: &Value) -> Option<(Vec
         for k in 0..components {
             let at = i * stride + k * size;
             let raw = match (size, signed) {
+                (4, _) => f32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]),
                 (1, true) => bytes[at] as i8 as f32,
                 (1, false) => bytes[at] as f32,
                 (_, true) => i16::from_le_bytes([bytes[at], bytes[at + 1]]) as f32,

@@ -337,6 +337,45 @@ fn gltf_specular_glossiness_diffuse_and_texture_transforms_are_read() {
 }
 
 #[test]
+fn gltf_gpu_instances_become_copies_of_the_mesh_in_the_nodes_space() {
+    // One triangle drawn by a node at z = 10 three times: as is, turned a
+    // quarter about z (a rotation of normalized shorts) and moved to x = 5,
+    // and doubled in size at y = 5.
+    let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let mut data = floats(&[0., 0., 0., 1., 0., 0., 0., 1., 0.]);
+    data.extend(floats(&[0., 0., 0., 5., 0., 0., 0., 5., 0.]));
+    let h = (32767.0 * std::f32::consts::FRAC_1_SQRT_2).round() as i16;
+    data.extend([0i16, 0, 0, 32767, 0, 0, h, h, 0, 0, 0, 32767].iter().flat_map(|x| x.to_le_bytes()));
+    data.extend(floats(&[1., 1., 1., 1., 1., 1., 2., 2., 2.]));
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}],
+        "extensionsUsed": ["EXT_mesh_gpu_instancing"], "extensionsRequired": ["EXT_mesh_gpu_instancing"],
+        "nodes": [{"mesh": 0, "translation": [0.0, 0.0, 10.0], "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 1, "ROTATION": 2, "SCALE": 3}}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0,0.0,0.0], "max": [1.0,1.0,0.0]},
+                      {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3"},
+                      {"bufferView": 0, "byteOffset": 72, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC4"},
+                      {"bufferView": 0, "byteOffset": 96, "componentType": 5126, "count": 3, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 132}],
+        "buffers": [{"byteLength": 132, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_default(&write(dir.path(), "instanced.gltf", gltf.to_string().as_bytes())).unwrap();
+    let want = [[[0., 0., 10.], [1., 0., 10.], [0., 1., 10.]], [[5., 0., 10.], [5., 1., 10.], [4., 0., 10.]], [[0., 5., 10.], [2., 5., 10.], [0., 7., 10.]]];
+    assert_eq!(scene.triangles.len(), 3);
+    let corners: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.map(|v| scene.positions[v as usize])).collect();
+    for w in want {
+        let w = w.map(Vec3::from);
+        assert!(corners.iter().any(|c| c.iter().zip(&w).all(|(p, q)| (*p - *q).length() < 1e-3)), "no triangle at {w:?} in {corners:?}");
+    }
+    // Attributes of different lengths are an error naming the file.
+    let mut short = gltf.clone();
+    short["accessors"][3]["count"] = serde_json::json!(2);
+    let text = error_text(&write(dir.path(), "short.gltf", short.to_string().as_bytes()));
+    assert!(text.contains("EXT_mesh_gpu_instancing") && text.contains("different instance counts"), "{text}");
+}
+
+#[test]
 fn textures_in_tga_bmp_and_webp_decode_and_ktx2_keeps_the_colour() {
     let dir = tempfile::tempdir().unwrap();
     let encoded = |format: image::ImageFormat, rgba: [u8; 4]| {
@@ -671,7 +710,8 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
 #[test]
 fn damaged_meshopt_data_is_an_error_naming_the_file_never_a_panic() {
     let dir = tempfile::tempdir().unwrap();
-    let edits: [(&str, fn(usize, &mut serde_json::Value)); 7] = [
+    type Edit = fn(usize, &mut serde_json::Value);
+    let edits: [(&str, Edit); 7] = [
         ("does not decode", |k, e| if k == 2 { e["byteLength"] = serde_json::json!(e["byteLength"].as_u64().unwrap() / 2) }),
         ("does not decode", |k, e| if k == 0 { e["byteLength"] = serde_json::json!(5) }),
         ("stride of 6 bytes", |k, e| if k == 0 { e["byteStride"] = serde_json::json!(6) }),
