@@ -71,8 +71,17 @@ pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), ExportError> {
 
     let mut obj = String::with_capacity(scene.positions.len() * 80 + scene.triangles.len() * 40);
     let _ = writeln!(obj, "# {} exported by ExploreMaps ({} metres per unit)\nmtllib {stem}.mtl", scene.name, scene.metres_per_unit);
-    for p in &scene.positions {
-        let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+    // Vertex colours as the common `v x y z r g b` extension, sRGB as it is read.
+    for (i, p) in scene.positions.iter().enumerate() {
+        match scene.colours.get(i) {
+            Some(c) => {
+                let [r, g, b] = c.to_array().map(|x| crate::renderer::linear_to_srgb(x) as f32 / 255.0);
+                let _ = writeln!(obj, "v {} {} {} {r} {g} {b}", p.x, p.y, p.z);
+            }
+            None => {
+                let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+            }
+        }
     }
     for t in &scene.uvs {
         let _ = writeln!(obj, "vt {} {}", t.x, 1.0 - t.y);
@@ -123,6 +132,11 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     if !scene.uvs.is_empty() {
         let view = glb.view(&floats(&mut scene.uvs.iter().flat_map(|t| t.to_array())), Some(ARRAY_BUFFER));
         attributes["TEXCOORD_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.uvs.len(), "type": "VEC2" })));
+    }
+    if !scene.colours.is_empty() {
+        // glTF's vertex colours are linear, as the scene keeps them.
+        let view = glb.view(&floats(&mut scene.colours.iter().flat_map(|c| c.to_array())), Some(ARRAY_BUFFER));
+        attributes["COLOR_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.colours.len(), "type": "VEC3" })));
     }
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {

@@ -194,6 +194,15 @@ fn vertex_colours_load_from_ply_obj_and_gltf_and_colour_the_surface() {
     });
     let scene = load_default(&write(d, "c.gltf", gltf.to_string().as_bytes())).unwrap();
     assert_eq!(scene.colours, [Vec3::new(0.25, 0.5, 0.75), Vec3::ONE, Vec3::ZERO]);
+    // Both exporters write them: exactly to GLB, within a level of an sRGB byte to OBJ.
+    crate::export::write_glb(&scene, &d.join("back.glb")).unwrap();
+    assert_eq!(load_default(&d.join("back.glb")).unwrap().colours, scene.colours);
+    crate::export::write_obj(&scene, &d.join("back.obj")).unwrap();
+    let back = load_default(&d.join("back.obj")).unwrap();
+    for (a, b) in back.colours.iter().zip(&scene.colours) {
+        assert!((*a - *b).abs().max_element() < 0.006, "{a} against {b}");
+    }
+    assert_eq!(back.colours.len(), 3);
     // Without colours on every vertex there are none.
     let plain = load_default(&write(d, "q.obj", QUAD_OBJ.as_bytes())).unwrap();
     assert!(plain.colours.is_empty());

@@ -39,7 +39,7 @@ mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
-pub use surface::{srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
+pub use surface::{linear_to_srgb, srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 pub use gather::GatherParams;
 pub use trace::{Frame, TraceParams, Tracer};
 
@@ -395,22 +395,6 @@ pub fn equirect_from_cube(faces: &[Vec<Vec3>], size: u32, width: u32) -> Vec<Vec
             (at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx) * (1.0 - fy) + (at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx) * fy
         })
         .collect()
-}
-
-/// Linear [0, 1] to an sRGB byte, by a table fine enough for 8-bit output.
-pub(crate) fn linear_to_srgb(x: f32) -> u8 {
-    const STEPS: usize = 8192;
-    static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
-    let table = TABLE.get_or_init(|| {
-        (0..=STEPS)
-            .map(|i| {
-                let x = i as f32 / STEPS as f32;
-                let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-                (s * 255.0).round() as u8
-            })
-            .collect()
-    });
-    table[(x.clamp(0.0, 1.0) * STEPS as f32 + 0.5) as usize]
 }
 
 /// ACES filmic curve (Narkowicz's fit).

@@ -87,21 +87,23 @@ fn bilinear(img: &image::RgbaImage, uv: Vec2) -> (Vec3, f32) {
     mix(top, bottom, fy)
 }
 
-/// sRGB encoding of a linear value in 0..=1, by a table of 4,096 steps
-/// (the inverse of [`srgb_to_linear`] within a level, where it matters: the
-/// table is finer than a byte everywhere but the darkest 1/4,096).
-fn linear_to_srgb(x: f32) -> u8 {
+/// sRGB encoding of a linear value in 0..=1 (clamped), by a table of 8,192
+/// steps: the inverse of [`srgb_to_linear`] within a level wherever a byte
+/// can tell (the table is finer than a byte everywhere but the darkest
+/// 1/8,192).
+pub fn linear_to_srgb(x: f32) -> u8 {
+    const STEPS: usize = 8192;
     static TABLE: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
-        (0..=4096)
+        (0..=STEPS)
             .map(|i| {
-                let c = i as f32 / 4096.0;
-                let e = if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+                let c = i as f32 / STEPS as f32;
+                let e = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
                 (e * 255.0).round().clamp(0.0, 255.0) as u8
             })
             .collect()
     });
-    table[(x.clamp(0.0, 1.0) * 4096.0 + 0.5) as usize]
+    table[(x.clamp(0.0, 1.0) * STEPS as f32 + 0.5) as usize]
 }
 
 /// The next level of a texture's mip pyramid: each texel the mean of 2 × 2,
