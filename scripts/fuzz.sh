@@ -6,7 +6,8 @@
 # Needs the nightly toolchain and cargo-fuzz (installed here when missing).
 # New inputs go to fuzz/corpus/TARGET, crashes to fuzz/artifacts/TARGET; the
 # committed seeds are in fuzz/seeds/TARGET. No sanitizer: the code under test
-# is safe Rust, and panics, hangs (10 s an input) and memory over 2 GiB are
+# is safe Rust (but for meshoptimizer's C++ decoders of glTF's meshopt
+# compression, which are not instrumented here), and panics, hangs (10 s an input) and memory over 2 GiB are
 # what is looked for; debug assertions are on, so overflows panic too.
 set -euo pipefail
 cd "$(dirname "$0")/.."

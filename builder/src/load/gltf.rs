@@ -368,9 +368,13 @@ fn check_attribute_types(path: &Path, primitive: &gltf::Primitive) -> Result<(),
         if a.count() == 0 {
             return Err(LoadError::malformed(path, format!("accessor {} has a count of 0; glTF requires at least 1", a.index())));
         }
+        let what = || semantic.as_ref().map_or("indices".to_string(), |s| format!("{s:?}"));
         if !allowed(semantic.as_ref(), &a) {
-            let what = semantic.map_or("indices".to_string(), |s| format!("{s:?}"));
-            return Err(LoadError::malformed(path, format!("accessor {} ({what}) holds {:?} {:?}, which glTF does not allow there", a.index(), a.dimensions(), a.data_type())));
+            return Err(LoadError::malformed(path, format!("accessor {} ({}) holds {:?} {:?}, which glTF does not allow there", a.index(), what(), a.dimensions(), a.data_type())));
+        }
+        // Elements may not overlap (gltf's reader asserts it).
+        if let Some(stride) = a.view().and_then(|v| v.stride()).filter(|&s| s < a.size()) {
+            return Err(LoadError::malformed(path, format!("accessor {} ({}) has elements of {} bytes {stride} bytes apart; glTF requires at least the element's size", a.index(), what(), a.size())));
         }
     }
     Ok(())

@@ -780,6 +780,13 @@ fn hostile_gltf_accessors_are_errors_not_panics() {
         let result = result.unwrap_or_else(|_| panic!("case {i} panicked"));
         assert!(result.is_err(), "case {i} loaded");
     }
+    // A stride under the element's size (found by fuzzing: gltf's reader
+    // asserts on it in debug builds and reads overlapping elements otherwise).
+    let mut overlapping: serde_json::Value = serde_json::from_str(&make(2, 36, 36)).unwrap();
+    overlapping["bufferViews"][0]["byteStride"] = serde_json::json!(8);
+    let path = write(dir.path(), "stride.gltf", overlapping.to_string().as_bytes());
+    let text = std::panic::catch_unwind(|| error_text(&path)).expect("no panic");
+    assert!(text.contains("8 bytes apart"), "{text}");
 }
 
 #[test]
