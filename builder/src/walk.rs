@@ -20,13 +20,11 @@
 //!    storeys, also where a tread's nosing hides the floor under it from the
 //!    grid; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
-//!    one's floor or of 6 m² (a small room), except roofs (regions whose floor
-//!    mostly sees the sky with another floor below it: nobody tours the roof
-//!    of the building they visit). Table tops, beds and window sills are
-//!    smaller and drop out; a courtyard walled off from a town's streets, or a
-//!    room behind a closed door, is kept, and probes jump there. A room joins
-//!    the rest through its door: the walking grid is fine enough for doors
-//!    (see [`crate::freespace`]).
+//!    one's floor, except roofs (regions whose floor mostly sees the sky with
+//!    another floor below it: nobody tours the roof of the building they
+//!    visit). Table tops, beds and window sills are smaller and drop out. A
+//!    room joins the rest through its door: the walking grid is fine enough
+//!    for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    and where floor cells joined across a stride (a nosing) the band spans
@@ -56,12 +54,6 @@ pub const STRIDE_M: f32 = 0.25;
 /// A region is kept when its floor is at least this share of the largest's,
 /// and it is not a roof.
 const REGION_SHARE: f32 = 1.0 / 6.0;
-/// ... or, whatever the largest, when its floor is at least this many square
-/// metres: a room can be that small, while beds, tables, kitchen islands and
-/// window sills are smaller. (The share alone left out every courtyard of a
-/// town whose streets were over six times its size, as a room shut by a
-/// closed door in a large house would be.)
-const ROOM_M2: f32 = 6.0;
 /// A region is a roof when this share of its cells sees the sky above a floor.
 const ROOF_SHARE: f32 = 0.7;
 
@@ -269,8 +261,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     }
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
-    let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
-    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && (sizes[g] as f32 >= REGION_SHARE * largest as f32 || sizes[g] as f32 * cell_m2 >= ROOM_M2)).collect();
+    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
