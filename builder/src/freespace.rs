@@ -1351,6 +1351,31 @@ mod tests {
     }
 
     #[test]
+    fn a_walled_courtyard_is_walked_but_a_table_top_and_a_fringe_of_ground_are_not() {
+        // A 60 m square of streets (3,600 m²) with a walled courtyard of 5 × 4 m
+        // (no door: it is reached by jumping) and a 2 × 2 m table, 0.8 m high.
+        // Kept: the courtyard (enclosed, over 6 m²). Left out: the table (too
+        // small) and a strip of ground walled off at the edge (open to the world).
+        let mut m = MeshBuilder::new("town");
+        m.terrain(-30.0, -30.0, 30.0, 30.0, 8, |_, _| 0.0);
+        m.wall(true, 0.0, 0.0, 5.2, 0.0, 5.0, 0.2, &[]);
+        m.wall(true, 4.2, 0.0, 5.2, 0.0, 5.0, 0.2, &[]);
+        m.wall(false, 0.0, 0.0, 4.2, 0.0, 5.0, 0.2, &[]);
+        m.wall(false, 5.2, 0.0, 4.2, 0.0, 5.0, 0.2, &[]);
+        m.cuboid(Vec3::new(-15.0, 0.0, -15.0), Vec3::new(-13.0, 0.8, -13.0));
+        // A wall cutting off a 4 m strip at the town's edge: open to the world, no door.
+        m.wall(true, 26.0, -30.0, 30.0, 0.0, 5.0, 0.2, &[]);
+        let mut town = m.finish();
+        (town.scale_source, town.metres_per_unit) = (ScaleSource::File, 1.0);
+        let (walk, stats) = run(&town, &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        assert!(walk.is_navigable(Vec3::new(-10.0, 1.6, 10.0)), "the streets");
+        assert!(walk.is_navigable(Vec3::new(2.6, 1.6, 2.1)), "the courtyard: {stats:?}");
+        assert!(!walk.is_navigable(Vec3::new(-14.0, 2.4, -14.0)), "eye height on the table");
+        assert!(!walk.is_navigable(Vec3::new(0.0, 1.6, 28.0)), "the strip beyond the wall at the edge");
+    }
+
+    #[test]
     fn a_flat_plaza_or_a_bare_ground_plane_has_sky_to_stand_in() {
         // A 40 m plaza whose tallest things are 1.2 m hedges: its own box ends
         // below eye height. Walked on at eye height, never above the sky given.

@@ -20,11 +20,14 @@
 //!    storeys, also where a tread's nosing hides the floor under it from the
 //!    grid; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
-//!    one's floor, except roofs (regions whose floor mostly sees the sky with
-//!    another floor below it: nobody tours the roof of the building they
-//!    visit). Table tops, beds and window sills are smaller and drop out. A
-//!    room joins the rest through its door: the walking grid is fine enough
-//!    for doors (see [`crate::freespace`]).
+//!    one's floor, and enclosed ones of at least 6 m² (nine in ten level rays
+//!    from their eyes meet something: a walled courtyard of a town, a room
+//!    behind a closed door, reached by jumping), except roofs (regions whose
+//!    floor mostly sees the sky with another floor below it: nobody tours the
+//!    roof of the building they visit). Table tops, beds and window sills are
+//!    smaller and drop out, as does ground at the model's edge that no door
+//!    leads to. A room joins the rest through its door: the walking grid is
+//!    fine enough for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    and where floor cells joined across a stride (a nosing) the band spans
@@ -54,6 +57,15 @@ pub const STRIDE_M: f32 = 0.25;
 /// A region is kept when its floor is at least this share of the largest's,
 /// and it is not a roof.
 const REGION_SHARE: f32 = 1.0 / 6.0;
+/// ... or, whatever the largest, when it is an enclosed place of at least
+/// this many square metres: a room can be that small, while beds, tables,
+/// kitchen islands and window sills are smaller. (The share alone left out
+/// every courtyard of a town whose streets were over six times its size.)
+const ROOM_M2: f32 = 6.0;
+/// Enclosed: at least this share of the level rays from its eyes meet
+/// something, so a walled courtyard or a room behind a closed door counts,
+/// and a fringe of ground at the model's edge, open to the world, does not.
+const ENCLOSED_SHARE: f32 = 0.9;
 /// A region is a roof when this share of its cells sees the sky above a floor.
 const ROOF_SHARE: f32 = 0.7;
 
@@ -261,7 +273,29 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     }
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
-    let kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+    let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
+    let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+    // Smaller room-sized regions: kept when enclosed, judged by 16 level rays
+    // from the eyes of up to 16 of their cells (spread through the region).
+    let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+    let mut level_rays = Vec::new();
+    for &g in &rooms {
+        let cells: Vec<usize> = (0..standing.len()).filter(|&k| region_of[k] as usize == g).collect();
+        for i in 0..16.min(cells.len()) {
+            let eye_at = centre(&standing[cells[i * cells.len() / 16.min(cells.len())]], eye);
+            for d in 0..16 {
+                let a = d as f32 * std::f32::consts::TAU / 16.0;
+                level_rays.push(Ray::new(eye_at, Vec3::new(a.cos(), 0.0, a.sin())));
+            }
+        }
+    }
+    let met = rays.occluded_batch(&level_rays, Packing::Single);
+    let mut at = 0;
+    for &g in &rooms {
+        let n = 16 * 16.min(sizes[g]);
+        kept[g] = met[at..at + n].iter().filter(|&&m| m).count() as f32 >= ENCLOSED_SHARE * n as f32;
+        at += n;
+    }
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
@@ -305,7 +339,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
         room_height_m: heights.get(heights.len() / 2).copied(),
         levels,
-        rays: floors.rays + hip_rays,
+        rays: floors.rays + hip_rays + level_rays.len(),
     };
     (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
 }
