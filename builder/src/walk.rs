@@ -278,9 +278,15 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     // Smaller room-sized regions: kept when enclosed, judged by 16 level rays
     // from the eyes of up to 16 of their cells (spread through the region).
     let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+    let mut cells_of: Vec<Vec<usize>> = vec![Vec::new(); sizes.len()];
+    for (k, &g) in region_of.iter().enumerate() {
+        if rooms.binary_search(&(g as usize)).is_ok() {
+            cells_of[g as usize].push(k);
+        }
+    }
     let mut level_rays = Vec::new();
     for &g in &rooms {
-        let cells: Vec<usize> = (0..standing.len()).filter(|&k| region_of[k] as usize == g).collect();
+        let cells = &cells_of[g];
         for i in 0..16.min(cells.len()) {
             let eye_at = centre(&standing[cells[i * cells.len() / 16.min(cells.len())]], eye);
             for d in 0..16 {

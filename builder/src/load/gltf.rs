@@ -273,10 +273,7 @@ fn uri_file(dir: &Path, uri: &str) -> Option<Result<PathBuf, ()>> {
 /// file beside the scene (already checked by `check_external_files`); a
 /// warning and `None` where it cannot be read or decoded.
 fn decode_gltf_image(path: &Path, dir: &Path, image: &gltf::Image, buffers: &[gltf::buffer::Data]) -> Option<Texture> {
-    let warn = |name: &str, why: &str| {
-        tracing::warn!("{}: texture {name} {why}; using the material's colour", path.display());
-        None
-    };
+    let warn = |name: &str, why: &str| super::texture_warning(path, name, why);
     let name = image.name().map(str::to_string);
     match image.source() {
         gltf::image::Source::View { view, .. } => {

@@ -94,16 +94,9 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             let mesh = decode(compressed).map_err(|e| bad(format!("{at} does not decode: {e}")))?;
 
             // Indices: u32, one accessor.
-            let data = &mut buffers[0];
             let faces = mesh.faces();
-            data.resize(data.len().next_multiple_of(4), 0);
-            let start = data.len();
-            for face in faces {
-                for corner in face.iter() {
-                    data.extend_from_slice(&corner.0.to_le_bytes());
-                }
-            }
-            views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+            let bytes: Vec<u8> = faces.iter().flat_map(|face| face.iter().flat_map(|corner| corner.0.to_le_bytes())).collect();
+            views.push(append(&mut buffers[0], &bytes));
             let indices_accessor = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
             match indices {
                 Some(a) if (a as usize) < accessors.len() => accessors[a as usize] = indices_accessor,
@@ -137,10 +130,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     };
                     values.iter_mut().for_each(|v| *v = (*v / scale).max(-1.0));
                 }
-                let data = &mut buffers[0];
-                let start = data.len();
-                values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
-                views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+                views.push(append(&mut buffers[0], &floats(&values)));
                 let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": mesh.num_points(), "type": kind });
                 // Positions keep their bounds (glTF requires them).
                 for key in ["min", "max"] {
@@ -167,11 +157,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     let (values, kind) = read_accessor(&doc, &buffers, &accessors[a]).ok_or_else(|| {
                         LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
                     })?;
-                    let data = &mut buffers[0];
-                    data.resize(data.len().next_multiple_of(4), 0);
-                    let start = data.len();
-                    values.iter().for_each(|v| data.extend_from_slice(&v.to_le_bytes()));
-                    views.push(json!({ "buffer": 0, "byteOffset": start, "byteLength": data.len() - start }));
+                    views.push(append(&mut buffers[0], &floats(&values)));
                     let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": accessors[a]["count"], "type": kind });
                     if name == "POSITION" {
                         // glTF requires a position accessor's bounds: those of the values.
@@ -220,15 +206,15 @@ fn decode_meshopt_views(path: &Path, doc: &mut Value, buffers: &mut [Vec<u8>], m
         if count / 3 > max_triangles {
             return Err(LoadError::TooLarge { path: path.to_path_buf(), count: count / 3, limit: max_triangles });
         }
+        // (Copied: the source may be the chunk the decoded data goes to.)
         let source = buffers.get(buffer as usize).and_then(|b| b.get(offset as usize..offset.checked_add(length)? as usize)).ok_or_else(|| bad("lies outside its buffer"))?.to_vec();
         let decoded = meshopt_decode(&source, count as usize, stride as usize, mode, filter).map_err(|e| bad(&e))?;
         total += size;
-        let data = &mut buffers[0];
-        data.resize(data.len().next_multiple_of(16), 0);
-        let start = data.len();
-        data.extend_from_slice(&decoded);
+        let plain = append(&mut buffers[0], &decoded);
         let view = &mut doc["bufferViews"][i];
-        (view["buffer"], view["byteOffset"], view["byteLength"]) = (json!(0), json!(start), json!(size));
+        for key in ["buffer", "byteOffset", "byteLength"] {
+            view[key] = plain[key].clone();
+        }
         if let Some(x) = view.get_mut("extensions").and_then(Value::as_object_mut) {
             x.remove(name);
         }
@@ -314,9 +300,10 @@ fn expand_instances(path: &Path, doc: &mut Value, buffers: &[Vec<u8>]) -> Result
         let read = |name: &str, components: usize| -> Result<Option<Vec<f32>>, LoadError> {
             let Some(a) = attributes.get(name) else { return Ok(None) };
             let accessor = a.as_u64().and_then(|a| doc.get("accessors")?.get(a as usize)).ok_or_else(|| bad(format!("{name} names no accessor")))?;
+            let kind = if components == 3 { "VEC3" } else { "VEC4" };
             match read_accessor(doc, buffers, accessor) {
-                Some((values, _)) if values.len() % components == 0 && accessor.get("count").and_then(Value::as_u64) == Some((values.len() / components) as u64) => Ok(Some(values)),
-                _ => Err(bad(format!("{name} is not an accessor of {components}-component vectors inside its buffer"))),
+                Some((values, k)) if k == kind => Ok(Some(values)),
+                _ => Err(bad(format!("{name} is not an accessor of {kind} inside its buffer"))),
             }
         };
         let (t, r, s) = (read("TRANSLATION", 3)?, read("ROTATION", 4)?, read("SCALE", 3)?);
@@ -462,6 +449,20 @@ fn view_bytes<'a>(doc: &Value, buffers: &'a [Vec<u8>], view: usize) -> Option<&'
     let buffer = buffers.get(v.get("buffer")?.as_u64()? as usize)?;
     let start = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
     buffer.get(start..start.checked_add(v.get("byteLength")?.as_u64()? as usize)?)
+}
+
+/// Appends `bytes` to the chunk at a 16-byte boundary (enough for any
+/// component) and returns a buffer view of them.
+fn append(chunk: &mut Vec<u8>, bytes: &[u8]) -> Value {
+    chunk.resize(chunk.len().next_multiple_of(16), 0);
+    let start = chunk.len();
+    chunk.extend_from_slice(bytes);
+    json!({ "buffer": 0, "byteOffset": start, "byteLength": bytes.len() })
+}
+
+/// Little-endian bytes of `f32`s.
+fn floats(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
 }
 
 /// A GLB of a JSON chunk and a binary chunk, each padded to four bytes.

@@ -184,11 +184,14 @@ pub(crate) fn decode_texture(scene_path: &Path, texture_path: &Path) -> Option<T
     let name = texture_path.display().to_string();
     match image::ImageReader::open(texture_path) {
         Ok(reader) => decode_image(scene_path, &name, reader),
-        Err(e) => {
-            tracing::warn!("{}: texture {name} cannot be read ({e}); using the material's colour", scene_path.display());
-            None
-        }
+        Err(e) => texture_warning(scene_path, &name, &format!("cannot be read ({e})")),
     }
+}
+
+/// Warns that texture `name` of the scene is not used, and why; `None`.
+pub(crate) fn texture_warning(scene_path: &Path, name: &str, why: &str) -> Option<Texture> {
+    tracing::warn!("{}: texture {name} {why}; using the material's colour", scene_path.display());
+    None
 }
 
 /// Decodes an image (its format guessed from its first bytes: PNG, JPEG, TGA,
@@ -216,10 +219,7 @@ pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Pat
     })();
     match decoded {
         Ok(img) => Some(Texture { name: name.to_string(), image: img.to_rgba8() }),
-        Err(why) => {
-            tracing::warn!("{}: texture {name} {why}; using the material's colour", scene_path.display());
-            None
-        }
+        Err(why) => texture_warning(scene_path, name, &why),
     }
 }
 
