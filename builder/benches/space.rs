@@ -51,7 +51,7 @@ fn main() {
             Err(e) => println!("SKIPPED {name}: {e}"),
         }
     }
-    for name in ["gallery", "maze", "pillars", "island", "house"] {
+    for name in ["gallery", "maze", "pillars", "island", "house", "cathedral"] {
         if wanted(name) {
             scenes.push((name.to_string(), BuiltIn::parse(name).unwrap().generate(1)));
         }

@@ -565,6 +565,25 @@ mod tests {
     }
 
     #[test]
+    fn walking_the_cathedral_reaches_its_galleries_and_never_stands_on_a_pew() {
+        let scene = BuiltIn::Cathedral.generate(1);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let (space, stats) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
+        let walk = stats.walk.as_ref().expect("the cathedral is walked by default");
+        assert_eq!(walk.regions_kept, 1, "the stair joins the gallery to the nave and the square: {walk:?}");
+        assert!(walk.levels.iter().any(|l| (l.0 - 9.4).abs() < 0.1), "{walk:?}");
+        assert!(!space.is_navigable(Vec3::new(-23.0, 1.6, 8.0)), "inside a tower");
+        let (probes, _) = explore(&scene, &rays, &space, &ExploreParams::default());
+        assert!(probes.iter().any(|p| (p.position.y - 11.0).abs() < 0.05), "no probe in the galleries: {probes:?}");
+        let furnishings = scene.objects.iter().position(|o| o == "furnishings").unwrap() as u32;
+        for p in &probes {
+            let hit = rays.intersect(&Ray::new(p.position, Vec3::NEG_Y)).expect("a floor below");
+            assert!((hit.t - 1.6).abs() < 0.05, "probe at {} stands {} above its floor", p.position, hit.t);
+            assert_ne!(scene.triangle_object[hit.triangle as usize], furnishings, "probe at {} stands on a pew", p.position);
+        }
+    }
+
+    #[test]
     fn every_builtin_scene_is_covered_to_99_percent() {
         for spec in ["gallery", "maze", "pillars", "big:100000"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);

@@ -1376,6 +1376,54 @@ mod tests {
     }
 
     #[test]
+    fn pews_are_not_stood_on_and_a_gap_at_a_stairs_top_is_stepped_over() {
+        // A square with rows of pews (seats 0.47 m up, backs 0.95 m) and five
+        // stairs of ten 0.2 m steps, each up to its own 3 × 3 m platform with
+        // a 0.1 m gap before it, the gaps shifted by 0.08 m from stair to stair
+        // so that some gap holds a column's centre whatever the grid. A seat is
+        // more than a step above the floor beside it; a platform is reached
+        // only up its stair. A mast makes the box tall enough to stand on the
+        // platforms.
+        let mut m = MeshBuilder::new("square");
+        m.terrain(-20.0, -20.0, 20.0, 20.0, 8, |_, _| 0.0);
+        m.cuboid(Vec3::new(18.0, 0.0, 18.0), Vec3::new(18.5, 8.0, 18.5));
+        for row in 0..4 {
+            let x = -10.0 + row as f32;
+            m.cuboid(Vec3::new(x, 0.42, -14.0), Vec3::new(x + 0.42, 0.47, -11.0));
+            m.cuboid(Vec3::new(x + 0.42, 0.0, -14.0), Vec3::new(x + 0.48, 0.95, -11.0));
+        }
+        for k in 0..5 {
+            let (x0, z0) = (-10.0 + 0.08 * k as f32, -6.0 + 4.0 * k as f32);
+            for s in 0..10 {
+                let x = x0 + 0.3 * s as f32;
+                m.cuboid(Vec3::new(x, 0.0, z0), Vec3::new(x + 0.3, 0.2 * (s + 1) as f32, z0 + 1.5));
+            }
+            m.cuboid(Vec3::new(x0 + 3.1, 0.0, z0 - 0.75), Vec3::new(x0 + 6.1, 2.0, z0 + 2.25));
+        }
+        let mut square = m.finish();
+        (square.scale_source, square.metres_per_unit) = (ScaleSource::File, 1.0);
+        let rays = RayScene::new(&square.positions, &square.triangles, 0).unwrap();
+        let (walk, stats) = free_space(&square, &rays, &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        for k in 0..5 {
+            let top = Vec3::new(-5.4 + 0.08 * k as f32, 3.6, -5.25 + 4.0 * k as f32);
+            assert!(walk.is_navigable(top), "platform {k} is not reached: {stats:?}");
+        }
+        // Wherever over the pews a probe is put, it stands on the floor or not at all.
+        let mut stood = 0;
+        for i in 0..40 {
+            for j in 0..6 {
+                let p = Vec3::new(-10.0 + 0.1 * i as f32, 1.9, -13.5 + 0.5 * j as f32);
+                if let Some(s) = walk.stand(&rays, p) {
+                    assert!((s.y - 1.6).abs() < 1e-3, "a probe near {p} stands at {s}, on a pew");
+                    stood += 1;
+                }
+            }
+        }
+        assert!(stood > 20, "only {stood} of 240 points between the pews stand");
+    }
+
+    #[test]
     fn a_flat_plaza_or_a_bare_ground_plane_has_sky_to_stand_in() {
         // A 40 m plaza whose tallest things are 1.2 m hedges: its own box ends
         // below eye height. Walked on at eye height, never above the sky given.

@@ -76,18 +76,42 @@ pub struct Walk {
     pub head: f32,
     /// Longest way down from a point of the band to its floor.
     pub reach: f32,
+    /// The kept floor cells, (column, floor height at its centre), sorted.
+    floors: Vec<(usize, f32)>,
+    /// The grid the columns are of.
+    grid: Grid,
+    /// Half a step, scene units.
+    half_step: f32,
 }
 
 impl Walk {
     /// The point exactly eye height above the walkable floor under `p`, if a
     /// person fits there (head room above the eye). The caller checks that the
     /// point is navigable.
+    ///
+    /// The floor must be that of a kept floor cell of `p`'s column: within half
+    /// a step of its height, plus the floor's own slope over the way to the
+    /// column's centre. A column's floor cell is measured at its centre, and
+    /// the band above it spans the whole column, so without this a probe
+    /// stood over the pew, bench or table beside that centre, an eye 1.6 m
+    /// above the seat (found on a cathedral's pews: 0.5 and 1 m too high).
     pub fn stand(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
         let hit = rays.intersect(&Ray { t_max: self.reach, ..Ray::new(p, Vec3::NEG_Y) })?;
-        if hit.normal.y.abs() < SLOPE_COS {
+        let up = hit.normal.y.abs();
+        if up < SLOPE_COS {
             return None;
         }
         let floor = p - Vec3::Y * hit.t;
+        let [x, _, z] = self.grid.cell(p)?;
+        let column = x + self.grid.dims[0] * z;
+        let centre = self.grid.origin + Vec3::new(x as f32 + 0.5, 0.0, z as f32 + 0.5) * self.grid.voxel;
+        let off = Vec3::new(p.x - centre.x, 0.0, p.z - centre.z).length();
+        let slack = self.half_step + off * (1.0 - up * up).sqrt() / up;
+        let first = self.floors.partition_point(|&(c, _)| c < column);
+        let on_kept = self.floors[first..].iter().take_while(|&&(c, _)| c == column).any(|&(_, y)| (y - floor.y).abs() <= slack);
+        if !on_kept {
+            return None;
+        }
         let tall = self.eye + self.head;
         let clear = !rays.occluded(&Ray { t_min: 1e-3 * tall, t_max: tall, ..Ray::new(floor, Vec3::Y) });
         clear.then_some(floor + Vec3::Y * self.eye)
@@ -154,14 +178,26 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
         })
         .collect();
     let drop = 2.0 * grid.voxel + STEP_M / metres_per_unit;
-    let down: Vec<Ray> = starts.iter().map(|&c| Ray { t_max: drop, ..Ray::new(grid.center(c), Vec3::NEG_Y) }).collect();
+    let down_from = |p: Vec3| Ray { t_max: drop, ..Ray::new(p, Vec3::NEG_Y) };
+    let floor_at = |r: &Ray, h: &Option<crate::raycast::Hit>| h.filter(|h| h.normal.y.abs() >= SLOPE_COS && !water[h.triangle as usize]).map(|h| r.at(h.t));
+    let down: Vec<Ray> = starts.iter().map(|&c| down_from(grid.center(c))).collect();
     let hits = rays.intersect_batch(&down, Packing::Single);
-    let floors: Vec<(usize, Vec3)> = starts
-        .iter()
-        .zip(&down)
-        .zip(&hits)
-        .filter_map(|((c, r), h)| h.filter(|h| h.normal.y.abs() >= SLOPE_COS && !water[h.triangle as usize]).map(|h| (c[0] + nx * c[2], r.at(h.t))))
-        .collect();
+    let mut found: Vec<Option<Vec3>> = down.iter().zip(&hits).map(|(r, h)| floor_at(r, h)).collect();
+    // Where the centre's ray finds no floor, the highest of four rays near
+    // the column's corners (the geometry under the start voxel lies in the
+    // column): a gap narrower than a voxel (a stair's last tread short of the
+    // landing, a nosing) may hold the centre, and without a floor there the
+    // columns either side, two voxels apart, never joined.
+    let q = 0.45 * grid.voxel;
+    let offsets = [Vec3::new(-q, 0.0, -q), Vec3::new(q, 0.0, -q), Vec3::new(-q, 0.0, q), Vec3::new(q, 0.0, q)];
+    let missed: Vec<usize> = (0..starts.len()).filter(|&k| found[k].is_none()).collect();
+    let again: Vec<Ray> = missed.iter().flat_map(|&k| offsets.map(|o| down_from(grid.center(starts[k]) + o))).collect();
+    let hits_again = rays.intersect_batch(&again, Packing::Single);
+    for (i, &k) in missed.iter().enumerate() {
+        let four = (4 * i..4 * i + 4).filter_map(|j| floor_at(&again[j], &hits_again[j]));
+        found[k] = four.max_by(|a, b| a.y.total_cmp(&b.y));
+    }
+    let floors: Vec<(usize, Vec3)> = starts.iter().zip(&found).filter_map(|(c, f)| f.map(|p| (c[0] + nx * c[2], p))).collect();
     let eps = 1e-3 * grid.voxel;
     let up: Vec<Ray> = floors.iter().map(|&(_, p)| Ray { t_min: eps, ..Ray::new(p, Vec3::Y) }).collect();
     let above = rays.intersect_batch(&up, Packing::Single);
@@ -171,7 +207,7 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
         // Under water (the first thing above is water) there is no head room.
         .map(|(&(column, p), h)| FloorCell { column, floor_y: p.y, headroom: h.map_or(f32::INFINITY, |h| if water[h.triangle as usize] { 0.0 } else { h.t }) })
         .collect();
-    Floors { cells, rays: down.len() + up.len() }
+    Floors { cells, rays: down.len() + again.len() + up.len() }
 }
 
 /// Whether a guessed scale makes the rooms a plausible height: the median free
@@ -196,6 +232,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let head = HEAD_ROOM_M / metres_per_unit;
     let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
     let half_band = 0.5 * rise + grid.voxel;
+    let step = STEP_M / metres_per_unit;
     let eye_voxel = |c: &FloorCell| {
         let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
         grid.cell(Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + eye, grid.origin.z + (z as f32 + 0.5) * grid.voxel))
@@ -241,8 +278,30 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         let hips: Vec<Ray> = pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
         hip_rays += hips.len();
         let blocked = rays.occluded_batch(&hips, Packing::Single);
-        for (&(a, b), &shut) in pairs.iter().zip(&blocked) {
-            if !shut {
+        // A rise of more than a step is two steps (a stair's treads are
+        // narrower than a voxel) or a slope only where the floor halfway lies
+        // within a step of both ends; a seat or a bench beside the floor does
+        // not (before this, the rise of a step and a slope let a visitor
+        // onto a cathedral's pews, and probes stood on them).
+        let tall: Vec<usize> = (0..pairs.len()).filter(|&k| !blocked[k] && (standing[pairs[k].0 as usize].floor_y - standing[pairs[k].1 as usize].floor_y).abs() > step).collect();
+        let halfway: Vec<Ray> = tall
+            .iter()
+            .map(|&k| {
+                let (a, b) = (&standing[pairs[k].0 as usize], &standing[pairs[k].1 as usize]);
+                let top = a.floor_y.max(b.floor_y) + 0.5 * step;
+                let mid = 0.5 * (centre(a, 0.0) + centre(b, 0.0));
+                Ray { t_max: top - a.floor_y.min(b.floor_y) + 0.5 * step, ..Ray::new(Vec3::new(mid.x, top, mid.z), Vec3::NEG_Y) }
+            })
+            .collect();
+        hip_rays += halfway.len();
+        let mut shut_tall = vec![false; pairs.len()];
+        for (&k, hit) in tall.iter().zip(rays.intersect_batch(&halfway, Packing::Single)) {
+            let (a, b) = (&standing[pairs[k].0 as usize], &standing[pairs[k].1 as usize]);
+            let y = halfway_floor(&hit, a.floor_y.max(b.floor_y) + 0.5 * step);
+            shut_tall[k] = !y.is_some_and(|y| (y - a.floor_y).abs() <= step && (y - b.floor_y).abs() <= step);
+        }
+        for ((&(a, b), &shut), &steep) in pairs.iter().zip(&blocked).zip(&shut_tall) {
+            if !shut && !steep {
                 if pass == 1 {
                     bridges.push((a, b));
                 }
@@ -331,7 +390,9 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             true
         });
     }
-    let kept_heights: Vec<f32> = standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| c.floor_y).collect();
+    let mut kept_floors: Vec<(usize, f32)> = standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| (c.column, c.floor_y)).collect();
+    kept_floors.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let kept_heights: Vec<f32> = kept_floors.iter().map(|f| f.1).collect();
     let levels = levels(&kept_heights, 0.25 / metres_per_unit);
     let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite()).collect();
     heights.sort_by(f32::total_cmp);
@@ -347,10 +408,16 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         levels,
         rays: floors.rays + hip_rays + level_rays.len(),
     };
-    (Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel }, band, stats)
+    let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step };
+    (walk, band, stats)
 }
 
-/// Union-find root with path halving.
+/// The height of a floor a ray cast down from `top` met, if it faces up
+/// within the slope limit.
+fn halfway_floor(hit: &Option<crate::raycast::Hit>, top: f32) -> Option<f32> {
+    hit.as_ref().filter(|h| h.normal.y.abs() >= SLOPE_COS).map(|h| top - h.t)
+}
+
 /// Column offsets (dx, dz) ahead of a column within a stride, at least the
 /// next columns along x and z: the half disc with dz > 0, or dz = 0 and dx > 0,
 /// so that each pair of columns is tried once.

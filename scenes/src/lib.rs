@@ -9,9 +9,11 @@
 //! | `big` | a triangle budget up to tens of millions: scaling |
 //! | `island` | an open landscape: terrain, houses with windows, a tunnel, a bridge |
 //! | `house` | two storeys joined by a staircase, in a garden: walking between floors |
+//! | `cathedral` | a tall nave, galleries up a long stair, windows at every height, solid towers |
 //! | `sunroom` | a plain white room lit only through a window: global illumination |
 
 mod big;
+mod cathedral;
 mod gallery;
 mod house;
 mod island;
@@ -35,19 +37,21 @@ pub enum BuiltIn {
     Big(usize),
     Island,
     House,
+    Cathedral,
     Sunroom,
 }
 
 pub const DEFAULT_SCENE: &str = "gallery";
 
 /// (name, parameter meaning, one-line description) of every built-in scene.
-pub const CATALOGUE: [(&str, &str, &str); 7] = [
+pub const CATALOGUE: [(&str, &str, &str); 8] = [
     ("gallery", "", "museum: rooms, doors, corridor, pillars, statues, open courtyard (the default)"),
     ("maze", "cells per side, default 8", "roofed labyrinth of 2 m corridors"),
     ("pillars", "", "hall with a 6x4 grid of columns hiding small props"),
     ("big", "target triangles, default 1000000", "museum of many gallery wings on a grid, for scaling benchmarks"),
     ("island", "", "open landscape: hills, houses with doors and windows, a rock tunnel, a bridge over a river, trees"),
     ("house", "", "two-storey house with a staircase, in a walled garden"),
+    ("cathedral", "", "basilica: tall nave, aisles under galleries reached by a long stair, windows at every height, solid towers"),
     ("sunroom", "", "plain white room lit only by the sun through a window (rendering test)"),
 ];
 
@@ -63,6 +67,7 @@ impl BuiltIn {
             ("pillars", None) => Some(BuiltIn::Pillars),
             ("island", None) => Some(BuiltIn::Island),
             ("house", None) => Some(BuiltIn::House),
+            ("cathedral", None) => Some(BuiltIn::Cathedral),
             ("sunroom", None) => Some(BuiltIn::Sunroom),
             ("maze", p) => Some(BuiltIn::Maze(p.unwrap_or(8).clamp(2, 200))),
             ("big", p) => Some(BuiltIn::Big(p.unwrap_or(1_000_000).clamp(1, 100_000_000))),
@@ -78,6 +83,7 @@ impl BuiltIn {
             BuiltIn::Big(triangles) => big::big(seed, triangles),
             BuiltIn::Island => island::island(seed),
             BuiltIn::House => house::house(seed),
+            BuiltIn::Cathedral => cathedral::cathedral(seed),
             BuiltIn::Sunroom => sunroom::sunroom(),
         }
     }
@@ -89,7 +95,7 @@ mod tests {
 
     #[test]
     fn every_builtin_is_valid_and_seeded() {
-        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "sunroom"] {
+        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "cathedral", "sunroom"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             scene.validate().unwrap_or_else(|e| panic!("{spec}: {e}"));
             assert_eq!(scene.stats, SceneStats::default(), "{spec} made bad triangles");
@@ -128,6 +134,19 @@ mod tests {
             assert!(n.dot((a + b + c) / 3.0 - centre) > 0.0, "triangle {t} faces inward");
         }
         assert!((scene.total_area() - 6.0).abs() < 1e-5);
+        // Prisms along z and x alike.
+        let mut m = mesh::MeshBuilder::new("prisms");
+        let profile = [glam::Vec2::new(0.0, 0.0), glam::Vec2::new(2.0, 0.0), glam::Vec2::new(1.0, 1.5)];
+        m.prism_z(&profile, 0.0, 3.0);
+        m.prism_x(&profile, 5.0, 7.0);
+        let scene = m.finish();
+        assert_eq!(scene.triangles.len(), 16);
+        let centres = [glam::Vec3::new(1.0, 0.5, 1.5), glam::Vec3::new(6.0, 1.0, 0.5)];
+        for t in 0..16 {
+            let [a, b, c] = scene.triangle(t);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot((a + b + c) / 3.0 - centres[t / 8]) > 0.0, "prism triangle {t} faces inward");
+        }
     }
 
     /// Area of the triangles that share their plane and facing with another
@@ -191,7 +210,7 @@ mod tests {
         two.cuboid(glam::Vec3::new(0.5, 0.0, 0.0), glam::Vec3::new(1.5, 1.0, 1.0));
         let found: f32 = coincident_area(&two.finish()).iter().map(|o| o.1).sum();
         assert!(found > 1.0, "the check missed two overlapping boxes: {found} m²");
-        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "sunroom"] {
+        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "cathedral", "sunroom"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             let found = coincident_area(&scene);
             assert!(found.is_empty(), "{spec}: coincident faces (object, m²): {found:?}");

@@ -133,19 +133,30 @@ impl MeshBuilder {
     /// A closed prism: a convex polygon in the x-y plane (counter-clockwise seen
     /// from +z) extruded from `z0` to `z1`, with outward faces.
     pub fn prism_z(&mut self, profile: &[Vec2], z0: f32, z1: f32) {
-        let at = |p: Vec2, z: f32| Vec3::new(p.x, p.y, z);
+        self.prism(profile, |p, z| Vec3::new(p.x, p.y, z), Vec3::Z, z0, z1);
+    }
+
+    /// [`MeshBuilder::prism_z`] along x: a convex polygon of (y, z) points
+    /// (counter-clockwise seen from +x) extruded from `x0` to `x1`.
+    pub fn prism_x(&mut self, profile: &[Vec2], x0: f32, x1: f32) {
+        self.prism(profile, |p, x| Vec3::new(x, p.x, p.y), Vec3::X, x0, x1);
+    }
+
+    /// A prism along `axis`; `at(p, t)` places profile point `p` at `t` along it,
+    /// the profile's two axes and `axis` making a right-handed frame.
+    fn prism(&mut self, profile: &[Vec2], at: impl Fn(Vec2, f32) -> Vec3, axis: Vec3, t0: f32, t1: f32) {
         for k in 0..profile.len() {
             let (a, b) = (profile[k], profile[(k + 1) % profile.len()]);
-            self.quad([at(a, z0), at(b, z0), at(b, z1), at(a, z1)]);
+            self.quad([at(a, t0), at(b, t0), at(b, t1), at(a, t1)]);
         }
-        for (z, n) in [(z1, Vec3::Z), (z0, Vec3::NEG_Z)] {
+        for (t, n) in [(t1, axis), (t0, -axis)] {
             let first = self.scene.positions.len() as u32;
             for &p in profile {
-                self.vertex(at(p, z), n, Vec2::new(p.x, p.y) / self.tile_m);
+                self.vertex(at(p, t), n, p / self.tile_m);
             }
             for k in 1..profile.len() as u32 - 1 {
-                // Counter-clockwise seen from +z for the +z cap, reversed for -z.
-                if n.z > 0.0 { self.triangle([first, first + k, first + k + 1]) } else { self.triangle([first, first + k + 1, first + k]) }
+                // Counter-clockwise seen from +axis for that cap, reversed for the other.
+                if t == t1 { self.triangle([first, first + k, first + k + 1]) } else { self.triangle([first, first + k + 1, first + k]) }
             }
         }
     }

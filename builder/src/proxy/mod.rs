@@ -235,7 +235,7 @@ mod tests {
 
     #[test]
     fn every_built_in_scene_codes_and_decodes() {
-        for spec in ["gallery", "maze:4", "pillars", "island", "house", "sunroom"] {
+        for spec in ["gallery", "maze:4", "pillars", "island", "house", "cathedral", "sunroom"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
             coded_round_trip(spec, &mesh);
