@@ -831,8 +831,9 @@ struct Solids {
 
 /// Splits the free voxels of the box into 6-connected pockets, and each block of
 /// BLOCK³ voxels by pocket; casts the [`probe_directions`] rays from the most
-/// open voxel of each (block, pocket) pair. The pair is solid when most of its
-/// rays that cross surfaces have a positive winding number. Both
+/// open voxel of each (block, pocket) pair. The pair is solid when its first
+/// hits are mostly back faces or most of its rays have a positive winding
+/// number (a ray that crosses nothing counts as outside). Both
 /// sides of a thin wall thus get their own rays, and a closed object whose
 /// inside leaks out through a small hole (the Stanford bunny's base) is still
 /// solid inside and open outside.
