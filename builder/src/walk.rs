@@ -7,16 +7,19 @@
 //!
 //! 1. Floor cells: in each grid column, every free voxel of the open space with
 //!    an occupied voxel below it is a candidate; a ray down from its centre finds
-//!    the exact floor (within a step and two voxels), which must face up within
-//!    the slope limit and not be water (a material named water, sea, ocean,
+//!    the exact floor (within a step and two voxels; where it falls through a
+//!    gap narrower than the column, rays near the column's corners do), which
+//!    must face up within the slope limit and not be water (a material named water, sea, ocean,
 //!    lake, river, pond or pool: nobody walks on the sea around an island, nor
 //!    on the sea bed under it).
 //! 2. Standing: the ray up from the floor must be free for eye height plus head
 //!    room, and the eye voxel must be in the fly space (clearance ≥ r).
 //! 3. Walking: floor cells of columns within a stride (0.25 m, at least the
 //!    four neighbours) join when their floors differ by at most a step plus the
-//!    slope limit over one voxel, and a ray at hip height between them is
-//!    free (a railing or a wall stops it). Stairs and ramps therefore join
+//!    slope limit over one voxel (more than a step only where the floor
+//!    halfway is within a step of both: a seat beside the floor is no step),
+//!    and a ray at hip height between them is free (a railing or a wall stops
+//!    it). Stairs and ramps therefore join
 //!    storeys, also where a tread's nosing hides the floor under it from the
 //!    grid; a ladder or a jump does not.
 //! 4. Regions kept: the connected regions of at least a sixth of the largest
@@ -35,7 +38,8 @@
 //!    wherever people can walk. (Without that span, a staircase's storeys
 //!    were apart in the band, and no path climbed it.)
 //!
-//! A probe [`Walk::stand`]s exactly at eye height above the floor under it.
+//! A probe [`Walk::stand`]s exactly at eye height above the floor under it,
+//! which must be a kept floor of its column.
 //! Defaults: eye 1.6 m, head room 0.25 m above the eye, steps up to 0.3 m,
 //! slopes up to 40°.
 
