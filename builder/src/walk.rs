@@ -108,7 +108,7 @@ impl Walk {
         let floor = p - Vec3::Y * hit.t;
         let [x, _, z] = self.grid.cell(p)?;
         let column = x + self.grid.dims[0] * z;
-        let centre = self.grid.origin + Vec3::new(x as f32 + 0.5, 0.0, z as f32 + 0.5) * self.grid.voxel;
+        let centre = self.grid.center([x, 0, z]);
         let off = Vec3::new(p.x - centre.x, 0.0, p.z - centre.z).length();
         let slack = self.half_step + off * (1.0 - up * up).sqrt() / up;
         let first = self.floors.partition_point(|&(c, _)| c < column);
@@ -287,21 +287,24 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         // within a step of both ends; a seat or a bench beside the floor does
         // not (before this, the rise of a step and a slope let a visitor
         // onto a cathedral's pews, and probes stood on them).
-        let tall: Vec<usize> = (0..pairs.len()).filter(|&k| !blocked[k] && (standing[pairs[k].0 as usize].floor_y - standing[pairs[k].1 as usize].floor_y).abs() > step).collect();
+        let ends = |k: usize| (&standing[pairs[k].0 as usize], &standing[pairs[k].1 as usize]);
+        let tall: Vec<usize> = (0..pairs.len()).filter(|&k| !blocked[k] && (ends(k).0.floor_y - ends(k).1.floor_y).abs() > step).collect();
+        // Each cast down from half a step above the higher floor, to half a step below the lower.
         let halfway: Vec<Ray> = tall
             .iter()
             .map(|&k| {
-                let (a, b) = (&standing[pairs[k].0 as usize], &standing[pairs[k].1 as usize]);
+                let (a, b) = ends(k);
                 let top = a.floor_y.max(b.floor_y) + 0.5 * step;
-                let mid = 0.5 * (centre(a, 0.0) + centre(b, 0.0));
-                Ray { t_max: top - a.floor_y.min(b.floor_y) + 0.5 * step, ..Ray::new(Vec3::new(mid.x, top, mid.z), Vec3::NEG_Y) }
+                let mid = centre(a, 0.0).lerp(centre(b, 0.0), 0.5).with_y(top);
+                Ray { t_max: (a.floor_y - b.floor_y).abs() + step, ..Ray::new(mid, Vec3::NEG_Y) }
             })
             .collect();
         hip_rays += halfway.len();
         let mut shut_tall = vec![false; pairs.len()];
-        for (&k, hit) in tall.iter().zip(rays.intersect_batch(&halfway, Packing::Single)) {
-            let (a, b) = (&standing[pairs[k].0 as usize], &standing[pairs[k].1 as usize]);
-            let y = halfway_floor(&hit, a.floor_y.max(b.floor_y) + 0.5 * step);
+        for ((&k, ray), hit) in tall.iter().zip(&halfway).zip(rays.intersect_batch(&halfway, Packing::Single)) {
+            let (a, b) = ends(k);
+            // The floor met, if it faces up within the slope limit.
+            let y = hit.filter(|h| h.normal.y.abs() >= SLOPE_COS).map(|h| ray.at(h.t).y);
             shut_tall[k] = !y.is_some_and(|y| (y - a.floor_y).abs() <= step && (y - b.floor_y).abs() <= step);
         }
         for ((&(a, b), &shut), &steep) in pairs.iter().zip(&blocked).zip(&shut_tall) {
@@ -414,12 +417,6 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     };
     let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step };
     (walk, band, stats)
-}
-
-/// The height of a floor a ray cast down from `top` met, if it faces up
-/// within the slope limit.
-fn halfway_floor(hit: &Option<crate::raycast::Hit>, top: f32) -> Option<f32> {
-    hit.as_ref().filter(|h| h.normal.y.abs() >= SLOPE_COS).map(|h| top - h.t)
 }
 
 /// Column offsets (dx, dz) ahead of a column within a stride, at least the
