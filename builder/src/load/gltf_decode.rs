@@ -9,7 +9,7 @@
 //! writes them), meshes drawn many times by `EXT_mesh_gpu_instancing` (a
 //! child node per instance), and textures whose image is given only by
 //! `EXT_texture_webp` or `KHR_texture_basisu` (the image is then named as the
-//! texture's source; WebP decodes, KTX2 is a warning).
+//! texture's source; WebP decodes, and KTX2 is transcoded by `basisu`).
 //!
 //! Decoded data goes in new buffer views of the binary chunk of the GLB made
 //! (a GLB's own chunk, which stays its first buffer; a `.gltf` gets the

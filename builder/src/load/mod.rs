@@ -195,17 +195,21 @@ pub(crate) fn texture_warning(scene_path: &Path, name: &str, why: &str) -> Optio
 }
 
 /// Decodes an image (its format guessed from its first bytes: PNG, JPEG, TGA,
-/// DDS, BMP, TIFF, GIF or WebP) into a texture named `name`, or warns naming
+/// DDS, BMP, TIFF, GIF, WebP or KTX2) into a texture named `name`, or warns naming
 /// the scene and the image and returns `None`. Images over `MAX_TEXTURE_SIDE`
 /// are refused from their header, before any allocation.
 pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Path, name: &str, reader: image::ImageReader<R>) -> Option<Texture> {
     let decoded = (|| {
         let mut reader = reader.with_guessed_format().map_err(|e| format!("cannot be read ({e})"))?;
         if reader.format().is_none() {
-            let mut magic = [0u8; 12];
-            let ktx2 = std::io::Read::read_exact(&mut reader.into_inner(), &mut magic).is_ok() && magic == *b"\xABKTX 20\xBB\r\n\x1A\n";
-            return Err(if ktx2 { "is a KTX2 (Basis Universal) image, which ExploreMaps cannot decode" } else { "is in no image format ExploreMaps reads" }.to_string()
-                + " (PNG, JPEG, TGA, DDS, BMP, TIFF, GIF and WebP are read)");
+            // The `image` crate knows no KTX2: read it whole and transcode it.
+            // (At most 1 GiB, 16,384² RGBA8 uncompressed: Basis data is smaller.)
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut std::io::Read::take(reader.into_inner(), 1 << 30), &mut bytes).map_err(|e| format!("cannot be read ({e})"))?;
+            if bytes.starts_with(KTX2_MAGIC) {
+                return decode_ktx2(&bytes).map(image::DynamicImage::ImageRgba8);
+            }
+            return Err("is in no image format ExploreMaps reads (PNG, JPEG, TGA, DDS, BMP, TIFF, GIF, WebP and KTX2 are read)".to_string());
         }
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_TEXTURE_SIDE);
@@ -221,6 +225,73 @@ pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Pat
         Ok(img) => Some(Texture { name: name.to_string(), image: img.to_rgba8() }),
         Err(why) => texture_warning(scene_path, name, &why),
     }
+}
+
+const KTX2_MAGIC: &[u8; 12] = b"\xABKTX 20\xBB\r\n\x1A\n";
+
+/// Transcodes the first level of a KTX2 image holding Basis Universal data
+/// (ETC1S or UASTC, as glTF's `KHR_texture_basisu` requires) to RGBA8.
+fn decode_ktx2(bytes: &[u8]) -> Result<image::RgbaImage, String> {
+    let failed = |e: basisu::Error| format!("is a KTX2 image that cannot be transcoded ({e:?}; KTX2 textures must hold Basis Universal ETC1S or UASTC data)");
+    check_ktx2_index(bytes).map_err(|why| format!("is a damaged KTX2 image ({why})"))?;
+    let texture = basisu::Transcoder::new(bytes).map_err(failed)?;
+    let (width, height) = texture.base_dimensions();
+    if width == 0 || height == 0 {
+        return Err("is a KTX2 image with no pixels".to_string());
+    }
+    if width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+        return Err(format!("is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes (scale the image down to use it)"));
+    }
+    let rgba = texture.transcode(0, basisu::TargetFormat::Rgba32, basisu::DecodeFlags::NONE).map_err(failed)?;
+    image::RgbaImage::from_raw(width, height, rgba).ok_or_else(|| "is a KTX2 image whose transcoded size does not match its header".to_string())
+}
+
+/// Checks what the transcoder would trust in a KTX2 file's header: that its
+/// index and levels lie inside the file, and that no level claims to inflate
+/// to more than its blocks hold (a hostile length would otherwise be
+/// allocated as given).
+fn check_ktx2_index(bytes: &[u8]) -> Result<(), String> {
+    let u32_at = |o: usize| bytes.get(o..o + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()) as u64);
+    let u64_at = |o: usize| bytes.get(o..o + 8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()));
+    let [width, height, layers, faces, levels] = [20, 24, 32, 36, 40].map(|o| u32_at(o).unwrap_or(0));
+    let size = bytes.len() as u64;
+    let inside = |offset: u64, length: u64| offset.checked_add(length).is_some_and(|end| end <= size);
+    // Index: data format descriptor, key/value data, supercompression data.
+    let index = [(u32_at(48), u32_at(52)), (u32_at(56), u32_at(60)), (u64_at(64), u64_at(72))];
+    if index.iter().any(|&(o, l)| o.zip(l).is_none_or(|(o, l)| !inside(o, l))) {
+        return Err("its index points outside the file".to_string());
+    }
+    // Key/value entries: a length, that many bytes, padding to a multiple of
+    // four; the transcoder's scan of them runs off the data where the padding
+    // of an entry passes the end of the key/value data.
+    if let (Some(offset), Some(length)) = index[1] {
+        let (mut at, end) = (offset as usize, (offset + length) as usize);
+        while end - at > 4 {
+            let entry = u32_at(at).unwrap_or(0) as usize;
+            at += 4;
+            if entry < 2 || end - at < entry {
+                break; // where the transcoder's scan stops too
+            }
+            at += entry;
+            at += (4 - at % 4) % 4;
+            if at > end {
+                return Err("its key/value data overruns its length".to_string());
+            }
+        }
+    }
+    if levels > 16 || layers > 2048 || faces > 6 {
+        return Err(format!("{levels} levels, {layers} layers, {faces} faces"));
+    }
+    // 16 bytes a 4 × 4 block, the most either Basis format stores.
+    let most = [height.div_ceil(4), 16, layers.max(1), faces.max(1)].iter().fold(width.div_ceil(4), |n, &k| n.saturating_mul(k));
+    for level in 0..levels.max(1) as usize {
+        let at = 80 + 24 * level;
+        let (Some(offset), Some(length), Some(inflated)) = (u64_at(at), u64_at(at + 8), u64_at(at + 16)) else { return Err("its level index is cut short".to_string()) };
+        if !inside(offset, length) || inflated > most {
+            return Err(format!("level {level} lies outside the file or is larger than its size allows"));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 use super::*;
 use exploremaps_scenes::{AlphaMode, BuiltIn, Light};
 use std::fs;
+use rand::{Rng, SeedableRng};
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let path = dir.join(name);
@@ -385,7 +386,7 @@ fn gltf_gpu_instances_become_copies_of_the_mesh_in_the_nodes_space() {
 }
 
 #[test]
-fn textures_in_tga_bmp_and_webp_decode_and_ktx2_keeps_the_colour() {
+fn textures_in_tga_bmp_webp_and_ktx2_decode() {
     let dir = tempfile::tempdir().unwrap();
     let encoded = |format: image::ImageFormat, rgba: [u8; 4]| {
         let mut bytes = Vec::new();
@@ -402,9 +403,9 @@ fn textures_in_tga_bmp_and_webp_decode_and_ktx2_keeps_the_colour() {
     assert_eq!(scene.stats.missing_textures, 0);
 
     // glTF: one texture given only by EXT_texture_webp, one only by
-    // KHR_texture_basisu (a KTX2 image, which is not decoded).
+    // KHR_texture_basisu (a KTX2 image of UASTC blocks, zstd-supercompressed).
     let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 1.].iter().flat_map(|v| v.to_le_bytes()).collect();
-    let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n and then some texture data";
+    let ktx2 = KTX2_UASTC;
     let gltf = serde_json::json!({
         "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
         "extensionsUsed": ["EXT_texture_webp", "KHR_texture_basisu"], "extensionsRequired": ["EXT_texture_webp", "KHR_texture_basisu"],
@@ -421,10 +422,79 @@ fn textures_in_tga_bmp_and_webp_decode_and_ktx2_keeps_the_colour() {
     let scene = load_default(&write(dir.path(), "t.gltf", gltf.to_string().as_bytes())).unwrap();
     let t = scene.materials[0].base_color_texture.expect("the WebP image decodes");
     assert_eq!(scene.textures[t].image.get_pixel(1, 1).0, [10, 20, 30, 255]);
-    assert_eq!(scene.materials[1].base_color_texture, None);
+    let t = scene.materials[1].base_color_texture.expect("the KTX2 image decodes");
+    assert_quadrants(&scene.textures[t].image, 0);
     assert_eq!(scene.materials[1].base_color, [0.2, 0.4, 0.6, 1.0]);
+    assert_eq!(scene.stats.missing_textures, 0);
+
+    // Damaged, the KTX2 image is a warning and its material keeps its colour.
+    let mut damaged = gltf.clone();
+    damaged["images"][1]["uri"] = serde_json::json!(format!("data:image/ktx2;base64,{}", base64_encode(&KTX2_UASTC[..100])));
+    let scene = load_default(&write(dir.path(), "damaged.gltf", damaged.to_string().as_bytes())).unwrap();
+    assert_eq!(scene.materials[1].base_color_texture, None);
     assert_eq!(scene.stats.missing_textures, 1);
 }
+
+/// KTX2 images of a 16 × 16 texture of four flat 8 × 8 quadrants, made by
+/// the Basis Universal encoder (`scripts/ktx2_fixtures.py`): ETC1S blocks
+/// (BasisLZ), and UASTC blocks supercompressed with zstd.
+const KTX2_ETC1S: &[u8] = include_bytes!("testdata/quadrants_etc1s.ktx2");
+const KTX2_UASTC: &[u8] = include_bytes!("testdata/quadrants_uastc_zstd.ktx2");
+const QUADRANTS: [[u8; 3]; 4] = [[200, 40, 30], [30, 160, 60], [40, 70, 220], [240, 230, 200]];
+
+/// Each quadrant's pixels within `tolerance` of the colour encoded.
+fn assert_quadrants(image: &image::RgbaImage, tolerance: u8) {
+    assert_eq!(image.dimensions(), (16, 16));
+    for (x, y, p) in image.enumerate_pixels() {
+        let want = QUADRANTS[(x / 8 + 2 * (y / 8)) as usize];
+        assert!(p.0[..3].iter().zip(want).all(|(&a, b)| a.abs_diff(b) <= tolerance) && p.0[3] == 255, "pixel ({x}, {y}) is {:?}, not {want:?}", p.0);
+    }
+}
+
+#[test]
+fn ktx2_textures_transcode_from_obj_too_and_damaged_ones_are_errors_not_panics() {
+    // ETC1S keeps a flat 4 × 4 block's colour to within its 5-bit endpoints
+    // and intensity table; UASTC exactly here.
+    for (bytes, tolerance) in [(KTX2_ETC1S, 8), (KTX2_UASTC, 0)] {
+        assert_quadrants(&decode_ktx2(bytes).unwrap(), tolerance);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "quadrants.ktx2", KTX2_ETC1S);
+    write(dir.path(), "m.mtl", b"newmtl wall\nKd 1 1 1\nmap_Kd quadrants.ktx2\n");
+    let scene = load_default(&write(dir.path(), "t.obj", format!("mtllib m.mtl\nusemtl wall\n{QUAD_OBJ}").as_bytes())).unwrap();
+    let t = scene.materials[0].base_color_texture.expect("the KTX2 map decodes");
+    assert_quadrants(&scene.textures[t].image, 8);
+
+    // A level claiming to inflate to a terabyte is refused before any
+    // allocation (the transcoder would allocate what the header says).
+    let mut huge = KTX2_UASTC.to_vec();
+    huge[80 + 16..80 + 24].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let why = decode_ktx2(&huge).unwrap_err();
+    assert!(why.contains("damaged KTX2"), "{why}");
+    // Truncated, bit-flipped and overwritten files: an error or an image, never
+    // a panic (KTX2_MUTATIONS=N runs more).
+    let runs: usize = std::env::var("KTX2_MUTATIONS").ok().and_then(|n| n.parse().ok()).unwrap_or(3000);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+    let mut errors = 0;
+    for run in 0..runs {
+        let mut bytes = [KTX2_ETC1S, KTX2_UASTC][run % 2].to_vec();
+        match rng.random_range(0..3) {
+            0 => bytes.truncate(rng.random_range(0..bytes.len())),
+            1 => (0..rng.random_range(1..8)).for_each(|_| {
+                let i = rng.random_range(0..bytes.len());
+                bytes[i] ^= 1 << rng.random_range(0..8);
+            }),
+            _ => (0..rng.random_range(1..4)).for_each(|_| {
+                let i = rng.random_range(0..bytes.len());
+                bytes[i] = rng.random();
+            }),
+        }
+        errors += usize::from(decode_ktx2(&bytes).is_err());
+    }
+    // (A third of the runs truncate, which always fails.)
+    assert!(errors >= runs / 3, "{errors} of {runs} damaged files refused");
+}
+
 
 #[test]
 fn gltf_punctual_lights_are_read_in_the_renderers_units_and_turn_with_the_up_axis() {
