@@ -857,6 +857,16 @@ fn hostile_gltf_accessors_are_errors_not_panics() {
     let path = write(dir.path(), "stride.gltf", overlapping.to_string().as_bytes());
     let text = std::panic::catch_unwind(|| error_text(&path)).expect("no panic");
     assert!(text.contains("8 bytes apart"), "{text}");
+    // Images with no source, or a buffer view and no MIME type (found by
+    // fuzzing: gltf's validation lets both through and `Image::source`
+    // unwraps them).
+    for (i, image) in [serde_json::json!({"name": "no uri"}), serde_json::json!({"bufferView": 0})].into_iter().enumerate() {
+        let mut json: serde_json::Value = serde_json::from_str(&make(3, 36, 36)).unwrap();
+        json["images"] = serde_json::json!([image]);
+        let path = write(dir.path(), &format!("image{i}.gltf"), json.to_string().as_bytes());
+        let text = std::panic::catch_unwind(|| error_text(&path)).expect("no panic");
+        assert!(text.contains("image 0 has"), "{text}");
+    }
 }
 
 #[test]
