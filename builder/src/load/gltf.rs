@@ -35,6 +35,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         ),
         None => bad(e),
     })?;
+    check_image_sources(path, &document)?;
     check_external_files(path, dir, &document)?;
     let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
 
@@ -232,14 +233,10 @@ fn unsupported_required(bytes: &[u8]) -> Option<String> {
     (!names.is_empty()).then(|| names.join(", "))
 }
 
-/// Checks that each image has a source, and the files a glTF's buffers and
-/// images name before `gltf` reads them whole: each must be a regular file (a URI naming /dev/zero or a pipe would
-/// never end) of at most `MAX_EXTERNAL_BYTES`, and its name must decode to
-/// UTF-8 (gltf 1.4 panics on one that does not). Missing files are left to
-/// `gltf`, whose error names them.
-fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> Result<(), LoadError> {
-    // gltf 1.4's `Image::source` unwraps an image's URI when it has no buffer
-    // view, and its MIME type when it has one; its validation checks neither.
+/// Checks that each image has a source: gltf 1.4's `Image::source` unwraps an
+/// image's URI when it has no buffer view, and its MIME type when it has one,
+/// and its validation checks neither.
+fn check_image_sources(path: &Path, document: &gltf::Document) -> Result<(), LoadError> {
     for (i, image) in document.as_json().images.iter().enumerate() {
         let missing = match image.buffer_view {
             Some(_) => image.mime_type.is_none().then_some("a bufferView but no mimeType"),
@@ -249,6 +246,15 @@ fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> R
             return Err(LoadError::malformed(path, format!("image {i} has {missing}, which glTF requires; the file may be truncated or corrupt")));
         }
     }
+    Ok(())
+}
+
+/// Checks the files a glTF's buffers and images name before `gltf` reads them
+/// whole: each must be a regular file (a URI naming /dev/zero or a pipe would
+/// never end) of at most `MAX_EXTERNAL_BYTES`, and its name must decode to
+/// UTF-8 (gltf 1.4 panics on one that does not). Missing files are left to
+/// `gltf`, whose error names them.
+fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> Result<(), LoadError> {
     let buffers = document.buffers().filter_map(|b| match b.source() {
         gltf::buffer::Source::Uri(uri) => Some((format!("buffer {}", b.index()), uri)),
         gltf::buffer::Source::Bin => None,

@@ -202,14 +202,16 @@ pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Pat
     let decoded = (|| {
         let mut reader = reader.with_guessed_format().map_err(|e| format!("cannot be read ({e})"))?;
         if reader.format().is_none() {
-            // The `image` crate knows no KTX2: read it whole and transcode it.
-            // (At most 1 GiB, 16,384² RGBA8 uncompressed: Basis data is smaller.)
-            let mut bytes = Vec::new();
-            std::io::Read::read_to_end(&mut std::io::Read::take(reader.into_inner(), 1 << 30), &mut bytes).map_err(|e| format!("cannot be read ({e})"))?;
-            if bytes.starts_with(KTX2_MAGIC) {
-                return decode_ktx2(&bytes).map(image::DynamicImage::ImageRgba8);
+            // The `image` crate knows no KTX2: read it whole and transcode it
+            // (at most 1 GiB, 16,384² RGBA8 uncompressed: Basis data is smaller).
+            use std::io::Read;
+            let mut input = reader.into_inner().take(1 << 30);
+            let mut bytes = vec![0; KTX2_MAGIC.len()];
+            if input.read_exact(&mut bytes).is_err() || bytes != KTX2_MAGIC {
+                return Err("is in no image format ExploreMaps reads (PNG, JPEG, TGA, DDS, BMP, TIFF, GIF, WebP and KTX2 are read)".to_string());
             }
-            return Err("is in no image format ExploreMaps reads (PNG, JPEG, TGA, DDS, BMP, TIFF, GIF, WebP and KTX2 are read)".to_string());
+            input.read_to_end(&mut bytes).map_err(|e| format!("cannot be read ({e})"))?;
+            return decode_ktx2(&bytes).map(image::DynamicImage::ImageRgba8);
         }
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_TEXTURE_SIDE);

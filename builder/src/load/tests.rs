@@ -495,7 +495,6 @@ fn ktx2_textures_transcode_from_obj_too_and_damaged_ones_are_errors_not_panics()
     assert!(errors >= runs / 3, "{errors} of {runs} damaged files refused");
 }
 
-
 #[test]
 fn gltf_punctual_lights_are_read_in_the_renderers_units_and_turn_with_the_up_axis() {
     // A triangle, a point light of 683 cd at (1, 2, 3) under a node moved by
