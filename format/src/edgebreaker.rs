@@ -76,6 +76,12 @@ pub struct Connectivity {
     pub symbols: Vec<u8>,
     /// One per M, in order.
     pub merges: Vec<Merge>,
+    /// Per S, in order, the length of its right loop (walked first). The
+    /// symbols imply them (decoding sums loop lengths backwards), but only
+    /// once all are read: version 5 files code each after its S, so that the
+    /// symbols after it are read knowing the current loop's length. Empty
+    /// when not known; [`decode`] checks them when given.
+    pub split_lengths: Vec<u32>,
     /// Triangles and vertices decoded, dummies and copies included.
     pub triangle_count: u32,
     pub vertex_count: u32,
@@ -529,6 +535,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
                         };
                         let len = loop_len[current as usize];
                         let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
+                        out.split_lengths.push(l1);
                         let w2 = loops.splice(a, nw, next(c), prev(c));
                         attach(&mut loops, &mut head, w2);
                         let fresh = loop_len.len() as u32;
@@ -794,6 +801,10 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
             return corrupt(format!("component {k} does not start with its first loop"));
         }
         end = begin;
+    }
+
+    if !code.split_lengths.is_empty() && !code.split_lengths.iter().eq(right_lens.iter().rev()) {
+        return corrupt("the split lengths given are not the symbols'");
     }
 
     // Forwards: rebuild.
