@@ -388,8 +388,9 @@ fn read_static_connectivity(input: &mut Reader, code: &mut Connectivity, version
 
 /// The adaptive models of version 5's connectivity.
 struct ConnectivityModels {
-    /// Per context of [`Walk::context`].
-    symbols: [Adaptive<{ edgebreaker::SYMBOLS }>; CONTEXTS],
+    /// Per context of [`Walk::context`]; eight symbols, the last never
+    /// coded, for eight 16-bit lanes.
+    symbols: [Adaptive<{ edgebreaker::SYMBOLS + 1 }>; CONTEXTS],
     start: Adaptive<BUCKETS>,
     split: Adaptive<BUCKETS>,
     merge: [Adaptive<BUCKETS>; 3],
@@ -439,12 +440,14 @@ impl Walk {
         self.length = length.unwrap_or(3);
         self.waiting.clear();
     }
+    #[inline(always)]
     fn context(&self) -> usize {
         let previous = self.previous.map_or(edgebreaker::SYMBOLS, usize::from);
-        previous * 3 + (self.length.clamp(3, 5) - 3) as usize
+        (previous & 7) * 3 + (self.length.clamp(3, 5) - 3) as usize
     }
     /// After symbol `s` (with its S's right loop length or its M's record):
     /// whether it ended the component. Inconsistent input is an error.
+    #[inline(always)]
     fn step(&mut self, s: u8, split: Option<u32>, merge: Option<Merge>) -> Result<bool, CodingError> {
         use edgebreaker::{C, D, E, L, M, R, S};
         let corrupt = |m: &str| Err(CodingError::Corrupt(m.to_string()));
@@ -632,71 +635,80 @@ impl Writer {
 
 /// Adaptive models' probabilities are 15-bit fixed point.
 const ADAPTIVE_BITS: u32 = 15;
-/// Symbols of a bucket model: a number's bit length, 0 to 31.
-pub(crate) const BUCKETS: usize = 32;
+/// Symbols of an adaptive bucket model: a number's bit length, 0 to 14,
+/// or 15 for 15 and more (the excess then in 5 raw bits). Sixteen lanes of
+/// 16 bits: the model's search and update are a few vector instructions.
+pub(crate) const BUCKETS: usize = 16;
+const LONG: u32 = BUCKETS as u32 - 1;
 
-/// A model that learns as it codes: each symbol's frequency (out of 2^15,
-/// each at least 1) decays by a 2^-rate share at every symbol, and the one
-/// coded takes what the others lose. The rate starts at 3 (a model whose
-/// first symbols are its only evidence follows them fast) and slows to 5
-/// after 32 symbols; the same schedule as AV1's adaptive CDFs, three
-/// steps faster. With static tables instead (versions 1 to 4) a coarse
-/// level paid for its tables: 70 to 90 bytes of the Crytek Sponza base's
+/// A model that learns as it codes, kept as its cumulative distribution
+/// (AV1's adaptive CDFs): after each symbol every boundary below it moves a
+/// 2^-rate share of the way to 0 and every one above it the same share of
+/// the way to the top, so the symbol gains what the others lose. The rate
+/// starts at 3 (a model whose first symbols are its only evidence follows
+/// them fast) and slows to 5 after 32 symbols, AV1's schedule three steps
+/// faster. Each symbol has one quantile of the 2^15 besides its share, so
+/// none is ever impossible. With static tables instead (versions 1 to 4) a
+/// coarse level paid for them: 70 to 90 bytes of the Crytek Sponza base's
 /// connectivity; adaptive models also follow runs (a row of small parts of
-/// one shape).
+/// one shape). Finding a symbol is a count of the boundaries at or below
+/// the quantile, with no branch.
 #[derive(Clone, Copy)]
 pub(crate) struct Adaptive<const K: usize> {
-    frequency: [u16; K],
+    /// Per symbol, the share of symbols up to it, of 2^15 − K; the last is
+    /// always 2^15 − K.
+    bound: [u16; K],
     seen: u8,
+}
+
+/// The quantiles adaptive models share out, besides one a symbol.
+const fn shared(k: usize) -> u32 {
+    (1 << ADAPTIVE_BITS) - k as u32
 }
 
 impl<const K: usize> Default for Adaptive<K> {
     fn default() -> Self {
-        let mut frequency = [((1 << ADAPTIVE_BITS) / K) as u16; K];
-        frequency[0] += ((1 << ADAPTIVE_BITS) % K) as u16;
-        Adaptive { frequency, seen: 0 }
+        Adaptive { bound: std::array::from_fn(|i| ((i as u32 + 1) * shared(K) / K as u32) as u16), seen: 0 }
     }
 }
 
 impl<const K: usize> Adaptive<K> {
-    /// A model that starts with `rare` at the least frequency (a symbol the
-    /// context all but rules out), the others equal.
+    /// A model that starts with `rare` at no share (a symbol the context all
+    /// but rules out), the others equal.
     fn with_rare(rare: usize) -> Self {
-        let share = ((1 << ADAPTIVE_BITS) - 1) / (K - 1);
-        let mut frequency = [share as u16; K];
-        frequency[rare] = 1;
-        frequency[usize::from(rare == 0)] += ((1 << ADAPTIVE_BITS) - 1 - share * (K - 1)) as u16;
-        Adaptive { frequency, seen: 0 }
+        let share = |i: usize| (i as u32 + 1 - u32::from(i >= rare)) * shared(K) / (K as u32 - 1);
+        Adaptive { bound: std::array::from_fn(|i| share(i) as u16), seen: 0 }
     }
     /// Where `symbol` lies among the quantiles: (start, size).
-    fn span(&self, symbol: usize) -> (u16, u16) {
-        (self.frequency[..symbol].iter().sum(), self.frequency[symbol])
-    }
-    /// The symbol at `quantile`, with its span.
     #[inline(always)]
-    fn find(&self, quantile: u32) -> (usize, u32, u32) {
-        let mut low = 0u32;
-        for s in 0..K - 1 {
-            let size = self.frequency[s] as u32;
-            if quantile < low + size {
-                return (s, low, size);
-            }
-            low += size;
+    fn span(&self, symbol: usize) -> (u16, u16) {
+        let low = if symbol == 0 { 0 } else { self.bound[symbol - 1] + symbol as u16 };
+        (low, self.bound[symbol] + symbol as u16 + 1 - low)
+    }
+    /// The symbol at `quantile`, with its span. (Lane by lane in 16 bits, which
+    /// the compiler turns into vector instructions.)
+    #[inline(always)]
+    fn find(&self, quantile: u32) -> (usize, u16, u16) {
+        // (bound + i + 1 <= q, in signed 16 bits: both sides below 2^15.)
+        let q = quantile as i16;
+        let mut count = 0u16;
+        for i in 0..K {
+            count += u16::from((self.bound[i] as i16 + i as i16) < q);
         }
-        (K - 1, low, self.frequency[K - 1] as u32)
+        let symbol = (count as usize).min(K - 1);
+        let (low, size) = self.span(symbol);
+        (symbol, low, size)
     }
     #[inline(always)]
     fn learn(&mut self, symbol: usize) {
         let rate = 3 + u32::from(self.seen > 15) + u32::from(self.seen > 31);
         self.seen = self.seen.saturating_add(1);
-        let mut rest = 0u32;
-        for (s, f) in self.frequency.iter_mut().enumerate() {
-            // (A frequency of 1 stays 1.)
-            *f -= if s == symbol { 0 } else { *f >> rate };
-            rest += *f as u32;
+        // Differences fit in 16 bits: the bounds lie in 0..2^15.
+        for i in 0..K {
+            let b = self.bound[i] as i16;
+            let target = if i < symbol { 0 } else { shared(K) as i16 };
+            self.bound[i] = (b + ((target - b) >> rate)) as u16;
         }
-        rest -= self.frequency[symbol] as u32;
-        self.frequency[symbol] = ((1 << ADAPTIVE_BITS) - rest) as u16;
     }
 }
 
@@ -770,7 +782,10 @@ impl Sink {
     /// under the top one (raw).
     pub(crate) fn adaptive_value(&mut self, model: &mut Adaptive<BUCKETS>, x: u32) {
         let n = bit_length(x);
-        self.adaptive(model, n as usize);
+        self.adaptive(model, n.min(LONG) as usize);
+        if n >= LONG {
+            self.raw(n - LONG, 5);
+        }
         if n > 1 {
             self.raw(x & !(1 << (n - 1)), n - 1);
         }
@@ -968,16 +983,19 @@ impl<'a> Source<'a> {
     pub(crate) fn adaptive<const K: usize>(&mut self, model: &mut Adaptive<K>) -> usize {
         let quantile = (self.state & ((1 << ADAPTIVE_BITS) - 1)) as u32;
         let (symbol, low, size) = model.find(quantile);
-        self.advance(ADAPTIVE_BITS, quantile - low, size);
+        self.advance(ADAPTIVE_BITS, quantile - low as u32, size as u32);
         model.learn(symbol);
         symbol
     }
     /// A number coded by [`Sink::adaptive_value`].
     #[inline(always)]
     pub(crate) fn adaptive_value(&mut self, model: &mut Adaptive<BUCKETS>) -> Result<u32, CodingError> {
-        let n = self.adaptive(model) as u32;
+        let mut n = self.adaptive(model) as u32;
+        if n == LONG {
+            n += self.bits(5).ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))?;
+        }
         let below = n.saturating_sub(1);
-        let low = self.bits(below).ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))?;
+        let low = (n <= 32).then(|| self.bits(below)).flatten().ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))?;
         Ok(if n == 0 { 0 } else { 1 << below | low })
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
