@@ -96,7 +96,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     }
     let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
     // The decoder's own pass gives the prediction structure.
-    let decoded = edgebreaker::decode(&code)?;
+    let (decoded, lengths) = edgebreaker::decode_with_lengths(&code)?;
 
     let (lo, hi) = match order.vertices.first() {
         None => ([0.0; 3], [0.0; 3]),
@@ -122,46 +122,11 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     }
     let mut sizes = Sizes { header: out.bytes.len(), ..Sizes::default() };
 
-    // Connectivity, in the order the decoder reads it (see `Walk`).
+    // Connectivity, in the order the decoder reads it (see `Stream`).
     // Dummies come by their D: versions 4 and 5 list none (the count stays
     // in the header for the readers of versions 1 to 3).
     debug_assert!(code.dummies.is_empty());
-    let mut sink = Sink::new(0);
-    let mut models = ConnectivityModels::default();
-    let mut walk = Walk::default();
-    let (mut loops, mut splits, mut merges) = (code.start_loops.iter(), code.split_lengths.iter(), code.merges.iter());
-    let mut starting = true;
-    for &s in &code.symbols {
-        if starting {
-            let length = loops.next().copied();
-            if let Some(k) = length {
-                sink.adaptive_value(&mut models.start, k - 3);
-            }
-            walk.start(length);
-        }
-        sink.adaptive(&mut models.symbols[walk.context()], s as usize);
-        let split = if s == edgebreaker::S { splits.next().copied() } else { None };
-        if let Some(r) = split {
-            sink.adaptive_value(&mut models.split, r - 2);
-        }
-        let merge = if s == edgebreaker::M { merges.next().copied() } else { None };
-        if let Some(m) = merge {
-            for (model, x) in models.merge.iter_mut().zip([m.depth, m.offset, m.length]) {
-                sink.adaptive_value(model, x);
-            }
-        }
-        starting = walk.step(s, split, merge).expect("the encoder's symbols walk");
-    }
-    let (mut last, mut distance) = (0, 0);
-    for &[copy, original] in &code.copies {
-        let gap = copy - last;
-        sink.adaptive_value(&mut models.copy_gap, gap);
-        let run = gap == 1;
-        let coded = if run { zigzag((copy - original) as i64 - distance as i64) } else { copy - original };
-        sink.adaptive_value(&mut models.copy_distance[usize::from(run)], coded);
-        (last, distance) = (copy, copy - original);
-    }
-    sizes.connectivity = out.section(sink);
+    sizes.connectivity = out.section(connectivity_sink(&code, &lengths));
 
     // Positions, then colours, in decoded order, predicted alike.
     let mut sink = Sink::new(3);
@@ -226,12 +191,12 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     code.merges.reserve(room(merge_count));
     code.dummies.reserve(room(dummy_count));
     code.copies.reserve(room(copy_count));
-    if version >= 5 {
-        read_connectivity(&mut input, &mut code, symbol_count, loop_count, merge_count, copy_count)?;
+    let mut decoded = if version >= 5 {
+        read_connectivity(&mut input, symbol_count, triangle_count, vertex_count, loop_count, merge_count, copy_count)?
     } else {
         read_static_connectivity(&mut input, &mut code, version, symbol_count, loop_count, merge_count, dummy_count, copy_count)?;
-    }
-    let mut decoded = edgebreaker::decode(&code)?;
+        edgebreaker::decode(&code)?
+    };
     let triangles = decoded.resolve();
     let mut source = Source::new(&mut input, 3)?;
     let quantized = decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
@@ -283,56 +248,68 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     Ok(MeshData { positions, triangles, groups, colours })
 }
 
-/// The connectivity section of version 5: per component, its start loop's
-/// length less three (when it has one), then its symbols, each S followed
-/// by its right loop's length less two and each M by its record; then the
-/// copies (index gaps and distances to their originals). All under adaptive
-/// models.
-fn read_connectivity(input: &mut Reader, code: &mut Connectivity, symbol_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<(), CodingError> {
-    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
-    let mut source = Source::new(input, 0)?;
+/// Version 5's connectivity section (see [`read_connectivity`]).
+fn connectivity_sink(code: &Connectivity, lengths: &[u32]) -> Sink {
+    let mut sink = Sink::new(0);
     let mut models = ConnectivityModels::default();
-    let mut walk = Walk::default();
-    let mut starting = true;
-    for _ in 0..symbol_count {
+    let (mut loops, mut splits, mut merges) = (code.start_loops.iter(), code.split_lengths.iter(), code.merges.iter());
+    // Components end at an E with no loop waiting.
+    let (mut waiting, mut previous, mut starting) = (0u32, None, true);
+    for (&s, &length) in code.symbols.iter().zip(lengths) {
         if starting {
-            let length = if (code.start_loops.len() as u32) < loop_count {
-                let k = source.adaptive_value(&mut models.start)?.checked_add(3).ok_or_else(|| corrupt("start loop length"))?;
-                code.start_loops.push(k);
-                Some(k)
-            } else {
-                None
-            };
-            walk.start(length);
-        }
-        let s = source.adaptive(&mut models.symbols[walk.context()]) as u8;
-        code.symbols.push(s);
-        let split = if s == edgebreaker::S {
-            let r = source.adaptive_value(&mut models.split)?.checked_add(2).ok_or_else(|| corrupt("split length"))?;
-            code.split_lengths.push(r);
-            Some(r)
-        } else {
-            None
-        };
-        let merge = if s == edgebreaker::M {
-            if code.merges.len() as u32 >= merge_count {
-                return Err(corrupt("more M symbols than merge records"));
+            if let Some(&k) = loops.next() {
+                sink.adaptive_value(&mut models.start, k - 3);
             }
-            let [depth, offset, length] = [0, 1, 2].map(|i| source.adaptive_value(&mut models.merge[i]));
-            let m = Merge { depth: depth?, offset: offset?, length: length? };
-            code.merges.push(m);
-            Some(m)
-        } else {
-            None
-        };
-        starting = walk.step(s, split, merge)?;
+        }
+        starting = s == edgebreaker::E && waiting == 0;
+        sink.adaptive(&mut models.symbols[context(previous, length)], s as usize);
+        match s {
+            edgebreaker::S => {
+                sink.adaptive_value(&mut models.split, splits.next().expect("a length per S") - 2);
+                waiting += 1;
+            }
+            edgebreaker::M => {
+                let m = merges.next().expect("a record per M");
+                for (model, x) in models.merge.iter_mut().zip([m.depth, m.offset, m.length]) {
+                    sink.adaptive_value(model, x);
+                }
+                waiting -= 1;
+            }
+            edgebreaker::E if waiting > 0 => waiting -= 1,
+            _ => {}
+        }
+        previous = Some(s);
     }
-    if code.start_loops.len() as u32 != loop_count {
-        return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", code.start_loops.len())));
+    let (mut last, mut distance) = (0, 0);
+    for &[copy, original] in &code.copies {
+        let gap = copy - last;
+        let run = gap == 1;
+        let coded = if run { zigzag((copy - original) as i64 - distance as i64) } else { copy - original };
+        sink.adaptive_value(&mut models.copy_gap, gap);
+        sink.adaptive_value(&mut models.copy_distance[usize::from(run)], coded);
+        (last, distance) = (copy, copy - original);
     }
-    if code.merges.len() as u32 != merge_count {
-        return Err(CodingError::Corrupt(format!("{merge_count} merge records, {} M symbols", code.merges.len())));
+    sink
+}
+
+/// The connectivity section of version 5, read as the mesh is rebuilt:
+/// per component, its start loop's length less three (when it has one),
+/// then its symbols, each S followed by its right loop's length less two
+/// and each M by its record; then the copies (index gaps and distances to
+/// their originals). All under adaptive models (static ones for the
+/// copies were 35-50 bytes larger on every level tried: their tables).
+fn read_connectivity(input: &mut Reader, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
+    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+    let mut stream = Stream { source: Source::new(input, 0)?, models: ConnectivityModels::default(), previous: None, loops: loop_count, merges: merge_count };
+    let (mut decoded, dummies) = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
+    if stream.loops != 0 {
+        return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", loop_count - stream.loops)));
     }
+    if stream.merges != 0 {
+        return Err(CodingError::Corrupt(format!("{merge_count} merge records, {} M symbols", merge_count - stream.merges)));
+    }
+    let Stream { mut source, mut models, .. } = stream;
+    let mut copies = Vec::with_capacity((copy_count as usize).min(input.bytes.len()));
     let (mut last, mut distance) = (0u32, 0u32);
     for _ in 0..copy_count {
         let gap = source.adaptive_value(&mut models.copy_gap)?;
@@ -342,9 +319,50 @@ fn read_connectivity(input: &mut Reader, code: &mut Connectivity, symbol_count: 
         let d = if run { u32::try_from(distance as i64 + unzigzag(coded)).ok() } else { Some(coded) };
         distance = d.ok_or_else(|| corrupt("copy distance"))?;
         let original = last.checked_sub(distance).ok_or_else(|| corrupt("copy original"))?;
-        code.copies.push([last, original]);
+        copies.push([last, original]);
     }
-    Ok(())
+    (decoded.keep, decoded.kept_vertices) = edgebreaker::keep_vertices(vertex_count, &dummies, &copies)?;
+    Ok(decoded)
+}
+
+/// Version 5's connectivity as [`edgebreaker::rebuild`] walks it.
+struct Stream<'a> {
+    source: Source<'a>,
+    models: ConnectivityModels,
+    previous: Option<u8>,
+    /// Start loops and merge records declared and not yet read.
+    loops: u32,
+    merges: u32,
+}
+
+impl edgebreaker::Walk for Stream<'_> {
+    fn start(&mut self) -> Result<Option<u32>, CodingError> {
+        if self.loops == 0 {
+            return Ok(None);
+        }
+        self.loops -= 1;
+        let k = self.source.adaptive_value(&mut self.models.start)?;
+        k.checked_add(3).map(Some).ok_or_else(|| CodingError::Corrupt("start loop length".into()))
+    }
+    #[inline(always)]
+    fn step(&mut self, length: u32) -> Result<edgebreaker::Step, CodingError> {
+        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, length)]) as u8;
+        self.previous = Some(symbol);
+        let mut step = edgebreaker::Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
+        match symbol {
+            edgebreaker::S => step.split = self.source.adaptive_value(&mut self.models.split)?.saturating_add(2),
+            edgebreaker::M => {
+                if self.merges == 0 {
+                    return Err(CodingError::Corrupt("more M symbols than merge records".into()));
+                }
+                self.merges -= 1;
+                let [depth, offset, length] = [0, 1, 2].map(|i| self.source.adaptive_value(&mut self.models.merge[i]));
+                step.merge = Merge { depth: depth?, offset: offset?, length: length? };
+            }
+            _ => {}
+        }
+        Ok(step)
+    }
 }
 
 /// The connectivity section of versions 1 to 4: the symbols under static
@@ -388,7 +406,7 @@ fn read_static_connectivity(input: &mut Reader, code: &mut Connectivity, version
 
 /// The adaptive models of version 5's connectivity.
 struct ConnectivityModels {
-    /// Per context of [`Walk::context`]; eight symbols, the last never
+    /// Per [`context`]; eight symbols, the last never
     /// coded, for eight 16-bit lanes.
     symbols: [Adaptive<{ edgebreaker::SYMBOLS + 1 }>; CONTEXTS],
     start: Adaptive<BUCKETS>,
@@ -417,64 +435,19 @@ impl Default for ConnectivityModels {
     }
 }
 
-/// Symbol contexts: the previous symbol (or none) times the current loop's
-/// length (3 or less, 4, or more).
+/// Symbol contexts (see [`context`]).
 const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3;
 
-/// The current loop's length as the symbols are read, for their context.
-/// Only a loop of three can end with an E, and only a C or D can follow on
-/// one; knowing it took the Crytek Sponza base's symbols from 576 to 466
-/// bytes. The decoder learns every length forwards only if each S's split
-/// is coded (26 bytes there), as version 5 does.
-#[derive(Default)]
-struct Walk {
-    length: u32,
-    waiting: Vec<u32>,
-    previous: Option<u8>,
-}
-
-impl Walk {
-    /// At a component's first symbol: its start loop's length (none: it
-    /// starts from a triangle).
-    fn start(&mut self, length: Option<u32>) {
-        self.length = length.unwrap_or(3);
-        self.waiting.clear();
-    }
-    #[inline(always)]
-    fn context(&self) -> usize {
-        let previous = self.previous.map_or(edgebreaker::SYMBOLS, usize::from);
-        (previous & 7) * 3 + (self.length.clamp(3, 5) - 3) as usize
-    }
-    /// After symbol `s` (with its S's right loop length or its M's record):
-    /// whether it ended the component. Inconsistent input is an error.
-    #[inline(always)]
-    fn step(&mut self, s: u8, split: Option<u32>, merge: Option<Merge>) -> Result<bool, CodingError> {
-        use edgebreaker::{C, D, E, L, M, R, S};
-        let corrupt = |m: &str| Err(CodingError::Corrupt(m.to_string()));
-        self.previous = Some(s);
-        match s {
-            C | D => self.length = self.length.saturating_add(1),
-            L | R => self.length = self.length.saturating_sub(1),
-            S => {
-                let Some(r) = split else { return corrupt("S without its split") };
-                let Some(left) = self.length.saturating_add(1).checked_sub(r).filter(|&l| l >= 2 && r >= 2) else { return corrupt("a split longer than its loop") };
-                self.waiting.push(left);
-                self.length = r;
-            }
-            E => match self.waiting.pop() {
-                Some(length) => self.length = length,
-                None => return Ok(true),
-            },
-            M => {
-                let Some(m) = merge else { return corrupt("M without its record") };
-                let Some(at) = (self.waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else { return corrupt("merge with a loop not waiting") };
-                self.waiting.remove(at as usize);
-                self.length = self.length.saturating_add(m.length).saturating_add(1);
-            }
-            _ => return corrupt("symbol out of range"),
-        }
-        Ok(false)
-    }
+/// A symbol's context: the symbol before it (or none) and the length of
+/// the loop it acts on (3 or less, 4, more). Only a loop of three can end
+/// with an E, and only a C or D can follow on a shorter one; knowing the
+/// length took the Crytek Sponza base's symbols from 576 to 466 bytes. The
+/// decoder knows every length forwards only if each S's split is coded (26
+/// bytes there), as version 5 does.
+#[inline(always)]
+fn context(previous: Option<u8>, length: u32) -> usize {
+    let previous = previous.map_or(edgebreaker::SYMBOLS, usize::from);
+    (previous & 7) * 3 + (length.clamp(3, 5) - 3) as usize
 }
 
 /// The decoded vertices whose values are coded, in decoded order, with
@@ -690,12 +663,14 @@ impl<const K: usize> Adaptive<K> {
     #[inline(always)]
     fn find(&self, quantile: u32) -> (usize, u16, u16) {
         // (bound + i + 1 <= q, in signed 16 bits: both sides below 2^15.)
+        // The bounds ascend, so the lanes below the quantile are a prefix:
+        // its length is the trailing ones of their mask (a bit scan).
         let q = quantile as i16;
-        let mut count = 0u16;
+        let mut below = 0u32;
         for i in 0..K {
-            count += u16::from((self.bound[i] as i16 + i as i16) < q);
+            below |= u32::from((self.bound[i] as i16 + i as i16) < q) << i;
         }
-        let symbol = (count as usize).min(K - 1);
+        let symbol = ((!below).trailing_zeros() as usize).min(K - 1);
         let (low, size) = self.span(symbol);
         (symbol, low, size)
     }
