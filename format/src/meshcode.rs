@@ -15,7 +15,8 @@
 //! current loop's length ([`Walk`]), the records' numbers as buckets. A
 //! CRC-32 closes the file.
 //!
-//! Layout (all integers LEB128 unless said): magic `EMMC`, version byte,
+//! Layout (all integers LEB128 unless said; `format/SCHEMA.md` has it
+//! whole): magic `EMMC`, version byte,
 //! counts, box (6 × f32 LE), then length-prefixed sections: connectivity,
 //! positions, groups (runs in decoded order: length − 1 as a value, then the
 //! group in raw bits; empty with one group), colours; then the CRC-32 (u32
@@ -36,7 +37,8 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// their lengths (less three, as values) after the symbols, and marks the
 /// other dummies by a seventh symbol, D, in place of their list; version 5
 /// codes connectivity under adaptive models (no tables), each symbol in the
-/// context of the current loop's length, with each S's split after it.
+/// context of the current loop's length, with each S's split after it, and
+/// is decoded as the mesh is rebuilt ([`edgebreaker::rebuild`]).
 const VERSION: u8 = 5;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset: a
@@ -1223,14 +1225,19 @@ mod tests {
         bad.extend_from_slice(&crc.to_le_bytes());
         assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a loop")), "{:?}", decode(&bad));
         // Version 1 (every dummy listed), version 2 (a group flag a
-        // triangle) and version 3 (components start at a dummy): the fuzzing
-        // seeds, written before the next version; and the version 4 seed; each
-        // re-encoded gives the same mesh.
+        // triangle), version 3 (components start at a dummy) and version 4
+        // (static models): the fuzzing seeds, written before the next
+        // version; and the version 5 seeds; each re-encoded gives the same
+        // mesh.
         let seeds = [
             (&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1),
             (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2),
             (&include_bytes!("../../fuzz/seeds/proxy/2.emmc")[..], 3),
             (&include_bytes!("../../fuzz/seeds/proxy/3.emmc")[..], 4),
+            // Version 5: the version 4 seed re-encoded, and 80 bowties (80
+            // copies, so under static models).
+            (&include_bytes!("../../fuzz/seeds/proxy/4.emmc")[..], 5),
+            (&include_bytes!("../../fuzz/seeds/proxy/5.emmc")[..], 5),
         ];
         for (seed, version) in seeds {
             assert_eq!(seed[4], version);
@@ -1257,11 +1264,21 @@ mod tests {
     /// recomputed. Errors or a mesh; never a panic.
     #[test]
     fn hostile_files_do_not_panic() {
-        let mesh = wavy_grid(5);
-        let bytes = encode(&mesh, 14).unwrap().bytes;
+        // A grid; the version 4 seed's mesh (open parts, start loops); 80
+        // bowties (copies under static models); each as version 5 writes it.
+        let seed = decode(include_bytes!("../../fuzz/seeds/proxy/3.emmc")).unwrap();
+        for (mesh, trials) in [(wavy_grid(5), 20000), (seed, 10000)] {
+            mutate(&encode(&mesh, 14).unwrap().bytes, trials);
+        }
+        mutate(include_bytes!("../../fuzz/seeds/proxy/5.emmc"), 10000);
+    }
+
+    /// Rewrites bytes of `bytes` (a coded mesh) and its CRC `trials` times;
+    /// decoding gives an error or a mesh, never a panic.
+    fn mutate(bytes: &[u8], trials: usize) {
         let body = bytes.len() - 4;
         let mut state = 12345u64;
-        for trial in 0..20000 {
+        for trial in 0..trials {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             let mut bad = bytes[..body].to_vec();
             let i = (state >> 33) as usize % body;
