@@ -1031,9 +1031,13 @@ impl<'a> Source<'a> {
     #[inline(always)]
     fn try_value(&mut self, model: usize) -> Option<u32> {
         let n = self.symbol(model) as u32;
+        // (A hostile table has bit lengths up to 63: refused before the shift.)
+        if n > 32 {
+            return None;
+        }
         let below = n.saturating_sub(1);
         let low = self.bits(below)?;
-        (n <= 32).then_some(if n == 0 { 0 } else { 1 << below | low })
+        Some(if n == 0 { 0 } else { 1 << below | low })
     }
 }
 
@@ -1271,6 +1275,15 @@ mod tests {
             mutate(&encode(&mesh, 14).unwrap().bytes, trials);
         }
         mutate(include_bytes!("../../fuzz/seeds/proxy/5.emmc"), 10000);
+    }
+
+    /// Found by fuzzing past the checksum: a version 2 file whose model
+    /// gives a bit length over 32 overflowed the shift that rebuilds the
+    /// number (a panic with overflow checks on).
+    #[test]
+    fn a_value_over_32_bits_is_an_error_not_an_overflow() {
+        let bytes = include_bytes!("../../fuzz/regressions/proxy-value-over-32-bits");
+        assert!(decode(bytes).is_err());
     }
 
     /// Rewrites bytes of `bytes` (a coded mesh) and its CRC `trials` times;
