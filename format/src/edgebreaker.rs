@@ -76,6 +76,12 @@ pub struct Connectivity {
     pub symbols: Vec<u8>,
     /// One per M, in order.
     pub merges: Vec<Merge>,
+    /// Per S, in order, the length of its right loop (walked first). The
+    /// symbols imply them (decoding sums loop lengths backwards), but only
+    /// once all are read: version 5 files code each after its S, so that the
+    /// symbols after it are read knowing the current loop's length. Empty
+    /// when not known; [`decode`] checks them when given.
+    pub split_lengths: Vec<u32>,
     /// Triangles and vertices decoded, dummies and copies included.
     pub triangle_count: u32,
     pub vertex_count: u32,
@@ -529,6 +535,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
                         };
                         let len = loop_len[current as usize];
                         let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
+                        out.split_lengths.push(l1);
                         let w2 = loops.splice(a, nw, next(c), prev(c));
                         attach(&mut loops, &mut head, w2);
                         let fresh = loop_len.len() as u32;
@@ -606,7 +613,7 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
 
 /// Per decoded vertex, its index among kept vertices (copies take their
 /// original's, dummies NONE). Kept vertices keep their decoded order.
-fn keep_vertices(vertex_count: u32, dummies: &[u32], copies: &[[u32; 2]]) -> Result<(Vec<u32>, u32), CodingError> {
+pub(crate) fn keep_vertices(vertex_count: u32, dummies: &[u32], copies: &[[u32; 2]]) -> Result<(Vec<u32>, u32), CodingError> {
     const COPY: u32 = NONE - 1;
     let mut keep = vec![0u32; vertex_count as usize];
     for &d in dummies {
@@ -651,6 +658,16 @@ pub struct Decoded {
 
 /// Rebuilds the triangles and per-vertex predictors from `code`.
 pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
+    decode_listed(code, false).map(|(decoded, _)| decoded)
+}
+
+/// [`decode`], with the length of the loop each symbol acts on (the
+/// contexts of version 5's symbols, which its encoder needs).
+pub(crate) fn decode_with_lengths(code: &Connectivity) -> Result<(Decoded, Vec<u32>), CodingError> {
+    decode_listed(code, true)
+}
+
+fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<u32>), CodingError> {
     let symbols = &code.symbols;
     if code.triangle_count > MAX_TRIANGLES || code.vertex_count > code.triangle_count.saturating_mul(3) {
         return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
@@ -674,17 +691,7 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     let mut depth = 0u32;
     let mut splits = 0usize;
     let mut merges = 0usize;
-    let dummy_starts = code.dummy_starts as usize;
-    let mut implied = Vec::with_capacity(dummy_starts.min(symbols.len()));
-    if dummy_starts > 0 && !symbols.is_empty() {
-        implied.push(0);
-    }
     let mut new_vertices = 0u32;
-    // Dummies brought by a D.
-    let mut marked = Vec::new();
-    // The vertices components have started with so far, the current one's too.
-    let start_size = |k: usize| code.start_loops.get(k).map_or(3, |&n| n as u64);
-    let mut started = start_size(0);
     for (i, &s) in symbols.iter().enumerate() {
         // C, L and R, most symbols, only count new vertices (no branch on which).
         if s <= R {
@@ -696,18 +703,8 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                 depth += 1;
                 splits += 1;
             }
-            D => {
-                marked.push((started + new_vertices as u64).min(NONE as u64) as u32);
-                new_vertices += 1;
-            }
-            E if depth == 0 => {
-                ends.push(i);
-                // The next component's first vertex (a dummy for the first `dummy_starts`).
-                if implied.len() < dummy_starts && i + 1 < symbols.len() {
-                    implied.push(new_vertices + 3 * ends.len() as u32);
-                }
-                started += start_size(ends.len());
-            }
+            D => new_vertices += 1,
+            E if depth == 0 => ends.push(i),
             E => depth -= 1,
             M => {
                 let Some(m) = code.merges.get(merges) else { return corrupt("more M symbols than merge records") };
@@ -796,64 +793,159 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
         end = begin;
     }
 
-    // Forwards: rebuild.
-    if implied.len() != code.dummy_starts as usize {
+    if !code.split_lengths.is_empty() && !code.split_lengths.iter().eq(right_lens.iter().rev()) {
+        return corrupt("the split lengths given are not the symbols'");
+    }
+
+    if code.dummy_starts as usize > ends.len() {
         return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
     }
+    // Forwards: rebuild, popping the right loops' lengths.
+    let mut listed = Listed { code, at: 0, component: 0, right_lens, merges: 0, lengths: record.then(|| Vec::with_capacity(symbols.len())) };
+    let (mut out, mut dummies) = rebuild(&mut listed, symbols.len(), code.triangle_count, code.vertex_count, code.dummy_starts)?;
     // A dummy in two lists is refused as a repeat.
-    let mut dummies = implied;
-    dummies.extend_from_slice(&marked);
     dummies.extend_from_slice(&code.dummies);
     dummies.sort_unstable();
-    let (keep, kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
-    let mut out = Decoded { triangles: Vec::with_capacity(code.triangle_count as usize), predictors: Vec::with_capacity(code.vertex_count as usize), keep, kept_vertices };
+    (out.keep, out.kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
+    Ok((out, listed.lengths.unwrap_or_default()))
+}
+
+/// One symbol of the walk with what comes with it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Step {
+    pub symbol: u8,
+    /// For an S: the length of its right loop (walked first).
+    pub split: u32,
+    /// For an M: its record.
+    pub merge: Merge,
+}
+
+/// Where [`rebuild`] reads the walk: a [`Connectivity`]'s lists, or a
+/// stream read as it goes (version 5 files, whose symbols' contexts depend
+/// on the loop being walked).
+pub(crate) trait Walk {
+    /// A component starts: its start loop's length, or None (it starts from a triangle).
+    fn start(&mut self) -> Result<Option<u32>, CodingError>;
+    /// The next symbol, the current loop being `length` vertices long.
+    fn step(&mut self, length: u32) -> Result<Step, CodingError>;
+}
+
+/// A [`Connectivity`]'s lists, checked beforehand, as a [`Walk`].
+struct Listed<'a> {
+    code: &'a Connectivity,
+    at: usize,
+    component: usize,
+    /// Last S first.
+    right_lens: Vec<u32>,
+    merges: usize,
+    /// When asked for: per symbol, the length of the loop it acts on.
+    lengths: Option<Vec<u32>>,
+}
+
+impl Walk for Listed<'_> {
+    fn start(&mut self) -> Result<Option<u32>, CodingError> {
+        self.component += 1;
+        Ok(self.code.start_loops.get(self.component - 1).copied())
+    }
+    #[inline(always)]
+    fn step(&mut self, length: u32) -> Result<Step, CodingError> {
+        if let Some(lengths) = &mut self.lengths {
+            lengths.push(length);
+        }
+        let symbol = self.code.symbols[self.at];
+        self.at += 1;
+        let mut step = Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
+        match symbol {
+            S => step.split = self.right_lens.pop().ok_or_else(|| CodingError::Corrupt("an S without its loop length".into()))?,
+            M => {
+                step.merge = *self.code.merges.get(self.merges).ok_or_else(|| CodingError::Corrupt("more M symbols than merge records".into()))?;
+                self.merges += 1;
+            }
+            _ => {}
+        }
+        Ok(step)
+    }
+}
+
+/// Rebuilds the triangles and per-vertex predictors from `walk`: `symbols`
+/// symbols, for the `triangle_count` triangles and `vertex_count` vertices
+/// declared (the first vertex of each of the first `dummy_starts`
+/// components is a dummy: version 3). Every step is checked against the
+/// loop it acts on, so that a walk read as it goes (not checked before)
+/// gives an error, never a broken loop. Returns the mesh (its `keep` left
+/// empty) and the dummies met, ascending.
+pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32, vertex_count: u32, dummy_starts: u32) -> Result<(Decoded, Vec<u32>), CodingError> {
+    if triangle_count > MAX_TRIANGLES || vertex_count > triangle_count.saturating_mul(3) || symbols > triangle_count as usize {
+        return corrupt(format!("{triangle_count} triangles, {vertex_count} vertices, {symbols} symbols"));
+    }
+    let mut out = Decoded { triangles: Vec::with_capacity(triangle_count as usize), predictors: Vec::with_capacity(vertex_count as usize), keep: Vec::new(), kept_vertices: 0 };
+    let mut dummies = Vec::new();
     let mut loops = Loops::default();
     // A node a vertex, and one more for each S's and M's tip.
-    loops.nodes.reserve(code.vertex_count as usize + splits + merges);
+    loops.nodes.reserve(vertex_count as usize + symbols / 8);
     let mut waiting: Vec<(u32, u32)> = Vec::new(); // (gate node, length)
-    let mut i = 0usize;
-    let mut merge_index = 0usize;
-    // Three vertices a component and one a C, as declared (checked above).
-    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> u32 {
+    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> Result<u32, CodingError> {
+        if out.predictors.len() as u32 >= vertex_count {
+            return corrupt(format!("more than the {vertex_count} vertices declared"));
+        }
         out.predictors.push(predictor);
-        out.predictors.len() as u32 - 1
+        Ok(out.predictors.len() as u32 - 1)
     };
     let (mut ring, mut facing) = (Vec::new(), Vec::new());
-    for (k, &last) in ends.iter().enumerate() {
-        let (mut gate, mut len) = if let Some(&len) = code.start_loops.get(k) {
+    let (mut read, mut component) = (0usize, 0u32);
+    while read < symbols {
+        let (mut gate, mut len) = if let Some(len) = walk.start()? {
             // A boundary loop, each vertex predicted by the one before (on
             // the Crytek Sponza's base, extending the edge before it cost
             // 1.6 % more position bytes); its edges face the dummy, which is
             // not decoded.
+            if len < 3 || len as usize > (vertex_count as usize).saturating_sub(out.predictors.len()) {
+                return corrupt(format!("a start loop of {len} vertices"));
+            }
             ring.clear();
             let mut previous = NONE;
             for _ in 0..len {
-                previous = new_vertex(&mut out, [previous, NONE, NONE]);
+                previous = new_vertex(&mut out, [previous, NONE, NONE])?;
                 ring.push(previous);
             }
             facing.clear();
             facing.resize(len as usize, NONE);
             (loops.ring(&ring, &facing, 0), len)
         } else {
-            let v0 = new_vertex(&mut out, [NONE; 3]);
-            let v1 = new_vertex(&mut out, [v0, NONE, NONE]);
-            let v2 = new_vertex(&mut out, [v0, v1, NONE]);
+            let v0 = new_vertex(&mut out, [NONE; 3])?;
+            let v1 = new_vertex(&mut out, [v0, NONE, NONE])?;
+            let v2 = new_vertex(&mut out, [v0, v1, NONE])?;
+            if component < dummy_starts {
+                dummies.push(v0);
+            }
             out.triangles.push([v0, v1, v2]);
             (loops.ring(&[v0, v1, v2], &[v2, v0, v1], 0), 3)
         };
-        while i <= last {
-            let s = symbols[i];
+        component += 1;
+        loop {
+            if read == symbols {
+                return corrupt("symbols end inside a component");
+            }
+            if out.triangles.len() as u32 >= triangle_count {
+                return corrupt(format!("more than the {triangle_count} triangles declared"));
+            }
+            let Step { symbol: s, split, merge: m } = walk.step(len)?;
+            read += 1;
             let a = gate;
             let b = loops.next(a);
             let (va, vb) = (loops.vertex(a), loops.vertex(b));
             let w = match s {
                 C | D => {
-                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing]);
+                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing])?;
+                    if s == D {
+                        dummies.push(w);
+                    }
                     loops.nodes[a as usize].facing = vb;
                     gate = loops.add(w, a, b, va, 0);
                     len += 1;
                     w
                 }
+                L | R if len < 3 => return corrupt(format!("an {} on a loop of {len} at symbol {}", if s == L { 'L' } else { 'R' }, read - 1)),
                 L => {
                     let p = loops.prev(a);
                     loops.link(p, b);
@@ -870,17 +962,22 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                     len -= 1;
                     loops.vertex(q)
                 }
+                E if len != 3 => return corrupt(format!("an E on a loop of {len} at symbol {}", read - 1)),
                 E => {
                     let w = loops.vertex(loops.prev(a));
-                    if let Some((g, l)) = waiting.pop() {
-                        gate = g;
-                        len = l;
+                    out.triangles.push([vb, va, w]);
+                    match waiting.pop() {
+                        Some((g, l)) => {
+                            gate = g;
+                            len = l;
+                            continue;
+                        }
+                        None => break,
                     }
-                    w
                 }
                 S => {
-                    let Some(l1) = right_lens.pop() else { return corrupt(format!("S at symbol {i} has no loop length")) };
-                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2) else { return corrupt(format!("S at symbol {i} splits a loop of {len}")) };
+                    let l1 = split;
+                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2 && l1 >= 2) else { return corrupt(format!("S at symbol {} splits a loop of {len} at {l1}", read - 1)) };
                     let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
                     loops.splice(a, nw, vb, va);
                     waiting.push((a, l2));
@@ -888,12 +985,11 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                     len = l1;
                     loops.vertex(nw)
                 }
-                _ => {
-                    let m = code.merges[merge_index];
-                    merge_index += 1;
-                    let (g, length) = waiting.remove(waiting.len() - 1 - m.depth as usize);
-                    if length != m.length {
-                        return corrupt(format!("merge {} names a loop of {} that has {length}", merge_index - 1, m.length));
+                M => {
+                    let Some(at) = (waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else { return corrupt(format!("merge with loop {} of {} waiting", m.depth, waiting.len())) };
+                    let (g, length) = waiting.remove(at as usize);
+                    if length != m.length || m.offset >= length {
+                        return corrupt(format!("a merge names a loop of {} at {} that has {length}", m.length, m.offset));
                     }
                     let nw = loops.walk(g, m.offset, true);
                     loops.splice(a, nw, vb, va);
@@ -901,13 +997,15 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
                     len += length + 1;
                     loops.vertex(nw)
                 }
+                _ => return corrupt(format!("symbol {s}")),
             };
             out.triangles.push([vb, va, w]);
-            i += 1;
         }
     }
-    debug_assert_eq!(out.predictors.len() as u32, code.vertex_count);
-    Ok(out)
+    if out.triangles.len() as u32 != triangle_count || out.predictors.len() as u32 != vertex_count {
+        return corrupt(format!("{} triangles and {} vertices decoded, {triangle_count} and {vertex_count} declared", out.triangles.len(), out.predictors.len()));
+    }
+    Ok((out, dummies))
 }
 
 impl Decoded {

@@ -7,19 +7,23 @@
 //! arrives by a C across the gate `a -> b` of the triangle `(a, b, o)` is
 //! predicted at `a + b - o`. Colours (optional, RGB8 per vertex) use the same
 //! predictors. Residuals and CLERS symbols are entropy coded (rANS: coded by
-//! the `constriction` crate, decoded by [`Source`], by table lookups with no
-//! division) with static models stored in the file: CLERS conditioned on the
-//! previous symbol, residuals as an Elias-gamma bucket (their bit length,
-//! modelled) followed by raw bits. A CRC-32 closes the file.
+//! the `constriction` crate, decoded by [`Source`] with no division).
+//! Residuals use static models stored in the file, as an Elias-gamma bucket
+//! (their bit length, modelled) followed by raw bits. Connectivity uses
+//! adaptive models ([`Adaptive`]), too few symbols on a coarse level to pay
+//! for tables: CLERS in the context of the previous symbol and of the
+//! current loop's length ([`Walk`]), the records' numbers as buckets. A
+//! CRC-32 closes the file.
 //!
-//! Layout (all integers LEB128 unless said): magic `EMMC`, version byte,
+//! Layout (all integers LEB128 unless said; `format/SCHEMA.md` has it
+//! whole): magic `EMMC`, version byte,
 //! counts, box (6 × f32 LE), then length-prefixed sections: connectivity,
 //! positions, groups (runs in decoded order: length − 1 as a value, then the
 //! group in raw bits; empty with one group), colours; then the CRC-32 (u32
 //! LE) of all that precedes.
 
 use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order};
-use constriction::stream::model::SmallContiguousCategoricalEntropyModel;
+use constriction::stream::model::{EncoderModel, EntropyModel, SmallContiguousCategoricalEntropyModel};
 use constriction::stream::stack::DefaultAnsCoder;
 use constriction::stream::Encode;
 use std::ops::RangeInclusive;
@@ -31,8 +35,11 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// many bits); version 4 starts components with a boundary from a loop, the
 /// count of such components in the place of version 3's dummy starts and
 /// their lengths (less three, as values) after the symbols, and marks the
-/// other dummies by a seventh symbol, D, in place of their list.
-const VERSION: u8 = 4;
+/// other dummies by a seventh symbol, D, in place of their list; version 5
+/// codes connectivity under adaptive models (no tables), each symbol in the
+/// context of the current loop's length, with each S's split after it, and
+/// is decoded as the mesh is rebuilt ([`edgebreaker::rebuild`]).
+const VERSION: u8 = 5;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset: a
 /// decoding table of 4,096 entries a model).
@@ -91,7 +98,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     }
     let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
     // The decoder's own pass gives the prediction structure.
-    let decoded = edgebreaker::decode(&code)?;
+    let (decoded, lengths) = edgebreaker::decode_with_lengths(&code)?;
 
     let (lo, hi) = match order.vertices.first() {
         None => ([0.0; 3], [0.0; 3]),
@@ -109,7 +116,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, 0, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, copy_models(code.copies.len() as u32) as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -117,31 +124,11 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     }
     let mut sizes = Sizes { header: out.bytes.len(), ..Sizes::default() };
 
-    // Connectivity.
-    let mut sink = Sink::new(SYMBOL_MODELS);
-    let mut context = 0;
-    for &s in &code.symbols {
-        sink.symbol(context, s as usize);
-        context = s as usize;
-    }
-    for &k in &code.start_loops {
-        sink.value(SYMBOL_MODELS - 1, k - 3);
-    }
-    for m in &code.merges {
-        for x in [m.depth, m.offset, m.length] {
-            sink.value(SYMBOL_MODELS - 1, x);
-        }
-    }
-    // Dummies come by their D: version 4 lists none (the count stays in the
-    // header for the readers of versions 1 to 3).
+    // Connectivity, in the order the decoder reads it (see `Stream`).
+    // Dummies come by their D: versions 4 and 5 list none (the count stays
+    // in the header for the readers of versions 1 to 3).
     debug_assert!(code.dummies.is_empty());
-    let mut last = 0;
-    for &[copy, original] in &code.copies {
-        sink.value(SYMBOL_MODELS - 1, copy - last);
-        sink.value(SYMBOL_MODELS - 1, copy - original);
-        last = copy;
-    }
-    sizes.connectivity = out.section(sink);
+    sizes.connectivity = out.section(connectivity_sink(&code, &lengths));
 
     // Positions, then colours, in decoded order, predicted alike.
     let mut sink = Sink::new(3);
@@ -197,47 +184,26 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     }
     let grid = Grid::new(lo, hi, bits);
 
-    // Versions before 4 have no D, so a model fewer.
-    let symbols = if version >= 4 { edgebreaker::SYMBOLS } else { edgebreaker::D as usize };
-    let mut source = Source::new(&mut input, symbols + 1)?;
     let mut code = Connectivity { triangle_count, vertex_count, dummy_starts, ..Connectivity::default() };
-    code.symbols.reserve(symbol_count as usize);
-    let mut context = 0;
-    for _ in 0..symbol_count {
-        let s = source.symbol(context);
-        if s >= symbols {
-            return Err(corrupt("symbol out of range"));
-        }
-        code.symbols.push(s as u8);
-        context = s;
-    }
-    let values = symbols;
     // Room for the records up front (a few per cent of a small mesh's time),
     // no more than the file's bytes could hold whatever counts it claims.
     let room = |n: u32| (n as usize).min(body.len());
+    code.symbols.reserve(symbol_count as usize);
     code.start_loops.reserve(room(loop_count));
     code.merges.reserve(room(merge_count));
     code.dummies.reserve(room(dummy_count));
     code.copies.reserve(room(copy_count));
-    for _ in 0..loop_count {
-        let k = source.value(values)?.checked_add(3).ok_or_else(|| corrupt("start loop length"))?;
-        code.start_loops.push(k);
-    }
-    for _ in 0..merge_count {
-        code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
-    }
-    let mut last = 0u32;
-    for _ in 0..dummy_count {
-        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("dummy index"))?;
-        code.dummies.push(last);
-    }
-    let mut last = 0u32;
-    for _ in 0..copy_count {
-        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("copy index"))?;
-        let original = last.checked_sub(source.value(values)?).ok_or_else(|| corrupt("copy original"))?;
-        code.copies.push([last, original]);
-    }
-    let mut decoded = edgebreaker::decode(&code)?;
+    let mut decoded = if version >= 5 {
+        // Version 5 has, in the place of the dummies' count, the number of
+        // static models of the copies.
+        if dummy_count != copy_models(copy_count) as u32 {
+            return Err(corrupt("copy models"));
+        }
+        read_connectivity(&mut input, symbol_count, triangle_count, vertex_count, loop_count, merge_count, copy_count)?
+    } else {
+        read_static_connectivity(&mut input, &mut code, version, symbol_count, loop_count, merge_count, dummy_count, copy_count)?;
+        edgebreaker::decode(&code)?
+    };
     let triangles = decoded.resolve();
     let mut source = Source::new(&mut input, 3)?;
     let quantized = decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
@@ -289,9 +255,223 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     Ok(MeshData { positions, triangles, groups, colours })
 }
 
-/// Models in the connectivity section: one per previous symbol, then one for
-/// the records' numbers.
-const SYMBOL_MODELS: usize = edgebreaker::SYMBOLS + 1;
+/// How many static models the copies have: none (adaptive ones) under 64
+/// copies, else 3 (gaps, distances, changes of distance in a run). Static
+/// models cost 35-50 bytes of tables on every level tried, but decode in a
+/// third of the time: on the Dabrovic Sponza's 664-triangle level, 341
+/// copies under adaptive models took 11 µs of its 38.
+fn copy_models(copies: u32) -> usize {
+    if copies < 64 { 0 } else { 3 }
+}
+
+/// Version 5's connectivity section (see [`read_connectivity`]).
+fn connectivity_sink(code: &Connectivity, lengths: &[u32]) -> Sink {
+    let fixed = copy_models(code.copies.len() as u32);
+    let mut sink = Sink::new(fixed);
+    let mut models = ConnectivityModels::default();
+    let (mut loops, mut splits, mut merges) = (code.start_loops.iter(), code.split_lengths.iter(), code.merges.iter());
+    // Components end at an E with no loop waiting.
+    let (mut waiting, mut previous, mut starting) = (0u32, None, true);
+    for (&s, &length) in code.symbols.iter().zip(lengths) {
+        if starting {
+            if let Some(&k) = loops.next() {
+                sink.adaptive_value(&mut models.start, k - 3);
+            }
+        }
+        starting = s == edgebreaker::E && waiting == 0;
+        sink.adaptive(&mut models.symbols[context(previous, length)], s as usize);
+        match s {
+            edgebreaker::S => {
+                sink.adaptive_value(&mut models.split, splits.next().expect("a length per S") - 2);
+                waiting += 1;
+            }
+            edgebreaker::M => {
+                let m = merges.next().expect("a record per M");
+                for (model, x) in models.merge.iter_mut().zip([m.depth, m.offset, m.length]) {
+                    sink.adaptive_value(model, x);
+                }
+                waiting -= 1;
+            }
+            edgebreaker::E if waiting > 0 => waiting -= 1,
+            _ => {}
+        }
+        previous = Some(s);
+    }
+    let (mut last, mut distance) = (0, 0);
+    for &[copy, original] in &code.copies {
+        let gap = copy - last;
+        let run = gap == 1;
+        let coded = if run { zigzag((copy - original) as i64 - distance as i64) } else { copy - original };
+        if fixed == 0 {
+            sink.adaptive_value(&mut models.copy_gap, gap);
+            sink.adaptive_value(&mut models.copy_distance[usize::from(run)], coded);
+        } else {
+            sink.value(0, gap);
+            sink.value(1 + usize::from(run), coded);
+        }
+        (last, distance) = (copy, copy - original);
+    }
+    sink
+}
+
+/// The connectivity section of version 5, read as the mesh is rebuilt:
+/// per component, its start loop's length less three (when it has one),
+/// then its symbols, each S followed by its right loop's length less two
+/// and each M by its record; then the copies (index gaps and distances to
+/// their originals). All under adaptive models (static ones for the
+/// copies were 35-50 bytes larger on every level tried: their tables).
+fn read_connectivity(input: &mut Reader, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
+    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+    let fixed = copy_models(copy_count);
+    let mut stream = Stream { source: Source::new(input, fixed)?, models: ConnectivityModels::default(), previous: None, loops: loop_count, merges: merge_count };
+    let (mut decoded, dummies) = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
+    if stream.loops != 0 {
+        return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", loop_count - stream.loops)));
+    }
+    if stream.merges != 0 {
+        return Err(CodingError::Corrupt(format!("{merge_count} merge records, {} M symbols", merge_count - stream.merges)));
+    }
+    let Stream { mut source, mut models, .. } = stream;
+    let mut copies = Vec::with_capacity((copy_count as usize).min(input.bytes.len()));
+    let (mut last, mut distance) = (0u32, 0u32);
+    for _ in 0..copy_count {
+        let gap = if fixed == 0 { source.adaptive_value(&mut models.copy_gap)? } else { source.value(0)? };
+        last = last.checked_add(gap).ok_or_else(|| corrupt("copy index"))?;
+        let run = gap == 1;
+        let coded = if fixed == 0 { source.adaptive_value(&mut models.copy_distance[usize::from(run)])? } else { source.value(1 + usize::from(run))? };
+        let d = if run { u32::try_from(distance as i64 + unzigzag(coded)).ok() } else { Some(coded) };
+        distance = d.ok_or_else(|| corrupt("copy distance"))?;
+        let original = last.checked_sub(distance).ok_or_else(|| corrupt("copy original"))?;
+        copies.push([last, original]);
+    }
+    (decoded.keep, decoded.kept_vertices) = edgebreaker::keep_vertices(vertex_count, &dummies, &copies)?;
+    Ok(decoded)
+}
+
+/// Version 5's connectivity as [`edgebreaker::rebuild`] walks it.
+struct Stream<'a> {
+    source: Source<'a>,
+    models: ConnectivityModels,
+    previous: Option<u8>,
+    /// Start loops and merge records declared and not yet read.
+    loops: u32,
+    merges: u32,
+}
+
+impl edgebreaker::Walk for Stream<'_> {
+    fn start(&mut self) -> Result<Option<u32>, CodingError> {
+        if self.loops == 0 {
+            return Ok(None);
+        }
+        self.loops -= 1;
+        let k = self.source.adaptive_value(&mut self.models.start)?;
+        k.checked_add(3).map(Some).ok_or_else(|| CodingError::Corrupt("start loop length".into()))
+    }
+    #[inline(always)]
+    fn step(&mut self, length: u32) -> Result<edgebreaker::Step, CodingError> {
+        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, length)]) as u8;
+        self.previous = Some(symbol);
+        let mut step = edgebreaker::Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
+        match symbol {
+            edgebreaker::S => step.split = self.source.adaptive_value(&mut self.models.split)?.saturating_add(2),
+            edgebreaker::M => {
+                if self.merges == 0 {
+                    return Err(CodingError::Corrupt("more M symbols than merge records".into()));
+                }
+                self.merges -= 1;
+                let [depth, offset, length] = [0, 1, 2].map(|i| self.source.adaptive_value(&mut self.models.merge[i]));
+                step.merge = Merge { depth: depth?, offset: offset?, length: length? };
+            }
+            _ => {}
+        }
+        Ok(step)
+    }
+}
+
+/// The connectivity section of versions 1 to 4: the symbols under static
+/// models, one per previous symbol, then the records' numbers under one more.
+#[allow(clippy::too_many_arguments)]
+fn read_static_connectivity(input: &mut Reader, code: &mut Connectivity, version: u8, symbol_count: u32, loop_count: u32, merge_count: u32, dummy_count: u32, copy_count: u32) -> Result<(), CodingError> {
+    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+    // Versions before 4 have no D, so a model fewer.
+    let symbols = if version >= 4 { edgebreaker::SYMBOLS } else { edgebreaker::D as usize };
+    let mut source = Source::new(input, symbols + 1)?;
+    let mut context = 0;
+    for _ in 0..symbol_count {
+        let s = source.symbol(context);
+        if s >= symbols {
+            return Err(corrupt("symbol out of range"));
+        }
+        code.symbols.push(s as u8);
+        context = s;
+    }
+    let values = symbols;
+    for _ in 0..loop_count {
+        let k = source.value(values)?.checked_add(3).ok_or_else(|| corrupt("start loop length"))?;
+        code.start_loops.push(k);
+    }
+    for _ in 0..merge_count {
+        code.merges.push(Merge { depth: source.value(values)?, offset: source.value(values)?, length: source.value(values)? });
+    }
+    let mut last = 0u32;
+    for _ in 0..dummy_count {
+        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("dummy index"))?;
+        code.dummies.push(last);
+    }
+    let mut last = 0u32;
+    for _ in 0..copy_count {
+        last = last.checked_add(source.value(values)?).ok_or_else(|| corrupt("copy index"))?;
+        let original = last.checked_sub(source.value(values)?).ok_or_else(|| corrupt("copy original"))?;
+        code.copies.push([last, original]);
+    }
+    Ok(())
+}
+
+/// The adaptive models of version 5's connectivity.
+struct ConnectivityModels {
+    /// Per [`context`]; eight symbols, the last never
+    /// coded, for eight 16-bit lanes.
+    symbols: [Adaptive<{ edgebreaker::SYMBOLS + 1 }>; CONTEXTS],
+    start: Adaptive<BUCKETS>,
+    split: Adaptive<BUCKETS>,
+    merge: [Adaptive<BUCKETS>; 3],
+    copy_gap: Adaptive<BUCKETS>,
+    /// The distance from a copy to its original; for a copy right after
+    /// another, the change from that one's distance (zigzag), which a run of
+    /// copies along a seam (two sheets cut apart at a non-manifold edge)
+    /// keeps at zero: 29 % fewer bytes of copies on the Dabrovic Sponza's
+    /// base.
+    copy_distance: [Adaptive<BUCKETS>; 2],
+}
+
+impl Default for ConnectivityModels {
+    fn default() -> Self {
+        ConnectivityModels {
+            // Only a loop of three closes with an E.
+            symbols: std::array::from_fn(|c| if c % 3 == 0 { Adaptive::default() } else { Adaptive::with_rare(edgebreaker::E as usize) }),
+            start: Adaptive::default(),
+            split: Adaptive::default(),
+            merge: Default::default(),
+            copy_gap: Adaptive::default(),
+            copy_distance: Default::default(),
+        }
+    }
+}
+
+/// Symbol contexts (see [`context`]).
+const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3;
+
+/// A symbol's context: the symbol before it (or none) and the length of
+/// the loop it acts on (3 or less, 4, more). Only a loop of three can end
+/// with an E, and only a C or D can follow on a shorter one; knowing the
+/// length took the Crytek Sponza base's symbols from 576 to 466 bytes. The
+/// decoder knows every length forwards only if each S's split is coded (26
+/// bytes there), as version 5 does.
+#[inline(always)]
+fn context(previous: Option<u8>, length: u32) -> usize {
+    let previous = previous.map_or(edgebreaker::SYMBOLS, usize::from);
+    (previous & 7) * 3 + (length.clamp(3, 5) - 3) as usize
+}
 
 /// The decoded vertices whose values are coded, in decoded order, with
 /// their kept index: neither dummies nor copies (a copy's kept index is its
@@ -428,8 +608,12 @@ impl Writer {
         let models: Vec<_> = tables.iter().map(|t| SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(t, false).expect("probabilities sum to one")).collect();
         // ANS is a stack: symbols go in backwards so they come out forwards.
         let mut coder = DefaultAnsCoder::new();
-        for &(model, symbol) in sink.symbols.iter().rev() {
-            coder.encode_symbol(symbol as usize, &models[model as usize]).expect("symbol has a nonzero probability");
+        for &coded in sink.symbols.iter().rev() {
+            match coded {
+                Coded::Static { model, symbol } => coder.encode_symbol(symbol as usize, &models[model as usize]),
+                Coded::Adaptive { low, size } => coder.encode_symbol((), Span { low, size }),
+            }
+            .expect("symbol has a nonzero probability");
         }
         let words = coder.into_compressed().unwrap_or_default();
         self.varint(words.len() as u64);
@@ -445,6 +629,104 @@ impl Writer {
     }
 }
 
+/// Adaptive models' probabilities are 15-bit fixed point.
+const ADAPTIVE_BITS: u32 = 15;
+/// Symbols of an adaptive bucket model: a number's bit length, 0 to 14,
+/// or 15 for 15 and more (the excess then in 5 raw bits). Sixteen lanes of
+/// 16 bits: the model's search and update are a few vector instructions.
+pub(crate) const BUCKETS: usize = 16;
+const LONG: u32 = BUCKETS as u32 - 1;
+
+/// A model that learns as it codes, kept as its cumulative distribution
+/// (AV1's adaptive CDFs): after each symbol every boundary below it moves a
+/// 2^-rate share of the way to 0 and every one above it the same share of
+/// the way to the top, so the symbol gains what the others lose. The rate
+/// starts at 3 (a model whose first symbols are its only evidence follows
+/// them fast) and slows to 5 after 32 symbols, AV1's schedule three steps
+/// faster. Each symbol has one quantile of the 2^15 besides its share, so
+/// none is ever impossible. With static tables instead (versions 1 to 4) a
+/// coarse level paid for them: 70 to 90 bytes of the Crytek Sponza base's
+/// connectivity; adaptive models also follow runs (a row of small parts of
+/// one shape). Finding a symbol is a count of the boundaries at or below
+/// the quantile, with no branch.
+#[derive(Clone, Copy)]
+pub(crate) struct Adaptive<const K: usize> {
+    /// Per symbol, the share of symbols up to it, of 2^15 − K; the last is
+    /// always 2^15 − K.
+    bound: [u16; K],
+    seen: u8,
+}
+
+/// The quantiles adaptive models share out, besides one a symbol.
+const fn shared(k: usize) -> u32 {
+    (1 << ADAPTIVE_BITS) - k as u32
+}
+
+impl<const K: usize> Default for Adaptive<K> {
+    fn default() -> Self {
+        Adaptive { bound: std::array::from_fn(|i| ((i as u32 + 1) * shared(K) / K as u32) as u16), seen: 0 }
+    }
+}
+
+impl<const K: usize> Adaptive<K> {
+    /// A model that starts with `rare` at no share (a symbol the context all
+    /// but rules out), the others equal.
+    fn with_rare(rare: usize) -> Self {
+        let share = |i: usize| (i as u32 + 1 - u32::from(i >= rare)) * shared(K) / (K as u32 - 1);
+        Adaptive { bound: std::array::from_fn(|i| share(i) as u16), seen: 0 }
+    }
+    /// Where `symbol` lies among the quantiles: (start, size).
+    #[inline(always)]
+    fn span(&self, symbol: usize) -> (u16, u16) {
+        let low = if symbol == 0 { 0 } else { self.bound[symbol - 1] + symbol as u16 };
+        (low, self.bound[symbol] + symbol as u16 + 1 - low)
+    }
+    /// The symbol at `quantile`, with its span. (Lane by lane in 16 bits, which
+    /// the compiler turns into vector instructions.)
+    #[inline(always)]
+    fn find(&self, quantile: u32) -> (usize, u16, u16) {
+        // (bound + i + 1 <= q, in signed 16 bits: both sides below 2^15.)
+        // The bounds ascend, so the lanes below the quantile are a prefix:
+        // its length is the trailing ones of their mask (a bit scan).
+        let q = quantile as i16;
+        let mut below = 0u32;
+        for i in 0..K {
+            below |= u32::from((self.bound[i] as i16 + i as i16) < q) << i;
+        }
+        let symbol = ((!below).trailing_zeros() as usize).min(K - 1);
+        let (low, size) = self.span(symbol);
+        (symbol, low, size)
+    }
+    #[inline(always)]
+    fn learn(&mut self, symbol: usize) {
+        let rate = 3 + u32::from(self.seen > 15) + u32::from(self.seen > 31);
+        self.seen = self.seen.saturating_add(1);
+        // Differences fit in 16 bits: the bounds lie in 0..2^15.
+        for i in 0..K {
+            let b = self.bound[i] as i16;
+            let target = if i < symbol { 0 } else { shared(K) as i16 };
+            self.bound[i] = (b + ((target - b) >> rate)) as u16;
+        }
+    }
+}
+
+/// One adaptive symbol's span, as `constriction` encodes it.
+struct Span {
+    low: u16,
+    size: u16,
+}
+
+impl EntropyModel<{ ADAPTIVE_BITS as usize }> for Span {
+    type Symbol = ();
+    type Probability = u16;
+}
+
+impl EncoderModel<{ ADAPTIVE_BITS as usize }> for Span {
+    fn left_cumulative_and_probability(&self, _: impl std::borrow::Borrow<()>) -> Option<(u16, std::num::NonZeroU16)> {
+        Some((self.low, std::num::NonZeroU16::new(self.size)?))
+    }
+}
+
 /// 12-bit probabilities from counts, every symbol at least 1/4096.
 fn fixed_point(counts: &[u64]) -> Vec<u16> {
     let total: u64 = counts.iter().sum();
@@ -456,16 +738,27 @@ fn fixed_point(counts: &[u64]) -> Vec<u16> {
     p
 }
 
-/// Symbols and raw bits of a section, gathered before coding (models are
-/// built from their counts).
+/// One coded symbol of a section.
+#[derive(Clone, Copy)]
+enum Coded {
+    /// Symbol `symbol` of static model `model` (stored in the section).
+    Static { model: u8, symbol: u8 },
+    /// A symbol of an adaptive model, as its span of the 2^15 quantiles
+    /// where it was coded (the decoder follows the same adaptation).
+    Adaptive { low: u16, size: u16 },
+}
+
+/// Symbols and raw bits of a section, gathered before coding (static models
+/// are built from their counts).
 pub(crate) struct Sink {
     counts: Vec<Vec<u64>>,
-    symbols: Vec<(u8, u8)>,
+    symbols: Vec<Coded>,
     raw: Vec<u8>,
     raw_bits: usize,
 }
 
 impl Sink {
+    /// A section with `models` static models (none: adaptive models only).
     pub(crate) fn new(models: usize) -> Sink {
         Sink { counts: vec![Vec::new(); models], symbols: Vec::new(), raw: Vec::new(), raw_bits: 0 }
     }
@@ -475,7 +768,25 @@ impl Sink {
             counts.resize(symbol + 1, 0);
         }
         counts[symbol] += 1;
-        self.symbols.push((model as u8, symbol as u8));
+        self.symbols.push(Coded::Static { model: model as u8, symbol: symbol as u8 });
+    }
+    /// `symbol` under an adaptive model, which then learns it.
+    pub(crate) fn adaptive<const K: usize>(&mut self, model: &mut Adaptive<K>, symbol: usize) {
+        let (low, size) = model.span(symbol);
+        self.symbols.push(Coded::Adaptive { low, size });
+        model.learn(symbol);
+    }
+    /// A number as its bit length (under an adaptive model) and the bits
+    /// under the top one (raw).
+    pub(crate) fn adaptive_value(&mut self, model: &mut Adaptive<BUCKETS>, x: u32) {
+        let n = bit_length(x);
+        self.adaptive(model, n.min(LONG) as usize);
+        if n >= LONG {
+            self.raw(n - LONG, 5);
+        }
+        if n > 1 {
+            self.raw(x & !(1 << (n - 1)), n - 1);
+        }
     }
     pub(crate) fn raw(&mut self, value: u32, bits: u32) {
         for i in 0..bits {
@@ -651,13 +962,39 @@ impl<'a> Source<'a> {
             None => m.fill_table()[quantile],
         } as usize;
         let (low, size) = (m.cdf[symbol], m.size[symbol]);
-        self.state = (self.state >> PRECISION) * size as u64 + (quantile - low as usize) as u64;
+        self.advance(PRECISION, quantile as u32 - low as u32, size as u32);
+        symbol
+    }
+    /// The state after a symbol of `size` quantiles out of 2^`precision`,
+    /// `quantile - low` into it.
+    #[inline(always)]
+    fn advance(&mut self, precision: u32, into: u32, size: u32) {
+        self.state = (self.state >> precision) * size as u64 + into as u64;
         if self.state < 1 << 32 {
             if let Some(word) = self.pop() {
                 self.state = self.state << 32 | word as u64;
             }
         }
+    }
+    /// The next symbol of an adaptive model, which then learns it.
+    #[inline(always)]
+    pub(crate) fn adaptive<const K: usize>(&mut self, model: &mut Adaptive<K>) -> usize {
+        let quantile = (self.state & ((1 << ADAPTIVE_BITS) - 1)) as u32;
+        let (symbol, low, size) = model.find(quantile);
+        self.advance(ADAPTIVE_BITS, quantile - low as u32, size as u32);
+        model.learn(symbol);
         symbol
+    }
+    /// A number coded by [`Sink::adaptive_value`].
+    #[inline(always)]
+    pub(crate) fn adaptive_value(&mut self, model: &mut Adaptive<BUCKETS>) -> Result<u32, CodingError> {
+        let mut n = self.adaptive(model) as u32;
+        if n == LONG {
+            n += self.bits(5).ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))?;
+        }
+        let below = n.saturating_sub(1);
+        let low = (n <= 32).then(|| self.bits(below)).flatten().ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))?;
+        Ok(if n == 0 { 0 } else { 1 << below | low })
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
         (bits <= 32).then(|| self.bits(bits)).flatten().ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))
@@ -694,9 +1031,13 @@ impl<'a> Source<'a> {
     #[inline(always)]
     fn try_value(&mut self, model: usize) -> Option<u32> {
         let n = self.symbol(model) as u32;
+        // (A hostile table has bit lengths up to 63: refused before the shift.)
+        if n > 32 {
+            return None;
+        }
         let below = n.saturating_sub(1);
         let low = self.bits(below)?;
-        (n <= 32).then_some(if n == 0 { 0 } else { 1 << below | low })
+        Some(if n == 0 { 0 } else { 1 << below | low })
     }
 }
 
@@ -888,14 +1229,19 @@ mod tests {
         bad.extend_from_slice(&crc.to_le_bytes());
         assert!(matches!(decode(&bad), Err(CodingError::Corrupt(m)) if m.contains("start at a loop")), "{:?}", decode(&bad));
         // Version 1 (every dummy listed), version 2 (a group flag a
-        // triangle) and version 3 (components start at a dummy): the fuzzing
-        // seeds, written before the next version; and the version 4 seed; each
-        // re-encoded gives the same mesh.
+        // triangle), version 3 (components start at a dummy) and version 4
+        // (static models): the fuzzing seeds, written before the next
+        // version; and the version 5 seeds; each re-encoded gives the same
+        // mesh.
         let seeds = [
             (&include_bytes!("../../fuzz/seeds/proxy/0.emmc")[..], 1),
             (&include_bytes!("../../fuzz/seeds/proxy/1.emmc")[..], 2),
             (&include_bytes!("../../fuzz/seeds/proxy/2.emmc")[..], 3),
             (&include_bytes!("../../fuzz/seeds/proxy/3.emmc")[..], 4),
+            // Version 5: the version 4 seed re-encoded, and 80 bowties (80
+            // copies, so under static models).
+            (&include_bytes!("../../fuzz/seeds/proxy/4.emmc")[..], 5),
+            (&include_bytes!("../../fuzz/seeds/proxy/5.emmc")[..], 5),
         ];
         for (seed, version) in seeds {
             assert_eq!(seed[4], version);
@@ -922,11 +1268,30 @@ mod tests {
     /// recomputed. Errors or a mesh; never a panic.
     #[test]
     fn hostile_files_do_not_panic() {
-        let mesh = wavy_grid(5);
-        let bytes = encode(&mesh, 14).unwrap().bytes;
+        // A grid; the version 4 seed's mesh (open parts, start loops); 80
+        // bowties (copies under static models); each as version 5 writes it.
+        let seed = decode(include_bytes!("../../fuzz/seeds/proxy/3.emmc")).unwrap();
+        for (mesh, trials) in [(wavy_grid(5), 20000), (seed, 10000)] {
+            mutate(&encode(&mesh, 14).unwrap().bytes, trials);
+        }
+        mutate(include_bytes!("../../fuzz/seeds/proxy/5.emmc"), 10000);
+    }
+
+    /// Found by fuzzing past the checksum: a version 2 file whose model
+    /// gives a bit length over 32 overflowed the shift that rebuilds the
+    /// number (a panic with overflow checks on).
+    #[test]
+    fn a_value_over_32_bits_is_an_error_not_an_overflow() {
+        let bytes = include_bytes!("../../fuzz/regressions/proxy-value-over-32-bits");
+        assert!(decode(bytes).is_err());
+    }
+
+    /// Rewrites bytes of `bytes` (a coded mesh) and its CRC `trials` times;
+    /// decoding gives an error or a mesh, never a panic.
+    fn mutate(bytes: &[u8], trials: usize) {
         let body = bytes.len() - 4;
         let mut state = 12345u64;
-        for trial in 0..20000 {
+        for trial in 0..trials {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             let mut bad = bytes[..body].to_vec();
             let i = (state >> 33) as usize % body;
