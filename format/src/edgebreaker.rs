@@ -37,6 +37,13 @@
 //! So decoding gives back every triangle with its orientation, up to the order
 //! of vertices and triangles and the rotation of corners within a triangle.
 //! Vertices no triangle uses are not coded.
+//!
+//! Decoding is one forward walk, [`rebuild`], that takes each symbol from a
+//! [`Walk`] as it needs it: from a [`Connectivity`]'s lists ([`decode`],
+//! after checking that their loop lengths add up), or from a coded stream
+//! whose models see the loop each symbol acts on (`meshcode`'s version 5).
+//! Each step is checked against that loop, so a hostile stream gives an
+//! error, never a broken loop.
 
 use std::fmt;
 
