@@ -38,8 +38,8 @@
 //! of vertices and triangles and the rotation of corners within a triangle.
 //! Vertices no triangle uses are not coded.
 //!
-//! Decoding is one forward walk, [`rebuild`], that takes each symbol from a
-//! [`Walk`] as it needs it: from a [`Connectivity`]'s lists ([`decode`],
+//! Decoding is one forward walk, `rebuild`, that takes each symbol from a
+//! `Walk` as it needs it: from a [`Connectivity`]'s lists ([`decode`],
 //! after checking that their loop lengths add up), or from a coded stream
 //! whose models see the loop each symbol acts on (`meshcode`'s version 5).
 //! Each step is checked against that loop, so a hostile stream gives an

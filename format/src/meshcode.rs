@@ -7,12 +7,12 @@
 //! arrives by a C across the gate `a -> b` of the triangle `(a, b, o)` is
 //! predicted at `a + b - o`. Colours (optional, RGB8 per vertex) use the same
 //! predictors. Residuals and CLERS symbols are entropy coded (rANS: coded by
-//! the `constriction` crate, decoded by [`Source`] with no division).
+//! the `constriction` crate, decoded by `Source` with no division).
 //! Residuals use static models stored in the file, as an Elias-gamma bucket
 //! (their bit length, modelled) followed by raw bits. Connectivity uses
-//! adaptive models ([`Adaptive`]), too few symbols on a coarse level to pay
+//! adaptive models (`Adaptive`), too few symbols on a coarse level to pay
 //! for tables: CLERS in the context of the previous symbol and of the
-//! current loop's length ([`Walk`]), the records' numbers as buckets. A
+//! current loop's length (`Walk`), the records' numbers as buckets. A
 //! CRC-32 closes the file.
 //!
 //! Layout (all integers LEB128 unless said; `format/SCHEMA.md` has it
