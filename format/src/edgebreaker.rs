@@ -83,12 +83,6 @@ pub struct Connectivity {
     pub symbols: Vec<u8>,
     /// One per M, in order.
     pub merges: Vec<Merge>,
-    /// Per S, in order, the length of its right loop (walked first). The
-    /// symbols imply them (decoding sums loop lengths backwards), but only
-    /// once all are read: version 5 files code each after its S, so that the
-    /// symbols after it are read knowing the current loop's length. Empty
-    /// when not known; [`decode`] checks them when given.
-    pub split_lengths: Vec<u32>,
     /// Triangles and vertices decoded, dummies and copies included.
     pub triangle_count: u32,
     pub vertex_count: u32,
@@ -542,7 +536,6 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
                         };
                         let len = loop_len[current as usize];
                         let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
-                        out.split_lengths.push(l1);
                         let w2 = loops.splice(a, nw, next(c), prev(c));
                         attach(&mut loops, &mut head, w2);
                         let fresh = loop_len.len() as u32;
@@ -668,13 +661,23 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     decode_listed(code, false).map(|(decoded, _)| decoded)
 }
 
-/// [`decode`], with the length of the loop each symbol acts on (the
-/// contexts of version 5's symbols, which its encoder needs).
-pub(crate) fn decode_with_lengths(code: &Connectivity) -> Result<(Decoded, Vec<u32>), CodingError> {
+/// What the walk met at a symbol, as version 5's encoder codes it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Met {
+    /// The length of the loop the symbol acts on (its context).
+    pub length: u32,
+    /// For an S: the length of its right loop, which version 5 codes after it.
+    pub split: u32,
+    /// The symbol is its component's first.
+    pub starts: bool,
+}
+
+/// [`decode`], with what the walk met at each symbol.
+pub(crate) fn decode_walked(code: &Connectivity) -> Result<(Decoded, Vec<Met>), CodingError> {
     decode_listed(code, true)
 }
 
-fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<u32>), CodingError> {
+fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>), CodingError> {
     let symbols = &code.symbols;
     if code.triangle_count > MAX_TRIANGLES || code.vertex_count > code.triangle_count.saturating_mul(3) {
         return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
@@ -800,21 +803,17 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<u32>
         end = begin;
     }
 
-    if !code.split_lengths.is_empty() && !code.split_lengths.iter().eq(right_lens.iter().rev()) {
-        return corrupt("the split lengths given are not the symbols'");
-    }
-
     if code.dummy_starts as usize > ends.len() {
         return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
     }
     // Forwards: rebuild, popping the right loops' lengths.
-    let mut listed = Listed { code, at: 0, component: 0, right_lens, merges: 0, lengths: record.then(|| Vec::with_capacity(symbols.len())) };
+    let mut listed = Listed { code, at: 0, component: 0, right_lens, merges: 0, met: record.then(|| Vec::with_capacity(symbols.len())), starting: false };
     let (mut out, mut dummies) = rebuild(&mut listed, symbols.len(), code.triangle_count, code.vertex_count, code.dummy_starts)?;
     // A dummy in two lists is refused as a repeat.
     dummies.extend_from_slice(&code.dummies);
     dummies.sort_unstable();
     (out.keep, out.kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
-    Ok((out, listed.lengths.unwrap_or_default()))
+    Ok((out, listed.met.unwrap_or_default()))
 }
 
 /// One symbol of the walk with what comes with it.
@@ -845,20 +844,20 @@ struct Listed<'a> {
     /// Last S first.
     right_lens: Vec<u32>,
     merges: usize,
-    /// When asked for: per symbol, the length of the loop it acts on.
-    lengths: Option<Vec<u32>>,
+    /// When asked for: what the walk met at each symbol.
+    met: Option<Vec<Met>>,
+    /// A component has started and its first symbol is still to come.
+    starting: bool,
 }
 
 impl Walk for Listed<'_> {
     fn start(&mut self) -> Result<Option<u32>, CodingError> {
         self.component += 1;
+        self.starting = true;
         Ok(self.code.start_loops.get(self.component - 1).copied())
     }
     #[inline(always)]
     fn step(&mut self, length: u32) -> Result<Step, CodingError> {
-        if let Some(lengths) = &mut self.lengths {
-            lengths.push(length);
-        }
         let symbol = self.code.symbols[self.at];
         self.at += 1;
         let mut step = Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
@@ -869,6 +868,9 @@ impl Walk for Listed<'_> {
                 self.merges += 1;
             }
             _ => {}
+        }
+        if let Some(met) = &mut self.met {
+            met.push(Met { length, split: step.split, starts: std::mem::take(&mut self.starting) });
         }
         Ok(step)
     }

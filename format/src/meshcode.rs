@@ -98,7 +98,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     }
     let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
     // The decoder's own pass gives the prediction structure.
-    let (decoded, lengths) = edgebreaker::decode_with_lengths(&code)?;
+    let (decoded, met) = edgebreaker::decode_walked(&code)?;
 
     let (lo, hi) = match order.vertices.first() {
         None => ([0.0; 3], [0.0; 3]),
@@ -128,7 +128,7 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     // Dummies come by their D: versions 4 and 5 list none (the count stays
     // in the header for the readers of versions 1 to 3).
     debug_assert!(code.dummies.is_empty());
-    sizes.connectivity = out.section(connectivity_sink(&code, &lengths));
+    sizes.connectivity = out.section(connectivity_sink(&code, &met));
 
     // Positions, then colours, in decoded order, predicted alike.
     let mut sink = Sink::new(3);
@@ -265,34 +265,28 @@ fn copy_models(copies: u32) -> usize {
 }
 
 /// Version 5's connectivity section (see [`read_connectivity`]).
-fn connectivity_sink(code: &Connectivity, lengths: &[u32]) -> Sink {
+/// `met` is what the decoder's walk meets at each symbol.
+fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
     let fixed = copy_models(code.copies.len() as u32);
     let mut sink = Sink::new(fixed);
     let mut models = ConnectivityModels::default();
-    let (mut loops, mut splits, mut merges) = (code.start_loops.iter(), code.split_lengths.iter(), code.merges.iter());
-    // Components end at an E with no loop waiting.
-    let (mut waiting, mut previous, mut starting) = (0u32, None, true);
-    for (&s, &length) in code.symbols.iter().zip(lengths) {
-        if starting {
+    let (mut loops, mut merges) = (code.start_loops.iter(), code.merges.iter());
+    let mut previous = None;
+    for (&s, met) in code.symbols.iter().zip(met) {
+        if met.starts {
             if let Some(&k) = loops.next() {
                 sink.adaptive_value(&mut models.start, k - 3);
             }
         }
-        starting = s == edgebreaker::E && waiting == 0;
-        sink.adaptive(&mut models.symbols[context(previous, length)], s as usize);
+        sink.adaptive(&mut models.symbols[context(previous, met.length)], s as usize);
         match s {
-            edgebreaker::S => {
-                sink.adaptive_value(&mut models.split, splits.next().expect("a length per S") - 2);
-                waiting += 1;
-            }
+            edgebreaker::S => sink.adaptive_value(&mut models.split, met.split - 2),
             edgebreaker::M => {
                 let m = merges.next().expect("a record per M");
                 for (model, x) in models.merge.iter_mut().zip([m.depth, m.offset, m.length]) {
                     sink.adaptive_value(model, x);
                 }
-                waiting -= 1;
             }
-            edgebreaker::E if waiting > 0 => waiting -= 1,
             _ => {}
         }
         previous = Some(s);
@@ -318,8 +312,8 @@ fn connectivity_sink(code: &Connectivity, lengths: &[u32]) -> Sink {
 /// per component, its start loop's length less three (when it has one),
 /// then its symbols, each S followed by its right loop's length less two
 /// and each M by its record; then the copies (index gaps and distances to
-/// their originals). All under adaptive models (static ones for the
-/// copies were 35-50 bytes larger on every level tried: their tables).
+/// their originals), under adaptive models but for 64 copies or more (see
+/// [`copy_models`]).
 fn read_connectivity(input: &mut Reader, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let fixed = copy_models(copy_count);
