@@ -41,7 +41,7 @@
 //! Decoding is one forward walk, `rebuild`, that takes each symbol from a
 //! `Walk` as it needs it: from a [`Connectivity`]'s lists ([`decode`],
 //! after checking that their loop lengths add up), or from a coded stream
-//! whose models see the loop each symbol acts on (`meshcode`'s version 5).
+//! whose models see the loop each symbol acts on (`meshcode`'s versions 5 and 6).
 //! Each step is checked against that loop, so a hostile stream gives an
 //! error, never a broken loop.
 
@@ -661,12 +661,12 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
     decode_listed(code, false).map(|(decoded, _)| decoded)
 }
 
-/// What the walk met at a symbol, as version 5's encoder codes it.
+/// What the walk met at a symbol, as versions 5 and 6 code it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Met {
     /// The length of the loop the symbol acts on (its context).
     pub length: u32,
-    /// For an S: the length of its right loop, which version 5 codes after it.
+    /// For an S: the length of its right loop, which versions 5 and 6 code after it.
     pub split: u32,
     /// The symbol is its component's first.
     pub starts: bool,
@@ -827,7 +827,7 @@ pub(crate) struct Step {
 }
 
 /// Where [`rebuild`] reads the walk: a [`Connectivity`]'s lists, or a
-/// stream read as it goes (version 5 files, whose symbols' contexts depend
+/// stream read as it goes (version 5 and 6 files, whose symbols' contexts depend
 /// on the loop being walked).
 pub(crate) trait Walk {
     /// A component starts: its start loop's length, or None (it starts from a triangle).
