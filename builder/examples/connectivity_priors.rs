@@ -1,4 +1,4 @@
-//! Prints the coded mesh's symbol priors (`PRIORS` in format/src/meshcode.rs)
+//! Writes the coded mesh's symbol priors (`format/src/meshcode/priors.rs`)
 //! from training meshes: the 1 % and 10 % levels of six scenes, simplified
 //! as the proxy bench does. The Crytek Sponza, on which the bench judges
 //! connectivity, is left out. Run:
@@ -12,13 +12,27 @@ use exploremaps_format::meshcode;
 use exploremaps_scenes::BuiltIn;
 use std::path::Path;
 
-/// Contexts and symbols of the coded mesh's models (7 symbols and a padding one).
-const CONTEXTS: usize = 24;
+use exploremaps_format::meshcode::CONTEXTS;
+/// Symbols of the coded mesh's models (7 and a padding one).
 const K: usize = 8;
 /// Share of each prior spread evenly over the symbols.
 const FLOOR: f64 = 0.05;
 /// `Adaptive`'s total share: 2^15 less a quantile a symbol.
 const SHARED: f64 = ((1 << 15) - K) as f64;
+
+const HEADER: &str = "\
+//! Version 6's starting distribution of each symbol context (see `context`),
+//! as `Adaptive`'s bounds; None: uniform, as in version 5 (contexts no
+//! training mesh reached). Each is the mean over training meshes of each
+//! mesh's share of each symbol in the context, with 5 % spread evenly over
+//! the seven symbols so that none starts near impossible. Many contexts all
+//! but rule symbols out, which a uniform start pays to learn in each of 96
+//! contexts. Written by `cargo run --release -p exploremaps-builder
+//! --example connectivity_priors` from the 1 % and 10 % levels of six
+//! scenes; the Crytek Sponza, on which the proxy bench judges connectivity,
+//! is left out. Changing this table changes what version 6 files mean.
+
+";
 
 fn main() {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
@@ -56,10 +70,11 @@ fn main() {
             eprintln!("{name} at {ratio}: {} triangles, {} symbols", level.triangles.len(), symbols.len());
         }
     }
-    println!("const PRIORS: [Option<[u16; 8]>; CONTEXTS] = [");
+    let mut out = String::from(HEADER);
+    out += "#[rustfmt::skip]\npub(super) const PRIORS: [Option<[u16; 8]>; super::CONTEXTS] = [\n";
     for c in 0..CONTEXTS {
         if meshes[c] == 0 {
-            println!("    None,");
+            out += "    None,\n";
             continue;
         }
         let mut sum = 0.0;
@@ -73,7 +88,10 @@ fn main() {
                 format!("{}", b as u16)
             })
             .collect();
-        println!("    Some([{}]),", bound.join(", "));
+        out += &format!("    Some([{}]),\n", bound.join(", "));
     }
-    println!("];");
+    out += "];\n";
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../format/src/meshcode/priors.rs");
+    std::fs::write(&path, out).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    eprintln!("wrote {}", path.display());
 }

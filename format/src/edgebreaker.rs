@@ -664,12 +664,23 @@ pub fn decode(code: &Connectivity) -> Result<Decoded, CodingError> {
 /// What the walk met at a symbol, as versions 5 and 6 code it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Met {
-    /// The length of the loop the symbol acts on (its context).
-    pub length: u32,
+    /// The gate the symbol acts on (its context).
+    pub gate: Gate,
     /// For an S: the length of its right loop, which versions 5 and 6 code after it.
     pub split: u32,
     /// The symbol is its component's first.
     pub starts: bool,
+}
+
+/// The gate a symbol acts on, as the decoder sees it before the symbol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Gate {
+    /// The length of its loop.
+    pub length: u32,
+    /// Bit 0: the loop's edge before the gate lies on the mesh's boundary
+    /// (on a start loop, no triangle decoded across it); bit 1: the edge
+    /// after it.
+    pub border: u8,
 }
 
 /// [`decode`], with what the walk met at each symbol.
@@ -832,8 +843,8 @@ pub(crate) struct Step {
 pub(crate) trait Walk {
     /// A component starts: its start loop's length, or None (it starts from a triangle).
     fn start(&mut self) -> Result<Option<u32>, CodingError>;
-    /// The next symbol, the current loop being `length` vertices long.
-    fn step(&mut self, length: u32) -> Result<Step, CodingError>;
+    /// The next symbol, at `gate`.
+    fn step(&mut self, gate: Gate) -> Result<Step, CodingError>;
 }
 
 /// A [`Connectivity`]'s lists, checked beforehand, as a [`Walk`].
@@ -857,7 +868,7 @@ impl Walk for Listed<'_> {
         Ok(self.code.start_loops.get(self.component - 1).copied())
     }
     #[inline(always)]
-    fn step(&mut self, length: u32) -> Result<Step, CodingError> {
+    fn step(&mut self, gate: Gate) -> Result<Step, CodingError> {
         let symbol = self.code.symbols[self.at];
         self.at += 1;
         let mut step = Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
@@ -870,7 +881,7 @@ impl Walk for Listed<'_> {
             _ => {}
         }
         if let Some(met) = &mut self.met {
-            met.push(Met { length, split: step.split, starts: std::mem::take(&mut self.starting) });
+            met.push(Met { gate, split: step.split, starts: std::mem::take(&mut self.starting) });
         }
         Ok(step)
     }
@@ -938,10 +949,11 @@ pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32,
             if out.triangles.len() as u32 >= triangle_count {
                 return corrupt(format!("more than the {triangle_count} triangles declared"));
             }
-            let Step { symbol: s, split, merge: m } = walk.step(len)?;
-            read += 1;
             let a = gate;
             let b = loops.next(a);
+            let border = u8::from(loops.nodes[loops.prev(a) as usize].facing == NONE) | u8::from(loops.nodes[b as usize].facing == NONE) << 1;
+            let Step { symbol: s, split, merge: m } = walk.step(Gate { length: len, border })?;
+            read += 1;
             let (va, vb) = (loops.vertex(a), loops.vertex(b));
             let w = match s {
                 C | D => {
@@ -1104,6 +1116,22 @@ pub(crate) mod tests {
         assert_eq!(code.symbols.len(), 3);
         assert!(code.dummies.is_empty() && code.copies.is_empty() && code.merges.is_empty());
         assert_eq!((code.symbols[0], code.symbols[2]), (C, E));
+    }
+
+    /// The gate's border bits: a grid walked from its boundary loop meets
+    /// boundary edges beside the gate on its first symbol and on a few
+    /// more, each of them on an edge still on that loop; a closed torus
+    /// never does.
+    #[test]
+    fn gates_see_boundary_edges_beside_them() {
+        let (code, _) = encode(&grid(8), 81).unwrap();
+        let (_, met) = decode_walked(&code).unwrap();
+        assert_eq!(met[0].gate, Gate { length: 32, border: 3 }, "the first gate lies on the 32-edge boundary");
+        let bordered = met.iter().filter(|m| m.gate.border != 0).count();
+        assert!(bordered > 8 && bordered < met.len(), "{bordered} of {}", met.len());
+        let (code, _) = encode(&torus(6, 5), 30).unwrap();
+        let (_, met) = decode_walked(&code).unwrap();
+        assert!(met.iter().all(|m| m.gate.border == 0));
     }
 
     #[test]

@@ -11,9 +11,11 @@
 //! Residuals use static models stored in the file, as an Elias-gamma bucket
 //! (their bit length, modelled) followed by raw bits. Connectivity uses
 //! adaptive models (`Adaptive`), too few symbols on a coarse level to pay
-//! for tables: CLERS in the context of the previous symbol and of the
-//! current loop's length (`Walk`), the records' numbers as buckets. A
-//! CRC-32 closes the file.
+//! for tables: CLERS in the context of the previous symbol, the current
+//! loop's length and whether the loop's edges beside the gate lie on the
+//! mesh's boundary (`context`), each model starting from a prior made from
+//! other scenes (`PRIORS`); the records' numbers as buckets. A CRC-32
+//! closes the file.
 //!
 //! Layout (all integers LEB128 unless said; `format/SCHEMA.md` has it
 //! whole): magic `EMMC`, version byte,
@@ -26,7 +28,10 @@ use crate::edgebreaker::{self, CodingError, Connectivity, Decoded, Merge, Order}
 use constriction::stream::model::{EncoderModel, EntropyModel, SmallContiguousCategoricalEntropyModel};
 use constriction::stream::stack::DefaultAnsCoder;
 use constriction::stream::Encode;
+use priors::PRIORS;
 use std::ops::RangeInclusive;
+
+mod priors;
 
 const MAGIC: &[u8; 4] = b"EMMC";
 /// Version 2 leaves out the dummies that start components (version 1 files,
@@ -39,7 +44,9 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// codes connectivity under adaptive models (no tables), each symbol in the
 /// context of the current loop's length, with each S's split after it, and
 /// is decoded as the mesh is rebuilt ([`edgebreaker::rebuild`]); version
-/// 6 starts each symbol model from a prior ([`PRIORS`]), not uniform.
+/// 6 adds to a symbol's context whether the loop's edges beside the gate lie
+/// on the mesh's boundary, starts each component's first symbol afresh, and
+/// starts each model from a prior ([`PRIORS`]), not uniform.
 const VERSION: u8 = 6;
 const NONE: u32 = u32::MAX;
 /// Probabilities are 12-bit fixed point (constriction's "small" preset: a
@@ -272,14 +279,13 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
     let mut sink = Sink::new(fixed);
     let mut models = ConnectivityModels::new(VERSION);
     let (mut loops, mut merges) = (code.start_loops.iter(), code.merges.iter());
-    let mut previous = None;
-    for (&s, met) in code.symbols.iter().zip(met) {
+    for ((&s, met), c) in code.symbols.iter().zip(met).zip(contexts(&code.symbols, met)) {
         if met.starts {
             if let Some(&k) = loops.next() {
                 sink.adaptive_value(&mut models.start, k - 3);
             }
         }
-        sink.adaptive(&mut models.symbols[context(previous, met.length)], s as usize);
+        sink.adaptive(&mut models.symbols[c], s as usize);
         match s {
             edgebreaker::S => sink.adaptive_value(&mut models.split, met.split - 2),
             edgebreaker::M => {
@@ -290,7 +296,6 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
             }
             _ => {}
         }
-        previous = Some(s);
     }
     let (mut last, mut distance) = (0, 0);
     for &[copy, original] in &code.copies {
@@ -319,7 +324,7 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
 fn read_connectivity(input: &mut Reader, version: u8, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let fixed = copy_models(copy_count);
-    let mut stream = Stream { source: Source::new(input, fixed)?, models: ConnectivityModels::new(version), previous: None, loops: loop_count, merges: merge_count };
+    let mut stream = Stream { source: Source::new(input, fixed)?, models: ConnectivityModels::new(version), version, previous: None, loops: loop_count, merges: merge_count };
     let (mut decoded, dummies) = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
     if stream.loops != 0 {
         return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", loop_count - stream.loops)));
@@ -348,6 +353,7 @@ fn read_connectivity(input: &mut Reader, version: u8, symbol_count: u32, triangl
 struct Stream<'a> {
     source: Source<'a>,
     models: ConnectivityModels,
+    version: u8,
     previous: Option<u8>,
     /// Start loops and merge records declared and not yet read.
     loops: u32,
@@ -356,6 +362,9 @@ struct Stream<'a> {
 
 impl edgebreaker::Walk for Stream<'_> {
     fn start(&mut self) -> Result<Option<u32>, CodingError> {
+        if self.version >= 6 {
+            self.previous = None;
+        }
         if self.loops == 0 {
             return Ok(None);
         }
@@ -364,8 +373,8 @@ impl edgebreaker::Walk for Stream<'_> {
         k.checked_add(3).map(Some).ok_or_else(|| CodingError::Corrupt("start loop length".into()))
     }
     #[inline(always)]
-    fn step(&mut self, length: u32) -> Result<edgebreaker::Step, CodingError> {
-        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, length)]) as u8;
+    fn step(&mut self, gate: edgebreaker::Gate) -> Result<edgebreaker::Step, CodingError> {
+        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, gate, self.version)]) as u8;
         self.previous = Some(symbol);
         let mut step = edgebreaker::Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
         match symbol {
@@ -443,7 +452,7 @@ struct ConnectivityModels {
 impl ConnectivityModels {
     /// The models as a file of `version` (5 or later) starts them.
     fn new(version: u8) -> Self {
-        let uniform = |c: usize| if c.is_multiple_of(3) { Adaptive::default() } else { Adaptive::with_rare(edgebreaker::E as usize) };
+        let uniform = |c: usize| if (c / 4).is_multiple_of(3) { Adaptive::default() } else { Adaptive::with_rare(edgebreaker::E as usize) };
         ConnectivityModels {
             // Version 5: uniform, but that only a loop of three closes with an E.
             symbols: std::array::from_fn(|c| match PRIORS[c] {
@@ -460,62 +469,42 @@ impl ConnectivityModels {
 }
 
 /// Symbol contexts (see [`context`]).
-const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3;
-
-/// Version 6's starting distribution of each symbol context, as
-/// [`Adaptive`]'s bounds (None: uniform, as in version 5; contexts that
-/// no training mesh reached). The mean over training meshes of each mesh's
-/// share of each symbol in the context, 5 % spread evenly over the seven
-/// symbols so that none starts near impossible. Many contexts all but rule
-/// symbols out (after a C on a loop of four, no L, S or E was seen), which a
-/// uniform start pays to learn in each of 24 contexts. Measured with each
-/// of the seven scenes in turn left out of the training, priors saved 3 to
-/// 13 % of its symbols' bytes on its 1 % level and 0.15 to 0.9 % on the
-/// whole scene. Printed by
-/// `cargo run --release -p exploremaps-builder --example connectivity_priors`
-/// from the 1 % and 10 % levels of six scenes; the Crytek Sponza, on which
-/// the proxy bench judges connectivity, is left out of the training.
-#[rustfmt::skip]
-const PRIORS: [Option<[u16; 8]>; CONTEXTS] = [
-    None,
-    Some([17723, 17957, 31150, 31384, 31618, 31951, 32760, 32760]),
-    Some([13222, 13456, 29218, 31723, 31957, 32304, 32760, 32760]),
-    Some([1299, 1533, 1771, 2005, 32041, 32352, 32760, 32760]),
-    Some([5324, 13224, 31580, 31814, 32048, 32317, 32760, 32760]),
-    Some([7231, 13640, 28940, 31850, 32084, 32457, 32760, 32760]),
-    Some([4118, 4377, 4977, 5211, 30613, 31058, 32760, 32760]),
-    Some([10748, 17639, 30323, 30607, 30841, 31266, 32760, 32760]),
-    Some([14880, 18248, 28231, 31491, 31725, 32187, 32760, 32760]),
-    Some([857, 1096, 1330, 1564, 31679, 32027, 32760, 32760]),
-    Some([2800, 15725, 31592, 31826, 32060, 32309, 32760, 32760]),
-    Some([7567, 18885, 28823, 31975, 32209, 32454, 32760, 32760]),
-    Some([12576, 12810, 13099, 13333, 31642, 31939, 32760, 32760]),
-    Some([9218, 18363, 31361, 31599, 31833, 32086, 32760, 32760]),
-    Some([12010, 19164, 27644, 31723, 31957, 32322, 32760, 32760]),
-    None,
-    None,
-    Some([8997, 19094, 27440, 31934, 32168, 32526, 32760, 32760]),
-    Some([234, 468, 702, 936, 32292, 32526, 32760, 32760]),
-    Some([930, 8835, 31824, 32058, 32292, 32526, 32760, 32760]),
-    Some([6567, 10015, 29708, 32058, 32292, 32526, 32760, 32760]),
-    None,
-    Some([10608, 10842, 31824, 32058, 32292, 32526, 32760, 32760]),
-    Some([17524, 24674, 24908, 32058, 32292, 32526, 32760, 32760]),
-];
+#[doc(hidden)]
+pub const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3 * 4;
 /// What a prior is worth, in symbols seen: the models adapt at the rate of
 /// their ninth symbol from the start (see [`Adaptive::learn`]).
 const PRIOR_SEEN: u8 = 8;
 
-/// A symbol's context: the symbol before it (or none) and the length of
-/// the loop it acts on (3 or less, 4, more). Only a loop of three can end
-/// with an E, and only a C or D can follow on a shorter one; knowing the
-/// length took the Crytek Sponza base's symbols from 576 to 466 bytes. The
-/// decoder knows every length forwards only if each S's split is coded (26
-/// bytes there), as versions 5 and 6 do.
+/// A symbol's context: the symbol before it in its component (or none),
+/// the length of the loop it acts on (3 or less, 4, more) and, from
+/// version 6, whether the loop's edges on either side of the gate lie on
+/// the mesh's boundary (version 5: as if neither did; and its first symbol
+/// of a component follows the last of the one before). Only a loop of
+/// three can end with an E, and only a C or D can follow on a shorter one;
+/// knowing the length took the Crytek Sponza base's symbols from 576 to 466
+/// bytes. The decoder knows every length forwards only if each S's split is
+/// coded (26 bytes there), as versions 5 and 6 do. A boundary edge beside
+/// the gate changes the odds of the L or R that would take its triangle:
+/// with the boundary, the Crytek Sponza base's symbols took 21 bytes (4 %)
+/// fewer, the 1 % levels of seven scenes 2.5 % fewer.
 #[inline(always)]
-fn context(previous: Option<u8>, length: u32) -> usize {
+fn context(previous: Option<u8>, gate: edgebreaker::Gate, version: u8) -> usize {
     let previous = previous.map_or(edgebreaker::SYMBOLS, usize::from);
-    (previous & 7) * 3 + (length.clamp(3, 5) - 3) as usize
+    let border = if version >= 6 { gate.border as usize & 3 } else { 0 };
+    ((previous & 7) * 3 + (gate.length.clamp(3, 5) - 3) as usize) * 4 + border
+}
+
+/// The context of each symbol as the current version codes it.
+fn contexts<'a>(symbols: &'a [u8], met: &'a [edgebreaker::Met]) -> impl Iterator<Item = usize> + 'a {
+    let mut previous = None;
+    symbols.iter().zip(met).map(move |(&s, met)| {
+        if met.starts {
+            previous = None;
+        }
+        let c = context(previous, met.gate, VERSION);
+        previous = Some(s);
+        c
+    })
 }
 
 /// Each Edgebreaker symbol of `mesh`'s connectivity with its [`context`],
@@ -525,12 +514,7 @@ fn context(previous: Option<u8>, length: u32) -> usize {
 pub fn symbol_contexts(mesh: &MeshData) -> Result<Vec<(usize, u8)>, CodingError> {
     let (code, _) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32)?;
     let (_, met) = edgebreaker::decode_walked(&code)?;
-    let mut previous = None;
-    Ok(code.symbols.iter().zip(&met).map(|(&s, met)| {
-        let c = context(previous, met.length);
-        previous = Some(s);
-        (c, s)
-    }).collect())
+    Ok(contexts(&code.symbols, &met).zip(code.symbols.iter().copied()).collect())
 }
 
 /// The decoded vertices whose values are coded, in decoded order, with
