@@ -26,7 +26,7 @@ const HEADER: &str = "\
 //! training mesh reached). Each is the mean over training meshes of each
 //! mesh's share of each symbol in the context, with 5 % spread evenly over
 //! the seven symbols so that none starts near impossible. Many contexts all
-//! but rule symbols out, which a uniform start pays to learn in each of 96
+//! but rule symbols out, which a uniform start pays to learn in each of 48
 //! contexts. Written by `cargo run --release -p exploremaps-builder
 //! --example connectivity_priors` from the 1 % and 10 % levels of six
 //! scenes; the Crytek Sponza, on which the proxy bench judges connectivity,

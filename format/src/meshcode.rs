@@ -324,15 +324,11 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
 fn read_connectivity(input: &mut Reader, version: u8, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let fixed = copy_models(copy_count);
-    let mut stream = Stream { source: Source::new(input, fixed)?, models: ConnectivityModels::new(version), version, previous: None, loops: loop_count, merges: merge_count };
-    let (mut decoded, dummies) = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
-    if stream.loops != 0 {
-        return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", loop_count - stream.loops)));
-    }
-    if stream.merges != 0 {
-        return Err(CodingError::Corrupt(format!("{merge_count} merge records, {} M symbols", merge_count - stream.merges)));
-    }
-    let Stream { mut source, mut models, .. } = stream;
+    let source = Source::new(input, fixed)?;
+    let models = ConnectivityModels::new(version);
+    // (A rebuild for each version: a version test at each symbol cost 2-4 %.)
+    let counts = (symbol_count, triangle_count, vertex_count, loop_count, merge_count);
+    let ((mut decoded, dummies), mut source, mut models) = if version >= 6 { rebuild_stream::<6>(source, models, counts)? } else { rebuild_stream::<5>(source, models, counts)? };
     let mut copies = Vec::with_capacity((copy_count as usize).min(input.bytes.len()));
     let (mut last, mut distance) = (0u32, 0u32);
     for _ in 0..copy_count {
@@ -349,20 +345,38 @@ fn read_connectivity(input: &mut Reader, version: u8, symbol_count: u32, triangl
     Ok(decoded)
 }
 
+/// The mesh and its dummies rebuilt from a version 5 or 6 stream, with the
+/// stream's coder and models for the copies after it.
+type Rebuilt<'a> = ((Decoded, Vec<u32>), Source<'a>, ConnectivityModels);
+
+/// Rebuilds from a version 5 or 6 stream of `counts` (symbols, triangles,
+/// vertices, start loops, merge records).
+fn rebuild_stream<const VERSION: u8>(source: Source<'_>, models: ConnectivityModels, counts: (u32, u32, u32, u32, u32)) -> Result<Rebuilt<'_>, CodingError> {
+    let (symbol_count, triangle_count, vertex_count, loop_count, merge_count) = counts;
+    let mut stream = Stream::<VERSION> { source, models, previous: None, loops: loop_count, merges: merge_count };
+    let rebuilt = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
+    if stream.loops != 0 {
+        return Err(CodingError::Corrupt(format!("{loop_count} components start at a loop, of {}", loop_count - stream.loops)));
+    }
+    if stream.merges != 0 {
+        return Err(CodingError::Corrupt(format!("{merge_count} merge records, {} M symbols", merge_count - stream.merges)));
+    }
+    Ok((rebuilt, stream.source, stream.models))
+}
+
 /// Connectivity of versions 5 and 6 as [`edgebreaker::rebuild`] walks it.
-struct Stream<'a> {
+struct Stream<'a, const VERSION: u8> {
     source: Source<'a>,
     models: ConnectivityModels,
-    version: u8,
     previous: Option<u8>,
     /// Start loops and merge records declared and not yet read.
     loops: u32,
     merges: u32,
 }
 
-impl edgebreaker::Walk for Stream<'_> {
+impl<const VERSION: u8> edgebreaker::Walk for Stream<'_, VERSION> {
     fn start(&mut self) -> Result<Option<u32>, CodingError> {
-        if self.version >= 6 {
+        if VERSION >= 6 {
             self.previous = None;
         }
         if self.loops == 0 {
@@ -374,7 +388,7 @@ impl edgebreaker::Walk for Stream<'_> {
     }
     #[inline(always)]
     fn step(&mut self, gate: edgebreaker::Gate) -> Result<edgebreaker::Step, CodingError> {
-        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, gate, self.version)]) as u8;
+        let symbol = self.source.adaptive(&mut self.models.symbols[context(self.previous, gate, VERSION)]) as u8;
         self.previous = Some(symbol);
         let mut step = edgebreaker::Step { symbol, split: 0, merge: Merge { depth: 0, offset: 0, length: 0 } };
         match symbol {
@@ -452,13 +466,10 @@ struct ConnectivityModels {
 impl ConnectivityModels {
     /// The models as a file of `version` (5 or later) starts them.
     fn new(version: u8) -> Self {
-        let uniform = |c: usize| if (c / 4).is_multiple_of(3) { Adaptive::default() } else { Adaptive::with_rare(edgebreaker::E as usize) };
         ConnectivityModels {
-            // Version 5: uniform, but that only a loop of three closes with an E.
-            symbols: std::array::from_fn(|c| match PRIORS[c] {
-                Some(bound) if version >= 6 => Adaptive { bound, seen: PRIOR_SEEN },
-                _ => uniform(c),
-            }),
+            // (Copied from constants: building 96 models a decode was a few
+            // per cent of a coarse level's time.)
+            symbols: if version >= 6 { SYMBOL_MODELS[1] } else { SYMBOL_MODELS[0] },
             start: Adaptive::default(),
             split: Adaptive::default(),
             merge: Default::default(),
@@ -470,28 +481,46 @@ impl ConnectivityModels {
 
 /// Symbol contexts (see [`context`]).
 #[doc(hidden)]
-pub const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3 * 4;
+pub const CONTEXTS: usize = (edgebreaker::SYMBOLS + 1) * 3 * 2;
 /// What a prior is worth, in symbols seen: the models adapt at the rate of
 /// their ninth symbol from the start (see [`Adaptive::learn`]).
 const PRIOR_SEEN: u8 = 8;
 
+/// The symbol models as version 5 (uniform, but that only a loop of three
+/// closes with an E) and version 6 (from [`PRIORS`] where it has one) start
+/// them.
+const SYMBOL_MODELS: [[Adaptive<{ edgebreaker::SYMBOLS + 1 }>; CONTEXTS]; 2] = {
+    let mut out = [[Adaptive::with_rare(usize::MAX); CONTEXTS]; 2];
+    let mut c = 0;
+    while c < CONTEXTS {
+        if (c / 2) % 3 != 0 {
+            out[0][c] = Adaptive::with_rare(edgebreaker::E as usize);
+        }
+        out[1][c] = match PRIORS[c] {
+            Some(bound) => Adaptive { bound, seen: PRIOR_SEEN },
+            None => out[0][c],
+        };
+        c += 1;
+    }
+    out
+};
+
 /// A symbol's context: the symbol before it in its component (or none),
 /// the length of the loop it acts on (3 or less, 4, more) and, from
-/// version 6, whether the loop's edges on either side of the gate lie on
-/// the mesh's boundary (version 5: as if neither did; and its first symbol
-/// of a component follows the last of the one before). Only a loop of
-/// three can end with an E, and only a C or D can follow on a shorter one;
-/// knowing the length took the Crytek Sponza base's symbols from 576 to 466
-/// bytes. The decoder knows every length forwards only if each S's split is
-/// coded (26 bytes there), as versions 5 and 6 do. A boundary edge beside
-/// the gate changes the odds of the L or R that would take its triangle:
-/// with the boundary, the Crytek Sponza base's symbols took 21 bytes (4 %)
-/// fewer, the 1 % levels of seven scenes 2.5 % fewer.
+/// version 6, whether the loop's edge after the gate lies on the mesh's
+/// boundary (version 5: as if it never did; and a component's first symbol
+/// follows the last of the one before). Only a loop of three can end with
+/// an E, and only a C or D can follow on a shorter one; knowing the length
+/// took the Crytek Sponza base's symbols from 576 to 466 bytes. The decoder
+/// knows every length forwards only if each S's split is coded (26 bytes
+/// there), as versions 5 and 6 do. A boundary edge after the gate changes
+/// the odds of the R that would take its triangle: knowing it, the Crytek
+/// Sponza base's symbols took 17 bytes (4 %) fewer.
 #[inline(always)]
 fn context(previous: Option<u8>, gate: edgebreaker::Gate, version: u8) -> usize {
     let previous = previous.map_or(edgebreaker::SYMBOLS, usize::from);
-    let border = if version >= 6 { gate.border as usize & 3 } else { 0 };
-    ((previous & 7) * 3 + (gate.length.clamp(3, 5) - 3) as usize) * 4 + border
+    let boundary = version >= 6 && gate.next_on_boundary;
+    ((previous & 7) * 3 + (gate.length.clamp(3, 5) - 3) as usize) * 2 + usize::from(boundary)
 }
 
 /// The context of each symbol as the current version codes it.
@@ -708,16 +737,23 @@ const fn shared(k: usize) -> u32 {
 
 impl<const K: usize> Default for Adaptive<K> {
     fn default() -> Self {
-        Adaptive { bound: std::array::from_fn(|i| ((i as u32 + 1) * shared(K) / K as u32) as u16), seen: 0 }
+        Self::with_rare(K)
     }
 }
 
 impl<const K: usize> Adaptive<K> {
     /// A model that starts with `rare` at no share (a symbol the context all
-    /// but rules out), the others equal.
-    fn with_rare(rare: usize) -> Self {
-        let share = |i: usize| (i as u32 + 1 - u32::from(i >= rare)) * shared(K) / (K as u32 - 1);
-        Adaptive { bound: std::array::from_fn(|i| share(i) as u16), seen: 0 }
+    /// but rules out), the others equal; all equal when `rare` is K or more.
+    const fn with_rare(rare: usize) -> Self {
+        let others = if rare < K { K - 1 } else { K } as u32;
+        let mut bound = [0u16; K];
+        let mut i = 0;
+        while i < K {
+            let below = i as u32 + 1 - (i >= rare) as u32;
+            bound[i] = (below * shared(K) / others) as u16;
+            i += 1;
+        }
+        Adaptive { bound, seen: 0 }
     }
     /// Where `symbol` lies among the quantiles: (start, size).
     #[inline(always)]
