@@ -12,7 +12,7 @@
 //! (their bit length, modelled) followed by raw bits. Connectivity uses
 //! adaptive models (`Adaptive`), too few symbols on a coarse level to pay
 //! for tables: CLERS in the context of the previous symbol, the current
-//! loop's length and whether the loop's edges beside the gate lie on the
+//! loop's length and whether the loop's edge after the gate lies on the
 //! mesh's boundary (`context`), each model starting from a prior made from
 //! other scenes (`PRIORS`); the records' numbers as buckets. A CRC-32
 //! closes the file.
@@ -44,7 +44,7 @@ const MAGIC: &[u8; 4] = b"EMMC";
 /// codes connectivity under adaptive models (no tables), each symbol in the
 /// context of the current loop's length, with each S's split after it, and
 /// is decoded as the mesh is rebuilt ([`edgebreaker::rebuild`]); version
-/// 6 adds to a symbol's context whether the loop's edges beside the gate lie
+/// 6 adds to a symbol's context whether the loop's edge after the gate lies
 /// on the mesh's boundary, starts each component's first symbol afresh, and
 /// starts each model from a prior ([`PRIORS`]), not uniform.
 const VERSION: u8 = 6;
@@ -467,8 +467,8 @@ impl ConnectivityModels {
     /// The models as a file of `version` (5 or later) starts them.
     fn new(version: u8) -> Self {
         ConnectivityModels {
-            // (Copied from constants: building 96 models a decode was a few
-            // per cent of a coarse level's time.)
+            // (Copied from constants: building the models at each decode
+            // was part of a 5-8 % slowdown on coarse levels.)
             symbols: if version >= 6 { SYMBOL_MODELS[1] } else { SYMBOL_MODELS[0] },
             start: Adaptive::default(),
             split: Adaptive::default(),
@@ -493,6 +493,7 @@ const SYMBOL_MODELS: [[Adaptive<{ edgebreaker::SYMBOLS + 1 }>; CONTEXTS]; 2] = {
     let mut out = [[Adaptive::with_rare(usize::MAX); CONTEXTS]; 2];
     let mut c = 0;
     while c < CONTEXTS {
+        // (The loop's length class, as `context` lays contexts out.)
         if (c / 2) % 3 != 0 {
             out[0][c] = Adaptive::with_rare(edgebreaker::E as usize);
         }
