@@ -24,7 +24,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
     // before checking it exists (mesh.rs:151): that panic is a malformed file.
     let dir = path.parent().unwrap_or(Path::new("."));
-    let plain = super::gltf_decode::transcode(path, bytes, dir, max_triangles)?;
+    let (plain, read) = super::gltf_decode::transcode(path, bytes, dir, max_triangles)?.unzip();
     let bytes = plain.as_deref().unwrap_or(bytes);
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
         .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
@@ -37,7 +37,17 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     })?;
     check_image_sources(path, &document)?;
     check_external_files(path, dir, &document)?;
-    let buffers = gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?;
+    // A transcoded file's buffers were read already (each as long as
+    // declared, padded to four bytes as `gltf` pads them); any that is short
+    // is left to `gltf`'s reading, whose error names it.
+    let whole = |read: &Vec<Vec<u8>>| read.len() == document.buffers().len() && document.buffers().zip(read).all(|(b, bytes)| bytes.len() >= b.length());
+    let buffers = match read.filter(whole) {
+        Some(read) => read.into_iter().map(|mut bytes| {
+            bytes.resize(bytes.len().next_multiple_of(4), 0);
+            gltf::buffer::Data(bytes)
+        }).collect(),
+        None => gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?,
+    };
 
     // Images are decoded here rather than by `gltf` (PNG and JPEG only, no
     // size limit), in parallel, each a warning if it fails.

@@ -33,11 +33,13 @@ const GLB_MAGIC: &[u8; 4] = b"glTF";
 const JSON_CHUNK: u32 = 0x4E4F_534A;
 const BIN_CHUNK: u32 = 0x004E_4942;
 
-/// The file as a plain GLB when it uses any of the extensions above; `None`
-/// otherwise (and for anything unreadable, which `gltf` then reports as it
-/// does). `max_triangles` bounds each primitive's declared index count and
-/// each compressed view's count before decoding.
-pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Vec<u8>>, LoadError> {
+/// The file as a plain GLB when it uses any of the extensions above, with
+/// its buffers' bytes as read here (the GLB's chunk first), so that files
+/// beside the scene are not read twice; `None` otherwise (and for anything
+/// unreadable, which `gltf` then reports as it does). `max_triangles` bounds
+/// each primitive's declared index count and each compressed view's count
+/// before decoding.
+pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<(Vec<u8>, Vec<Vec<u8>>)>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
     let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
@@ -181,7 +183,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             l.retain(|e| ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
         }
     }
-    Ok(Some(glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &buffers[0])))
+    Ok(Some((glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &buffers[0]), buffers)))
 }
 
 /// Decodes every meshoptimizer-compressed buffer view into the chunk
@@ -223,6 +225,9 @@ fn decode_meshopt_views(path: &Path, doc: &mut Value, buffers: &mut [Vec<u8>], m
         let fallback = MESHOPT.iter().any(|e| buffer.get("extensions").and_then(|x| x.get(*e)).and_then(|x| x.get("fallback")).and_then(Value::as_bool) == Some(true));
         if fallback && buffer.get("uri").is_none() {
             *buffer = json!({ "byteLength": 1, "uri": "data:application/octet-stream;base64,AA==" });
+            if let Some(bytes) = buffers.get_mut(b) {
+                *bytes = vec![0];
+            }
             tracing::debug!("{}: fallback buffer {b} replaced by decoded data", path.display());
         }
     }

@@ -768,9 +768,21 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
     let dir = tempfile::tempdir().unwrap();
     let plain = load_default(&write(dir.path(), "plain.gltf", grid_gltf(12, false, |_| ()).as_bytes())).unwrap();
     for exp_filter in [false, true] {
-        for name in ["meshopt.gltf", "meshopt.glb"] {
+        for name in ["meshopt.gltf", "meshopt.glb", "external.gltf"] {
             let text = meshopt_gltf(12, exp_filter, |_, _| ());
-            let bytes = if name.ends_with(".glb") { as_glb(&text) } else { text.into_bytes() };
+            let bytes = if name.ends_with(".glb") {
+                as_glb(&text)
+            } else if name == "external.gltf" {
+                // The compressed data in a file beside the scene (read once:
+                // the transcoded file's buffers are handed on).
+                let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+                let uri = json["buffers"][0]["uri"].as_str().unwrap().to_string();
+                write(dir.path(), "external.bin", &base64::decode(uri.split_once(";base64,").unwrap().1).unwrap());
+                json["buffers"][0]["uri"] = serde_json::json!("external.bin");
+                json.to_string().into_bytes()
+            } else {
+                text.into_bytes()
+            };
             let scene = load_default(&write(dir.path(), name, &bytes)).unwrap();
             // The codecs are lossless: the same triangles, vertices and
             // texture coordinates; the exponential filter keeps 15 bits of
