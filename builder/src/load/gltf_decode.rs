@@ -33,13 +33,16 @@ const GLB_MAGIC: &[u8; 4] = b"glTF";
 const JSON_CHUNK: u32 = 0x4E4F_534A;
 const BIN_CHUNK: u32 = 0x004E_4942;
 
+/// A plain GLB and its buffers' bytes (see [`transcode`]).
+pub(super) type Transcoded = (Vec<u8>, Vec<Vec<u8>>);
+
 /// The file as a plain GLB when it uses any of the extensions above, with
 /// its buffers' bytes as read here (the GLB's chunk first), so that files
 /// beside the scene are not read twice; `None` otherwise (and for anything
 /// unreadable, which `gltf` then reports as it does). `max_triangles` bounds
 /// each primitive's declared index count and each compressed view's count
 /// before decoding.
-pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<(Vec<u8>, Vec<Vec<u8>>)>, LoadError> {
+pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Transcoded>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
     let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
