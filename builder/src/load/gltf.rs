@@ -37,15 +37,26 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     })?;
     check_image_sources(path, &document)?;
     check_external_files(path, dir, &document)?;
-    // A transcoded file's buffers were read already (each as long as
-    // declared, padded to four bytes as `gltf` pads them); any that is short
-    // is left to `gltf`'s reading, whose error names it.
-    let whole = |read: &Vec<Vec<u8>>| read.len() == document.buffers().len() && document.buffers().zip(read).all(|(b, bytes)| bytes.len() >= b.length());
-    let buffers = match read.filter(whole) {
-        Some(read) => read.into_iter().map(|mut bytes| {
-            bytes.resize(bytes.len().next_multiple_of(4), 0);
-            gltf::buffer::Data(bytes)
-        }).collect(),
+    // A transcoded file's buffers were read already: each must be as long
+    // as declared (as `gltf` checks), and is padded to four bytes as `gltf`
+    // pads them.
+    let buffers = match read {
+        Some(read) => {
+            let held = |b: &gltf::Buffer| read.get(b.index()).map_or(0, Vec::len);
+            if let Some(b) = document.buffers().find(|b| held(b) < b.length()) {
+                // (Named by its URI: a transcoded file's buffers are numbered
+                // from one when a first was added for the decoded data.)
+                let what = match b.source() {
+                    gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!("buffer {uri} holds {} bytes of the {} it declares; the file beside the scene may be missing or truncated", held(&b), b.length()),
+                    _ => format!("a buffer's data URI holds {} bytes of the {} it declares", held(&b), b.length()),
+                };
+                return Err(LoadError::malformed(path, what));
+            }
+            read.into_iter().map(|mut bytes| {
+                bytes.resize(bytes.len().next_multiple_of(4), 0);
+                gltf::buffer::Data(bytes)
+            }).collect()
+        }
         None => gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?,
     };
 

@@ -33,15 +33,16 @@ const GLB_MAGIC: &[u8; 4] = b"glTF";
 const JSON_CHUNK: u32 = 0x4E4F_534A;
 const BIN_CHUNK: u32 = 0x004E_4942;
 
-/// A plain GLB and its buffers' bytes (see [`transcode`]).
+/// A plain glTF's JSON and its buffers' bytes (see [`transcode`]).
 pub(super) type Transcoded = (Vec<u8>, Vec<Vec<u8>>);
 
-/// The file as a plain GLB when it uses any of the extensions above, with
-/// its buffers' bytes as read here (the GLB's chunk first), so that files
-/// beside the scene are not read twice; `None` otherwise (and for anything
-/// unreadable, which `gltf` then reports as it does). `max_triangles` bounds
-/// each primitive's declared index count and each compressed view's count
-/// before decoding.
+/// The file as plain glTF when it uses any of the extensions above: its
+/// JSON, and its buffers' bytes as read and decoded here (the first, which
+/// has no URI, holding the decoded data), to be used as they are: files
+/// beside the scene are not read again and no buffer is copied into a new
+/// GLB. `None` otherwise (and for anything unreadable, which `gltf` then
+/// reports as it does). `max_triangles` bounds each primitive's declared
+/// index count and each compressed view's count before decoding.
 pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Transcoded>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
@@ -186,7 +187,7 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             l.retain(|e| ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
         }
     }
-    Ok(Some((glb(&serde_json::to_vec(&doc).expect("a JSON value serializes"), &buffers[0]), buffers)))
+    Ok(Some((serde_json::to_vec(&doc).expect("a JSON value serializes"), buffers)))
 }
 
 /// Decodes every meshoptimizer-compressed buffer view into the chunk
@@ -474,6 +475,7 @@ fn floats(values: &[f32]) -> Vec<u8> {
 }
 
 /// A GLB of a JSON chunk and a binary chunk, each padded to four bytes.
+#[cfg(test)]
 pub(super) fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let (json_len, bin_len) = (json.len().next_multiple_of(4), bin.len().next_multiple_of(4));
     let total = 12 + 8 + json_len + 8 + bin_len;

@@ -795,6 +795,11 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
             }
         }
     }
+    // The file beside it shorter than its buffer declares: an error naming both.
+    let mut json: serde_json::Value = serde_json::from_str(&String::from_utf8(fs::read(dir.path().join("external.gltf")).unwrap()).unwrap()).unwrap();
+    json["buffers"][0]["byteLength"] = serde_json::json!(json["buffers"][0]["byteLength"].as_u64().unwrap() + 100);
+    let text = error_text(&write(dir.path(), "short.gltf", json.to_string().as_bytes()));
+    assert!(text.contains("external.bin") && text.contains("declares"), "{text}");
 }
 
 #[test]
