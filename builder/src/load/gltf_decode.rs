@@ -11,11 +11,13 @@
 //! `EXT_texture_webp` or `KHR_texture_basisu` (the image is then named as the
 //! texture's source; WebP decodes, and KTX2 is transcoded by `basisu`).
 //!
-//! Decoded data goes in new buffer views of the binary chunk of the GLB made
-//! (a GLB's own chunk, which stays its first buffer; a `.gltf` gets the
-//! chunk as a new first buffer). Each compressed primitive's indices and
-//! named attributes, and each quantized attribute, get accessors of plain
-//! `u32` and `f32` data. The extensions are then dropped from the file's lists.
+//! Decoded data goes in new buffer views of the first buffer (a GLB's own
+//! chunk, which stays its first buffer; a `.gltf` gets a new first buffer).
+//! Each compressed primitive's indices and named attributes, and each
+//! quantized attribute, get accessors of plain `u32` and `f32` data. The
+//! extensions are then dropped from the file's lists. The loader is handed
+//! the new JSON and the buffers as they are here, so that nothing is read
+//! or copied again.
 
 use super::LoadError;
 use draco_core::{decoder_buffer::DecoderBuffer, mesh::Mesh, mesh_decoder::MeshDecoder};
