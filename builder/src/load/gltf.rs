@@ -297,7 +297,7 @@ fn check_external_files(path: &Path, dir: &Path, document: &gltf::Document) -> R
 /// The file a URI names (relative to the glTF's directory, or a `file:`
 /// URI); `None` for a `data:` URI or another scheme, `Err` for a name that
 /// does not decode to UTF-8.
-fn uri_file(dir: &Path, uri: &str) -> Option<Result<PathBuf, ()>> {
+pub(super) fn uri_file(dir: &Path, uri: &str) -> Option<Result<PathBuf, ()>> {
     if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
         Some(Ok(PathBuf::from(rest)))
     } else if uri.contains(':') {

@@ -443,11 +443,16 @@ fn read_buffers(path: &Path, doc: &Value, bin: Option<&[u8]>, dir: &Path) -> Res
                 let payload = uri.split_once(";base64,").map_or("", |(_, p)| p);
                 base64::decode(payload).unwrap_or_default()
             }
-            Some(uri) => {
-                let file = urlencoding::decode(uri).map(|n| dir.join(&*n)).map_err(|_| LoadError::malformed(path, format!("buffer URI '{uri}' does not decode to a UTF-8 file name")))?;
-                super::gltf::check_file(path, &file, "a buffer")?;
-                std::fs::read(&file).unwrap_or_default()
-            }
+            // (Files named as the glTF loader names them, `file:` URIs too:
+            // these bytes are the ones it uses.)
+            Some(uri) => match super::gltf::uri_file(dir, uri) {
+                Some(Ok(file)) => {
+                    super::gltf::check_file(path, &file, "a buffer")?;
+                    std::fs::read(&file).unwrap_or_default()
+                }
+                Some(Err(())) => return Err(LoadError::malformed(path, format!("buffer URI '{uri}' does not decode to a UTF-8 file name"))),
+                None => return Err(LoadError::malformed(path, format!("buffer URI '{uri}' is neither a file beside the scene nor a data URI, the only buffers read"))),
+            },
         };
         out.push(bytes);
     }

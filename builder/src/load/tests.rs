@@ -768,17 +768,18 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
     let dir = tempfile::tempdir().unwrap();
     let plain = load_default(&write(dir.path(), "plain.gltf", grid_gltf(12, false, |_| ()).as_bytes())).unwrap();
     for exp_filter in [false, true] {
-        for name in ["meshopt.gltf", "meshopt.glb", "external.gltf"] {
+        for name in ["meshopt.gltf", "meshopt.glb", "external.gltf", "file-uri.gltf"] {
             let text = meshopt_gltf(12, exp_filter, |_, _| ());
             let bytes = if name.ends_with(".glb") {
                 as_glb(&text)
-            } else if name == "external.gltf" {
+            } else if name.ends_with(".gltf") && name != "meshopt.gltf" {
                 // The compressed data in a file beside the scene (read once:
-                // the transcoded file's buffers are handed on).
+                // the transcoded file's buffers are handed on), named
+                // relative to it or by an absolute `file:` URI.
                 let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
                 let uri = json["buffers"][0]["uri"].as_str().unwrap().to_string();
-                write(dir.path(), "external.bin", &base64::decode(uri.split_once(";base64,").unwrap().1).unwrap());
-                json["buffers"][0]["uri"] = serde_json::json!("external.bin");
+                let bin = write(dir.path(), "external.bin", &base64::decode(uri.split_once(";base64,").unwrap().1).unwrap());
+                json["buffers"][0]["uri"] = serde_json::json!(if name == "external.gltf" { "external.bin".to_string() } else { format!("file://{}", bin.display()) });
                 json.to_string().into_bytes()
             } else {
                 text.into_bytes()
@@ -800,6 +801,10 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
     json["buffers"][0]["byteLength"] = serde_json::json!(json["buffers"][0]["byteLength"].as_u64().unwrap() + 100);
     let text = error_text(&write(dir.path(), "short.gltf", json.to_string().as_bytes()));
     assert!(text.contains("external.bin") && text.contains("declares"), "{text}");
+    // A buffer under another scheme is refused, naming it.
+    json["buffers"][0]["uri"] = serde_json::json!("https://example.com/external.bin");
+    let text = error_text(&write(dir.path(), "remote.gltf", json.to_string().as_bytes()));
+    assert!(text.contains("https://example.com/external.bin") && text.contains("data URI"), "{text}");
 }
 
 #[test]
