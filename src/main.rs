@@ -304,7 +304,12 @@ fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, cli::Recorded)> {
         Some(entry) => serde_json::from_value(entry.clone()).map_err(|e| BadInput(format!("{}: its stats.plan entry: {e}", bundle.join(GRAPH_FILE).display())))?,
         None => cli::Recorded::default(),
     };
-    let (scene, _) = load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
+    let (mut scene, _) = load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
+    // A scale the plan measured from the scene's heights is the bundle's.
+    if scene.scale_source == ScaleSource::Guessed && graph.scene.scale_source == "measured" {
+        scene.metres_per_unit = graph.scene.metres_per_unit;
+        scene.scale_source = ScaleSource::Measured;
+    }
     Ok((graph, scene, recorded))
 }
 
@@ -541,6 +546,7 @@ fn info(scene: &Scene) -> Result<()> {
         ScaleSource::File => "stated by the scene",
         ScaleSource::User => "given with --metres-per-unit",
         ScaleSource::Guessed => "guessed from the size; override with --metres-per-unit",
+        ScaleSource::Measured => "measured from the scene's heights",
     };
     let m = scene.metres_per_unit;
     println!("scene       {}", scene.name);

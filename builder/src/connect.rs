@@ -16,7 +16,11 @@
 //! first and skipped where a two-arc detour already makes the arc redundant.
 //! Pairs with no route are rejected. Groups of probes left apart (no view
 //! shared across them) but in one part of the navigable space are then joined
-//! along the shortest walk between them. Arcs whose length exceeds 1.25 times a
+//! along the shortest walk between them; groups walking cannot join (a
+//! ledge, terraces a metre apart) by a path that glides through the fly
+//! space of the visitor's parts, off walking height only where it must
+//! (each such step costs four walking ones). Groups still apart are islands,
+//! named in the stats. Arcs whose length exceeds 1.25 times a
 //! two-arc detour through a third probe are pruned (longest first, never
 //! disconnecting the graph), so the graph stays readable.
 
@@ -33,6 +37,9 @@ use std::time::Instant;
 /// Witness points at least this many times the probes (the default 4,000
 /// serve up to 250 probes).
 const WITNESSES_PER_PROBE: usize = 16;
+/// A step gliding off walking height costs this many walking steps: a join
+/// walks wherever it can.
+const GLIDE_COST: f32 = 4.0;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConnectParams {
@@ -59,11 +66,18 @@ pub struct ConnectStats {
     /// Paths joining groups of probes that share no view with each other
     /// (the shortest walk between the groups).
     pub joined: usize,
+    /// Paths gliding off walking height to join groups walking cannot.
+    pub glided: usize,
     pub unroutable: usize,
     pub pruned: usize,
     pub paths: usize,
     /// Connected components of the final graph (1 when every probe is reachable).
     pub components: usize,
+    /// The probes of each component, largest first, when there are several:
+    /// parts of the space no path can join (a sealed room); the viewer's
+    /// probe bar and map still jump there.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub islands: Vec<Vec<usize>>,
     pub seconds: f64,
 }
 
@@ -169,9 +183,20 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     // a wall got routes of up to 1.7 km.)
     if components(probes.len(), &paths) > 1 {
         let parts: Vec<Option<u32>> = probes.iter().map(|&p| part_of(p)).collect();
-        for (i, j, polyline) in walks_between_groups(space, probes, &parts, &paths) {
+        for (i, j, polyline) in walks_between_groups(space, &space.navigable, probes, &parts, &paths) {
             stats.joined += 1;
             paths.push(RawPath { from: i, to: j, polyline });
+        }
+    }
+    // Phase 4: where walking cannot join groups (a ledge, terraces a metre
+    // apart, a room reached over a sill), a path glides through the fly
+    // space between them, straightened.
+    if !space.glide.is_empty() && components(probes.len(), &paths) > 1 {
+        let (glide_part, _) = crate::freespace::components_26(&space.grid, &space.glide);
+        let parts: Vec<Option<u32>> = probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
+        for (i, j, polyline) in walks_between_groups(space, &space.glide, probes, &parts, &paths) {
+            stats.glided += 1;
+            paths.push(RawPath { from: i, to: j, polyline: straighten(rays, space, &polyline) });
         }
     }
     let before = paths.len();
@@ -179,8 +204,38 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     stats.pruned += before - paths.len();
     stats.paths = paths.len();
     stats.components = components(probes.len(), &paths);
+    stats.islands = islands(probes.len(), &paths);
     stats.seconds = started.elapsed().as_secs_f64();
     (paths, stats)
+}
+
+/// The probes of each connected group, largest first, when there are several.
+fn islands(n: usize, paths: &[RawPath]) -> Vec<Vec<usize>> {
+    let mut groups = groups(n, paths);
+    let mut by_root: HashMap<usize, Vec<usize>> = HashMap::new();
+    for k in 0..n {
+        by_root.entry(groups.find_mut(k)).or_default().push(k);
+    }
+    if by_root.len() < 2 {
+        return Vec::new();
+    }
+    let mut out: Vec<Vec<usize>> = by_root.into_values().collect();
+    out.sort_by(|a, b| b.len().cmp(&a.len()).then(a[0].cmp(&b[0])));
+    out
+}
+
+/// A route through voxel centres pulled straight: from each kept point, the
+/// farthest later point the path can glide to in a straight line.
+fn straighten(rays: &RayScene, space: &FreeSpace, route: &[Vec3]) -> Vec<Vec3> {
+    let clear = |a: Vec3, b: Vec3| space.segment_glides(a, b) && !rays.occluded(&Ray::segment(a, b));
+    let mut out = vec![route[0]];
+    let mut at = 0;
+    while at + 1 < route.len() {
+        let next = (at + 2..route.len()).rev().find(|&k| clear(route[at], route[k])).unwrap_or(at + 1);
+        out.push(route[next]);
+        at = next;
+    }
+    out
 }
 
 /// Removes arcs with a short enough two-arc detour, longest first, keeping the
@@ -232,6 +287,12 @@ pub fn components(n: usize, paths: &[RawPath]) -> usize {
 /// diagonal step is taken only where the voxels it passes between are
 /// navigable too (no cutting a wall's corner).
 fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_ {
+    steps_in(space, &space.navigable, i)
+}
+
+/// [`steps`] through the voxels of `mask`; a step onto a voxel that is not
+/// navigable (gliding off walking height) costs [`GLIDE_COST`] times more.
+fn steps_in<'a>(space: &'a FreeSpace, mask: &'a [bool], i: usize) -> impl Iterator<Item = (usize, f32)> + 'a {
     let g = &space.grid;
     let c = g.coords(i);
     // The voxel `c + d` with only the axes in `mask` moved, if in the grid.
@@ -243,11 +304,12 @@ fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_
     (0..27).filter(|&k| k != 13).filter_map(move |k| {
         let d = [k % 3, k / 3 % 3, k / 9].map(|x| x as i64 - 1);
         let moved = (0..3).filter(|&a| d[a] != 0).fold(0, |m, a| m | 1 << a);
-        let j = at(d, moved).filter(|&j| space.navigable[j])?;
+        let j = at(d, moved).filter(|&j| mask[j])?;
         // Every voxel moved along fewer of the step's axes (none for a face step).
-        let corners = (1..moved).filter(|&m| m & moved == m).all(|m| at(d, m).is_some_and(|v| space.navigable[v]));
+        let corners = (1..moved).filter(|&m| m & moved == m).all(|m| at(d, m).is_some_and(|v| mask[v]));
         let length = ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f32).sqrt() * g.voxel;
-        corners.then(|| (j, length * (1.0 + space.near / space.clearance[j].max(1e-6))))
+        let glide = if space.navigable[j] { 1.0 } else { GLIDE_COST };
+        corners.then(|| (j, glide * length * (1.0 + space.near / space.clearance[j].max(1e-6))))
     })
 }
 
@@ -260,7 +322,7 @@ fn steps(space: &FreeSpace, i: usize) -> impl Iterator<Item = (usize, f32)> + '_
 /// parts of the space (`parts`, per probe) holding probes of two groups or
 /// more are flooded: the Crytek Sponza's 22 parts took 5 s, for no join.
 /// Returns (probe, probe, polyline), the lower index first.
-fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
+fn walks_between_groups(space: &FreeSpace, mask: &[bool], probes: &[Vec3], parts: &[Option<u32>], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
     let mut groups = groups(probes.len(), paths);
     let mut first_group: HashMap<u32, usize> = HashMap::new();
     let mut contested: Vec<u32> = Vec::new();
@@ -280,7 +342,7 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>
     let (mut cost, mut owner, mut parent) = (vec![f32::INFINITY; cells], vec![u32::MAX; cells], vec![u32::MAX; cells]);
     let mut open = BinaryHeap::new();
     for (k, &p) in probes.iter().enumerate().filter(|&(k, _)| parts[k].is_some_and(|part| contested.contains(&part))) {
-        if let Some(i) = g.cell(p).map(|c| g.index(c)).filter(|&i| space.navigable[i] && owner[i] == u32::MAX) {
+        if let Some(i) = g.cell(p).map(|c| g.index(c)).filter(|&i| mask[i] && owner[i] == u32::MAX) {
             (cost[i], owner[i], parent[i]) = (0.0, k as u32, i as u32);
             open.push((Reverse(ordered(0.0)), i));
         }
@@ -289,7 +351,7 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>
         if key > ordered(cost[i]) {
             continue; // a stale entry
         }
-        for (j, step) in steps(space, i) {
+        for (j, step) in steps_in(space, mask, i) {
             if cost[i] + step < cost[j] {
                 (cost[j], owner[j], parent[j]) = (cost[i] + step, owner[i], i as u32);
                 open.push((Reverse(ordered(cost[j])), j));
@@ -299,7 +361,7 @@ fn walks_between_groups(space: &FreeSpace, probes: &[Vec3], parts: &[Option<u32>
     // Where the floods of two groups meet: the cheapest crossing per pair of probes.
     let mut crossings: HashMap<(u32, u32), (f32, u32, u32)> = HashMap::new();
     for i in (0..cells).filter(|&i| owner[i] != u32::MAX) {
-        for (j, step) in steps(space, i) {
+        for (j, step) in steps_in(space, mask, i) {
             let (a, b) = (owner[i], owner[j]);
             if a < b && groups.find_mut(a as usize) != groups.find_mut(b as usize) {
                 let total = cost[i] + step + cost[j];

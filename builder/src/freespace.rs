@@ -140,7 +140,7 @@ impl Default for FreeSpaceParams {
 
 /// `auto` takes a scene for an object when more than this share of the rays
 /// leaving its surface leave its box sideways or downward.
-const FACING_OUT_OBJECT: f32 = 0.5;
+pub(crate) const FACING_OUT_OBJECT: f32 = 0.5;
 /// When walking, a part of the open space is a visitor's when the scene faces it
 /// with at least this share of the votes of the most-faced part (or it reaches
 /// the box's boundary).
@@ -271,6 +271,10 @@ pub struct FreeSpace {
     pub open: Vec<bool>,
     /// Voxels where probes and paths may be.
     pub navigable: Vec<bool>,
+    /// When walking: the fly space of the visitor's parts, where a path may
+    /// leave walking height to join what walking cannot (a ledge, a
+    /// terrace); empty when flying (paths keep to `navigable`).
+    pub glide: Vec<bool>,
     /// Near distance r, scene units.
     pub near: f32,
     /// `Inside` or `Outside` (never `Auto`).
@@ -324,6 +328,18 @@ impl FreeSpace {
     /// corners at clearance 0.)
     pub fn segment_navigable(&self, a: Vec3, b: Vec3) -> bool {
         self.grid.walk_segment(a, b, |i| self.navigable[i])
+    }
+
+    /// Whether every voxel the segment `a`-`b` passes through is in the space
+    /// paths may glide through ([`FreeSpace::glide`], or the navigable space
+    /// when flying).
+    pub fn segment_glides(&self, a: Vec3, b: Vec3) -> bool {
+        self.grid.walk_segment(a, b, |i| self.glides(i))
+    }
+
+    /// Whether paths may cross voxel `i` (gliding where walking cannot).
+    pub fn glides(&self, i: usize) -> bool {
+        if self.glide.is_empty() { self.navigable[i] } else { self.glide[i] }
     }
 
     /// The least clearance of the voxels the segment `a`-`b` passes through
@@ -442,7 +458,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let eye = params.eye_height_m / scene.metres_per_unit;
     let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &walk::water_triangles(scene)));
     let judged = match scene.scale_source {
-        ScaleSource::File | ScaleSource::User => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
+        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
         ScaleSource::Guessed => match &floors {
             Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
             None => Err("the scale is only guessed".to_string()),
@@ -533,16 +549,19 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             if most == 0 {
                 return Err(FreeSpaceError::Nothing("inside", near, "try --space outside or a smaller near distance"));
             }
-            // Flying (coverage research) goes wherever the surface faces; a walker
-            // only where a visitor is: the most-faced part, parts with a tenth of
-            // its votes, and parts open to the world (attics and sealed voids stay out).
+            // Where a visitor is, walking or flying: the most-faced part, parts
+            // with a tenth of its votes, and parts open to the world. Pockets
+            // (an attic, the void between a roof and its panels) stay out: no
+            // probe may stand where the rest of the map cannot reach.
             let exterior = touches_boundary(&grid, &labels, sizes.len(), &in_box);
             for (k, &v) in votes.iter().enumerate() {
-                kept[k] = v > 0 && (!walking || v as f32 >= FACED_SHARE * most as f32 || exterior[k]);
+                kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || exterior[k]);
             }
         }
     }
     let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
+    // Flying, paths glide where probes fly; walking, see below.
+    let mut glide = Vec::new();
 
     let mut walk_stats = None;
     let walk = if walking {
@@ -557,7 +576,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
                 return Err(FreeSpaceError::StartNotNavigable(p, "walkable"));
             }
         }
-        navigable = band;
+        glide = std::mem::replace(&mut navigable, band);
         walk_stats = Some(stats);
         Some(w)
     } else {
@@ -584,7 +603,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         rays: ray_count,
         seconds: started.elapsed().as_secs_f64(),
     };
-    Ok((FreeSpace { grid, occupied, clearance, open, navigable, near, space, walk, bounds, navigable_distance: Default::default() }, stats))
+    Ok((FreeSpace { grid, occupied, clearance, open, navigable, glide, near, space, walk, bounds, navigable_distance: Default::default() }, stats))
 }
 
 fn scale_word(source: ScaleSource) -> &'static str {
@@ -592,6 +611,7 @@ fn scale_word(source: ScaleSource) -> &'static str {
         ScaleSource::File => "stated by the file",
         ScaleSource::User => "given",
         ScaleSource::Guessed => "guessed",
+        ScaleSource::Measured => "measured from its heights",
     }
 }
 
@@ -602,7 +622,7 @@ const FACING_SAMPLES: usize = 4096;
 /// bounding box sideways or downward without hitting anything: high for an
 /// object seen from around it, low for interiors (rays hit walls) and for
 /// landscapes (rays that escape go up, to the sky).
-fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
+pub(crate) fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
     let samples = surface_samples(scene, FACING_SAMPLES, crate::seeds::Stream::Facing.seed(seed));
     let mut rng = crate::seeds::Stream::Outward.rng(seed);
     let eps = 1e-4 * bounds.diagonal().max(1e-6);

@@ -25,6 +25,7 @@ pub mod pipeline;
 pub mod proxy;
 pub mod raycast;
 pub mod render;
+pub mod scale;
 pub mod renderer;
 pub mod report;
 pub mod seeds;

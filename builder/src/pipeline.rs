@@ -13,10 +13,12 @@ use crate::connect::{self, ConnectParams, ConnectStats};
 use crate::smooth;
 use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
 use crate::explore::{explore, Candidate, ExploreParams, ExploreStats};
-use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats};
+use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats, SpaceMode};
 use crate::raycast::{RayScene, RaycastError};
 use crate::order::{self, OrderStats};
 use crate::orient;
+use crate::scale::{self, ScaleGuess};
+use std::borrow::Cow;
 use rayon::prelude::*;
 use crate::report;
 use exploremaps_format as format;
@@ -68,6 +70,7 @@ pub struct Plan {
 /// (their `seconds` go to timings.json).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct PlanStats {
+    pub scale: ScaleStats,
     pub free_space: FreeSpaceStats,
     pub explore: ExploreStats,
     /// None when the candidates are kept as the final probes.
@@ -78,6 +81,20 @@ pub struct PlanStats {
     pub smooth: SmoothStats,
     pub order: OrderSummary,
     pub coverage: CoverageStats,
+}
+
+/// The scale planning used, and where it came from.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ScaleStats {
+    pub metres_per_unit: f32,
+    /// "file", "user", "measured" or "guessed".
+    pub source: &'static str,
+    /// What decided it, in one line.
+    pub reason: String,
+    /// What the scene's heights said, when the file did not state a scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured: Option<ScaleGuess>,
+    pub seconds: f64,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -121,14 +138,17 @@ const GRID: Rgb<u8> = Rgb([40, 90, 220]);
 pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, PlanError> {
     let started = Instant::now();
     let seed = params.explore.seed;
-    let (rays, space, free_space) = prepare(scene, &params.free_space)?;
+    let rays = ray_scene(scene)?;
+    let (scene, scale) = scale_stage(scene, &rays, &params.free_space);
+    let scene = scene.as_ref();
+    let (space, free_space) = space_stage(scene, &rays, &params.free_space)?;
     let (candidates, explore) = explore_stage(scene, &rays, &space, &params.explore);
     let (probes, cluster) = synthesize(scene, &rays, &space, &candidates, params.synthesis.as_ref());
     let (directions, orient) = orient_stage(scene, &rays, &space, &probes.probes);
     let (paths, connect, smooth) = route(scene, &rays, &space, &probes.probes, &directions, seed);
     let (bar_order, order) = order_stage(&probes.probes, &paths, seed);
     let measured = measure(scene, &rays, &space, &probes.probes, params);
-    let stats = PlanStats { free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
+    let stats = PlanStats { scale, free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
     let graph = assemble(scene, source, &space, &probes, directions, paths, bar_order, &measured, &stats);
     Ok(measured.into_plan(graph, stats, started))
 }
@@ -205,6 +225,10 @@ fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], dir
         })
         .collect();
     tracing::info!("{} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
+    if connect_stats.islands.len() > 1 {
+        let named: Vec<String> = connect_stats.islands.iter().map(|group| format!("{:?}", group)).collect();
+        tracing::warn!("the probes form {} groups no path joins (the space between them is closed, e.g. a sealed room): {}; the viewer jumps between them", named.len(), named.join(", "));
+    }
     let n = smoothed.len().max(1) as f64;
     let smooth_stats = SmoothStats {
         paths: smoothed.len(),
@@ -240,7 +264,8 @@ pub fn remeasure(scene: &Scene, mut graph: format::Graph, params: &PlanParams) -
     let started = Instant::now();
     let mut free_params = params.free_space.clone();
     free_params.start = graph.probes.first().map(|p| Vec3::from(p.position));
-    let (rays, space, free_space) = prepare(scene, &free_params)?;
+    let rays = ray_scene(scene)?;
+    let (space, free_space) = space_stage(scene, &rays, &free_params)?;
     let probes: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
     let measured = measure(scene, &rays, &space, &probes, params);
     let stats = PlanStats { free_space, coverage: measured.stats(), ..Default::default() };
@@ -249,18 +274,64 @@ pub fn remeasure(scene: &Scene, mut graph: format::Graph, params: &PlanParams) -
     Ok(measured.into_plan(graph, stats, started))
 }
 
-fn prepare(scene: &Scene, params: &FreeSpaceParams) -> Result<(RayScene, FreeSpace, FreeSpaceStats), PlanError> {
-    let rays = {
-        let _span = tracing::info_span!("raycast").entered();
-        RayScene::new(&scene.positions, &scene.triangles, 0)?
+fn ray_scene(scene: &Scene) -> Result<RayScene, PlanError> {
+    let _span = tracing::info_span!("raycast").entered();
+    Ok(RayScene::new(&scene.positions, &scene.triangles, 0)?)
+}
+
+/// The scene at the scale planning uses: as stated or given; else measured
+/// from its own heights ([`crate::scale`]), trusted when sure; else the
+/// guess from its size, untrusted (free space then decides whether to walk).
+fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) -> (Cow<'a, Scene>, ScaleStats) {
+    let started = Instant::now();
+    let source = |s: ScaleSource| match s {
+        ScaleSource::File => "file",
+        ScaleSource::User => "user",
+        ScaleSource::Guessed => "guessed",
+        ScaleSource::Measured => "measured",
     };
+    if scene.scale_source != ScaleSource::Guessed {
+        let reason = format!("{} m a unit, {}", scene.metres_per_unit, if scene.scale_source == ScaleSource::User { "given" } else { "stated by the scene" });
+        let stats = ScaleStats { metres_per_unit: scene.metres_per_unit, source: source(scene.scale_source), reason, measured: None, seconds: 0.0 };
+        return (Cow::Borrowed(scene), stats);
+    }
+    let _span = tracing::info_span!("scale").entered();
+    // An object's heights are not a building's: its scale only sizes the
+    // free flight around it, and the size tells that well enough.
+    let object = match params.space {
+        SpaceMode::Outside => true,
+        SpaceMode::Inside => false,
+        SpaceMode::Auto => crate::freespace::facing_out(scene, rays, &scene.bounds(), params.seed) > crate::freespace::FACING_OUT_OBJECT,
+    };
+    if object {
+        let reason = format!("{} m a unit, guessed from the size alone: an object, whose heights are not a building's", scene.metres_per_unit);
+        return (Cow::Borrowed(scene), ScaleStats { metres_per_unit: scene.metres_per_unit, source: "guessed", reason, measured: None, seconds: started.elapsed().as_secs_f64() });
+    }
+    let measured = scale::guess(scene, rays);
+    let (m, scale_source, reason) = match &measured {
+        Some(g) if g.sure => (g.metres_per_unit, ScaleSource::Measured, format!("measured: {}", g.describe())),
+        Some(g) => (g.metres_per_unit, ScaleSource::Guessed, format!("not sure: {}; pass --metres-per-unit", g.describe())),
+        None => (scene.metres_per_unit, ScaleSource::Guessed, format!("{} m a unit, guessed from the size alone: no floors under ceilings to measure", scene.metres_per_unit)),
+    };
+    tracing::info!("scale: {reason}");
+    let stats = ScaleStats { metres_per_unit: m, source: source(scale_source), reason, measured: measured.clone(), seconds: started.elapsed().as_secs_f64() };
+    if m == scene.metres_per_unit && scale_source == scene.scale_source {
+        return (Cow::Borrowed(scene), stats);
+    }
+    let mut settled = scene.clone();
+    settled.metres_per_unit = m;
+    settled.scale_source = scale_source;
+    (Cow::Owned(settled), stats)
+}
+
+fn space_stage(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), PlanError> {
     let (space, stats) = {
         let _span = tracing::info_span!("free space").entered();
         free_space(scene, &rays, params)?
     };
     tracing::info!("space: {} ({}); {} ({})", stats.space, stats.space_reason, stats.height, stats.height_reason);
     tracing::info!("free space: {} navigable voxels of {:.3} units, near distance {:.3}; open space {} voxels, {} inside closed solids", stats.navigable, stats.voxel, stats.near, stats.open, stats.solid);
-    Ok((rays, space, stats))
+    Ok((space, stats))
 }
 
 /// The coverage stage's results: the metric, its baselines and pictures.
@@ -380,12 +451,7 @@ fn assemble(
         bounds_min: b.min.to_array(),
         bounds_max: b.max.to_array(),
         metres_per_unit: scene.metres_per_unit,
-        scale_source: match scene.scale_source {
-            ScaleSource::File => "file",
-            ScaleSource::User => "user",
-            ScaleSource::Guessed => "guessed",
-        }
-        .to_string(),
+        scale_source: stats.scale.source.to_string(),
         space: Some(space.space.name().to_string()),
         near_distance: Some(space.near),
         eye_height_m: space.walk.as_ref().map(|w| w.eye * scene.metres_per_unit),

@@ -107,8 +107,12 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
             }
             // No segment that was clear may stop being clear (one that was
             // not, where a raw route cut a corner, may stay so while it mends).
+            // The same for the stretches of a path that glide where walking
+            // cannot (see `connect`): they may not come to cross geometry.
             let clear = |x: Vec3, y: Vec3| segment_clear(rays, space, x, y);
-            if (!clear(p[i - 1], next) && clear(p[i - 1], p[i])) || (!clear(next, p[i + 1]) && clear(p[i], p[i + 1])) {
+            let glides = |x: Vec3, y: Vec3| space.segment_glides(x, y) && !rays.occluded(&Ray::segment(x, y));
+            let keeps = |old: (Vec3, Vec3), new: (Vec3, Vec3)| clear(new.0, new.1) || (!clear(old.0, old.1) && (!glides(old.0, old.1) || glides(new.0, new.1)));
+            if !keeps((p[i - 1], p[i]), (p[i - 1], next)) || !keeps((p[i], p[i + 1]), (next, p[i + 1])) {
                 continue;
             }
             p[i] = next;

@@ -86,6 +86,8 @@ pub struct Walk {
     grid: Grid,
     /// Half a step, scene units.
     half_step: f32,
+    /// A metre, scene units.
+    metre: f32,
 }
 
 impl Walk {
@@ -118,8 +120,56 @@ impl Walk {
         }
         let tall = self.eye + self.head;
         let clear = !rays.occluded(&Ray { t_min: 1e-3 * tall, t_max: tall, ..Ray::new(floor, Vec3::Y) });
-        clear.then_some(floor + Vec3::Y * self.eye)
+        let eye = floor + Vec3::Y * self.eye;
+        (clear && self.in_the_open(rays, eye)).then_some(eye)
     }
+
+    /// Whether a visitor would stand at `eye`, as a tour photographer puts the
+    /// tripod: in the open part of a room, at least [`WALL_M`] from walls,
+    /// or, where the space is narrower than twice that and a little more, on
+    /// its middle line; never in a door frame or the mouth of a passage (a
+    /// narrow place with a wide one within [`DOOR_DEPTH_M`] along it). Walls
+    /// are what level rays from the eye meet.
+    pub fn in_the_open(&self, rays: &RayScene, eye: Vec3) -> bool {
+        let d = level_distances(rays, eye, 3.0 * self.metre);
+        let nearest = (0..LEVEL_RAYS).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0);
+        let across = |d: &[f32], k: usize| d[k] + d[(k + LEVEL_RAYS / 2) % LEVEL_RAYS];
+        let width = across(&d, nearest);
+        let wide = 2.0 * (WALL_M + MIDDLE_M) * self.metre;
+        if d[nearest] < (WALL_M * self.metre).min(0.5 * width - MIDDLE_M * self.metre) {
+            return false;
+        }
+        if width >= wide {
+            return true;
+        }
+        // A narrow place: along it (across its narrowest), both ways, no wide space.
+        let along = (nearest + LEVEL_RAYS / 4) % LEVEL_RAYS;
+        [along, (along + LEVEL_RAYS / 2) % LEVEL_RAYS].iter().all(|&k| {
+            let reach = (DOOR_DEPTH_M * self.metre).min(0.9 * d[k]);
+            let there = level_distances(rays, eye + level_direction(k) * reach, 3.0 * self.metre);
+            across(&there, nearest) < wide
+        })
+    }
+}
+
+/// Level rays a standpoint is judged by.
+const LEVEL_RAYS: usize = 32;
+/// A probe stands at least this far from walls where the room allows, metres.
+pub const WALL_M: f32 = 1.0;
+/// ... and within this of the middle line of a narrower space, metres.
+const MIDDLE_M: f32 = 0.2;
+/// A door frame or a passage's mouth: a wide space within this along a narrow one, metres.
+const DOOR_DEPTH_M: f32 = 0.8;
+
+fn level_direction(k: usize) -> Vec3 {
+    let a = k as f32 * std::f32::consts::TAU / LEVEL_RAYS as f32;
+    Vec3::new(a.cos(), 0.0, a.sin())
+}
+
+/// Distances to what level rays from `p` meet, at most `far`.
+fn level_distances(rays: &RayScene, p: Vec3, far: f32) -> Vec<f32> {
+    let list: Vec<Ray> = (0..LEVEL_RAYS).map(|k| Ray { t_max: far, ..Ray::new(p, level_direction(k)) }).collect();
+    rays.intersect_batch(&list, Packing::Single).iter().map(|h| h.map_or(far, |h| h.t)).collect()
 }
 
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -415,7 +465,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         levels,
         rays: floors.rays + hip_rays + level_rays.len(),
     };
-    let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step };
+    let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step, metre: 1.0 / metres_per_unit };
     (walk, band, stats)
 }
 

@@ -12,6 +12,7 @@
 //! | `cathedral` | a tall nave, galleries up a long stair, windows at every height, solid towers |
 //! | `sunroom` | a plain white room lit only through a window: global illumination |
 
+pub mod awkward;
 mod big;
 mod cathedral;
 mod gallery;

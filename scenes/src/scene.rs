@@ -95,6 +95,9 @@ pub enum ScaleSource {
     User,
     /// Guessed from the scene's size; see [`guess_metres_per_unit`].
     Guessed,
+    /// Measured from the scene's own heights (rooms, furniture, slabs) with
+    /// confidence, by the planner's scale stage.
+    Measured,
 }
 
 /// What loading dropped or repaired, reported to the user.

@@ -1,0 +1,208 @@
+//! One walkable map on any scene (issue 67): for each shared, built-in and
+//! awkward scene, as a new user would plan it (no scale given; the shared
+//! scenes as shipped), prints per plan (auto, then free flight):
+//! - the guessed scale against the true one (goal: within a factor 1.25), and
+//!   whether it walks by default (goal: every piece of architecture);
+//! - connected components of the graph, counted here from its paths (goal: 1);
+//! - standpoints, measured here with their own rays (walking plans): probes
+//!   nearer than 1 m to a wall where the space is 2 m wide or more, or off the
+//!   middle line of a narrower one; probes in a door frame; on furniture; and
+//!   the largest share of a probe's view within 1 m (goal: under 5 %);
+//! - planning time (goals: ≤ 30 s under 1 M triangles, ≤ 10 s on the Sponzas).
+//!
+//! `cargo bench -p exploremaps-builder --bench map`; SCENES (comma list)
+//! narrows the run, MODES=auto or fly keeps one mode.
+
+use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode};
+use exploremaps_builder::load::{load, LoadOptions};
+use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::raycast::{Packing, Ray, RayScene};
+use exploremaps_scenes::awkward::{awkward, AWKWARD};
+use exploremaps_scenes::{BuiltIn, Scene};
+use glam::Vec3;
+use petgraph::unionfind::UnionFind;
+use std::path::Path;
+
+fn main() {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
+    let only: Option<Vec<String>> = std::env::var("SCENES").ok().map(|s| s.split(',').map(str::to_string).collect());
+    let modes = std::env::var("MODES").unwrap_or_else(|_| "auto,fly".into());
+    let wanted = |name: &str| only.as_ref().is_none_or(|o| o.iter().any(|w| w == name));
+    // (name, scene, true metres a unit when known, architecture).
+    let mut scenes: Vec<(String, Scene, Option<f32>, bool)> = Vec::new();
+    for (name, file, truth, architecture) in [
+        ("crytek", "sponza_crytek/sponza_crytek.obj", Some(0.2), true),
+        ("dabrovic", "sponza_dabrovic/sponza.obj", Some(1.0), true),
+        ("cornell", "cornell_box/CornellBox-Original.obj", None, false),
+        ("bunny", "stanford_bunny/bun_zipper.ply", Some(1.0), false),
+        ("staircase", "wooden_staircase/wooden_staircase.obj", Some(1.0), true),
+        ("grey_room", "grey_white_room/grey_white_room.obj", Some(1.0), true),
+        ("apartment", "dream_apartment/dream_apartment.glb", Some(1.0), true),
+    ] {
+        if !wanted(name) {
+            continue;
+        }
+        match load(&shared.join(file), &LoadOptions::default()) {
+            Ok(scene) => scenes.push((name.to_string(), scene, truth, architecture)),
+            Err(e) => println!("SKIPPED {name}: {e}"),
+        }
+    }
+    for name in AWKWARD {
+        if wanted(name) {
+            let (scene, unit) = awkward(name).expect("listed");
+            scenes.push((name.to_string(), scene, Some(unit), name != "car"));
+        }
+    }
+    for name in ["gallery", "maze", "pillars", "island", "house", "cathedral"] {
+        if wanted(name) {
+            let scene = BuiltIn::parse(name).unwrap().generate(1);
+            let m = scene.metres_per_unit;
+            scenes.push((name.to_string(), scene, Some(m), true));
+        }
+    }
+    if std::env::var("SCALE_ONLY").is_ok() {
+        for (name, scene, truth, _) in &scenes {
+            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+            let t = std::time::Instant::now();
+            let guess = exploremaps_builder::scale::guess(scene, &rays);
+            let said = guess.as_ref().map_or("no evidence".to_string(), |g| g.describe());
+            println!("{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]", truth.map_or("-".into(), |t| t.to_string()), scene.scale_source, t.elapsed().as_secs_f64());
+        }
+        return;
+    }
+    println!(
+        "{:<10} {:<4} {:>8} {:>9} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6} {:>5} {:>5} {:>5} {:>6} {:>7}",
+        "scene", "mode", "tris", "scale", "truth", "ratio", "walk", "space", "probes", "comps", "plan s", "wall", "door", "furn", "near%", "inside"
+    );
+    for (name, scene, truth, architecture) in &scenes {
+        for mode in modes.split(',') {
+            let height = if mode == "fly" { HeightMode::Fly } else { HeightMode::Auto };
+            let params = PlanParams { free_space: FreeSpaceParams { height, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() };
+            let result = match plan(scene, name, &params) {
+                Ok(r) => r,
+                Err(e) => {
+                    println!("{name:<10} {mode:<4} no plan: {e}");
+                    continue;
+                }
+            };
+            let g = &result.graph;
+            let m = g.scene.metres_per_unit;
+            let probes: Vec<Vec3> = g.probes.iter().map(|p| Vec3::from(p.position)).collect();
+            let mut groups = UnionFind::new(probes.len());
+            for p in &g.paths {
+                groups.union(p.from as usize, p.to as usize);
+            }
+            let comps = (0..probes.len()).filter(|&k| groups.find_mut(k) == k).count();
+            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+            let walking = g.scene.eye_height_m.is_some();
+            let stands: Vec<Standpoint> = probes.iter().map(|&p| standpoint(&rays, p, 1.0 / m)).collect();
+            let (wall, door, furn) = if walking {
+                (
+                    stands.iter().filter(|s| s.too_near_wall).count().to_string(),
+                    stands.iter().filter(|s| s.door_frame).count().to_string(),
+                    stands.iter().filter(|s| s.on_furniture).count().to_string(),
+                )
+            } else {
+                ("-".into(), "-".into(), "-".into())
+            };
+            let near = stands.iter().map(|s| s.near_share).fold(0.0f32, f32::max);
+            let inside = stands.iter().filter(|s| s.inside).count();
+            let planning = result.seconds - result.coverage.seconds - result.baselines.iter().map(|b| b.report.seconds).sum::<f64>();
+            let ratio = truth.map_or("-".into(), |t| format!("{:.2}", (m / t).max(t / m)));
+            let walk_goal = if *architecture && mode == "auto" && !walking { "NO" } else if walking { "yes" } else { "no" };
+            println!(
+                "{name:<10} {mode:<4} {:>8} {:>9.4} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6.1} {:>5} {:>5} {:>5} {:>6.1} {:>7}",
+                scene.triangles.len(),
+                m,
+                truth.map_or("-".into(), |t| format!("{t}")),
+                ratio,
+                walk_goal,
+                g.scene.space.as_deref().unwrap_or("-"),
+                probes.len(),
+                comps,
+                planning,
+                wall,
+                door,
+                furn,
+                100.0 * near,
+                inside
+            );
+            let fs = &result.stats.free_space;
+            println!("{:<10} {}; {}", "", fs.space_reason, fs.height_reason);
+        }
+    }
+    println!("columns: scale = metres a unit the plan used; ratio = the larger of scale/truth and truth/scale (goal ≤ 1.25);");
+    println!("walk = walking plan (NO: architecture planned in flight by default); comps = connected components of the");
+    println!("graph's paths (goal 1); wall = probes nearer than 1 m to a wall where the space is 2 m wide or more, or more than");
+    println!("0.25 m off the middle of a narrower one; door = probes in a door frame; furn = probes over furniture (the");
+    println!("floor 0.5 m around falls by more than 0.3 m); near% = the largest share of a probe's view within 1 m (goal < 5);");
+    println!("inside = probes whose rays mostly meet back faces (inside geometry, where the scene's faces are oriented).");
+}
+
+struct Standpoint {
+    too_near_wall: bool,
+    door_frame: bool,
+    on_furniture: bool,
+    near_share: f32,
+    inside: bool,
+}
+
+/// A probe's standpoint, from its own rays; `metre` is a metre in scene units.
+fn standpoint(rays: &RayScene, p: Vec3, metre: f32) -> Standpoint {
+    const AROUND: usize = 64;
+    let level: Vec<Ray> = (0..AROUND)
+        .map(|k| {
+            let a = k as f32 * std::f32::consts::TAU / AROUND as f32;
+            Ray::new(p, Vec3::new(a.cos(), 0.0, a.sin()))
+        })
+        .collect();
+    let far = 100.0 * metre;
+    let dist: Vec<f32> = rays.intersect_batch(&level, Packing::Single).iter().map(|h| h.map_or(far, |h| h.t)).collect();
+    let width = |k: usize| dist[k] + dist[(k + AROUND / 2) % AROUND];
+    let nearest = (0..AROUND).min_by(|&a, &b| dist[a].total_cmp(&dist[b])).unwrap_or(0);
+    let too_near_wall = if width(nearest) >= 2.0 * metre {
+        dist[nearest] < metre
+    } else {
+        (dist[nearest] - 0.5 * width(nearest)).abs() > 0.25 * metre
+    };
+    // A door frame: narrower than 1.5 m across one way, with room 0.6 m ahead and behind.
+    let door_frame = (0..AROUND / 2).any(|k| {
+        let across = (k + AROUND / 4) % AROUND;
+        if width(across) >= 1.5 * metre || dist[k] < 0.6 * metre || dist[k + AROUND / 2] < 0.6 * metre {
+            return false;
+        }
+        let d = level[k].dir;
+        let side = level[across].dir;
+        let open = |q: Vec3| {
+            let hits = rays.intersect_batch(&[Ray::new(q, side), Ray::new(q, -side)], Packing::Single);
+            hits.iter().map(|h| h.map_or(far, |h| h.t)).sum::<f32>() > 2.0 * metre
+        };
+        open(p + d * 0.6 * metre) && open(p - d * 0.6 * metre)
+    });
+    // Furniture: the floor under the probe stands above the floor around it.
+    let down = |q: Vec3| rays.intersect(&Ray::new(q, Vec3::NEG_Y)).map_or(f32::INFINITY, |h| h.t);
+    let here = down(p);
+    let falls = (0..8)
+        .filter(|&k| {
+            let a = k as f32 * std::f32::consts::TAU / 8.0;
+            down(p + Vec3::new(a.cos(), 0.0, a.sin()) * 0.5 * metre) > here + 0.3 * metre
+        })
+        .count();
+    let on_furniture = here.is_finite() && falls >= 3;
+    // The whole view: Fibonacci sphere directions.
+    const SPHERE: usize = 1024;
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let sphere: Vec<Ray> = (0..SPHERE)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f32 + 0.5) / SPHERE as f32;
+            let r = (1.0 - y * y).sqrt();
+            let a = golden * k as f32;
+            Ray::new(p, Vec3::new(r * a.cos(), y, r * a.sin()))
+        })
+        .collect();
+    let hits = rays.intersect_batch(&sphere, Packing::Single);
+    let near_share = hits.iter().filter(|h| h.is_some_and(|h| h.t < metre)).count() as f32 / SPHERE as f32;
+    let back = sphere.iter().zip(&hits).filter(|(r, h)| h.is_some_and(|h| h.normal.dot(r.dir) > 0.0)).count();
+    let inside = back as f32 > 0.5 * SPHERE as f32;
+    Standpoint { too_near_wall, door_frame, on_furniture, near_share, inside }
+}
