@@ -127,8 +127,24 @@ fn main() {
                 100.0 * near,
                 inside
             );
-            let fs = &result.stats.free_space;
+            let st = &result.stats;
+            let fs = &st.free_space;
+            println!("{:<10} scale: {}", "", st.scale.reason);
             println!("{:<10} {}; {}", "", fs.space_reason, fs.height_reason);
+            let cluster = st.cluster.as_ref().map_or(0.0, |c| c.seconds);
+            println!(
+                "{:<10} parts kept {} of {}; seconds: scale {:.1}, free space {:.1}, explore {:.1}, cluster {:.1}, orient {:.1}, connect {:.1}, smooth {:.1}",
+                "", fs.components_kept, fs.components, st.scale.seconds, fs.seconds, st.explore.seconds, cluster, st.orient.seconds, st.connect.seconds, st.smooth.seconds
+            );
+            if comps > 1 {
+                let mut by_root: std::collections::BTreeMap<usize, Vec<String>> = Default::default();
+                for (k, p) in probes.iter().enumerate() {
+                    by_root.entry(groups.find_mut(k)).or_default().push(format!("{k}@({:.1},{:.1},{:.1})m", p.x * m, p.y * m, p.z * m));
+                }
+                for group in by_root.values() {
+                    println!("{:<10} group: {}", "", group.join(" "));
+                }
+            }
         }
     }
     println!("columns: scale = metres a unit the plan used; ratio = the larger of scale/truth and truth/scale (goal ≤ 1.25);");

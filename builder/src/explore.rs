@@ -164,7 +164,12 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
                 c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
             })
             .collect();
-        positions.extend(drawn.into_iter().filter_map(|c| space.stand(rays, c)).map(|c| (c, false)));
+        let mut standing: Vec<Vec3> = drawn.iter().filter_map(|&c| space.stand(rays, c)).collect();
+        // A space with no open part (a cabin, a crawlway) is seen from wherever one stands.
+        if standing.is_empty() {
+            standing = drawn.iter().filter_map(|&c| space.stand_anywhere(rays, c)).collect();
+        }
+        positions.extend(standing.into_iter().map(|c| (c, false)));
     }
     let t = Instant::now();
     let words = targets.words();

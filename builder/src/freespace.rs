@@ -400,6 +400,16 @@ impl FreeSpace {
         };
         self.is_navigable(standing).then_some(standing)
     }
+
+    /// [`FreeSpace::stand`], walking, without asking for the open part of a
+    /// room ([`Walk::stand_anywhere`]).
+    pub fn stand_anywhere(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
+        let standing = match &self.walk {
+            None => p,
+            Some(w) => w.stand_anywhere(rays, p)?,
+        };
+        self.is_navigable(standing).then_some(standing)
+    }
 }
 
 /// Computes the navigable free space of a scene.
@@ -554,8 +564,10 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             // (an attic, the void between a roof and its panels) stay out: no
             // probe may stand where the rest of the map cannot reach.
             let exterior = touches_boundary(&grid, &labels, sizes.len(), &in_box);
+            // (A walker also keeps the open parts, as courtyards; in flight
+            // the open air above the roofs is one with them.)
             for (k, &v) in votes.iter().enumerate() {
-                kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || exterior[k]);
+                kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || (walking && exterior[k]));
             }
         }
     }

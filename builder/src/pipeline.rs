@@ -480,3 +480,79 @@ fn assemble(
     }
     graph
 }
+
+#[cfg(test)]
+mod tests {
+    //! One walkable map on each awkward kind of scene, planned as a new user
+    //! would (no scale given, every choice `auto`).
+    use super::*;
+    use crate::raycast::Ray;
+    use exploremaps_scenes::awkward::awkward;
+
+    fn planned(name: &str) -> (Scene, f32, Plan) {
+        let (scene, truth) = awkward(name).unwrap();
+        let params = PlanParams { synthesis: Some(Default::default()), coverage: CoverageParams { samples: 4000, ..Default::default() }, ..Default::default() };
+        let plan = plan(&scene, name, &params).unwrap_or_else(|e| panic!("{name}: {e}"));
+        (scene, truth, plan)
+    }
+
+    fn walking(plan: &Plan) -> bool {
+        plan.graph.scene.eye_height_m.is_some()
+    }
+
+    #[test]
+    fn a_suite_joined_only_by_doors_is_one_walking_map_with_probes_in_the_open() {
+        let (scene, truth, plan) = planned("suite");
+        let g = &plan.graph;
+        assert!((g.scene.metres_per_unit / truth - 1.0).abs() < 0.25, "scale {}: {}", g.scene.metres_per_unit, plan.stats.scale.reason);
+        assert!(walking(&plan), "{}", plan.stats.free_space.height_reason);
+        assert!(g.probes.len() >= 3, "{} probes in six rooms", g.probes.len());
+        assert_eq!(plan.stats.connect.components, 1, "{:?}", plan.stats.connect);
+        // Every probe at least 0.9 m from the walls at eye height (the rooms are 4 m deep and more).
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let metre = 1.0 / g.scene.metres_per_unit;
+        for p in &g.probes {
+            let eye = Vec3::from(p.position);
+            for k in 0..32 {
+                let a = k as f32 * std::f32::consts::TAU / 32.0;
+                let hit = rays.intersect(&Ray::new(eye, Vec3::new(a.cos(), 0.0, a.sin())));
+                assert!(hit.is_none_or(|h| h.t >= 0.9 * metre), "probe {} is {:.2} m from a wall", p.id, hit.unwrap().t / metre);
+            }
+        }
+    }
+
+    #[test]
+    fn terraces_a_metre_apart_are_joined_by_gliding() {
+        let (_, _, plan) = planned("blocks");
+        assert!(walking(&plan), "{}", plan.stats.free_space.height_reason);
+        let levels: Vec<i32> = plan.graph.probes.iter().map(|p| (p.position[1] - 1.6).round() as i32).collect();
+        assert!(levels.iter().any(|&l| l != levels[0]), "probes stand on one terrace only: {levels:?}");
+        assert_eq!(plan.stats.connect.components, 1, "{:?}", plan.stats.connect);
+        assert!(plan.stats.connect.glided >= 1, "{:?}", plan.stats.connect);
+        assert_eq!(plan.stats.smooth.blocked_segments, 0);
+    }
+
+    #[test]
+    fn a_conference_room_in_feet_walks_at_its_floor_never_on_the_table() {
+        let (_, truth, plan) = planned("conference");
+        let g = &plan.graph;
+        assert_eq!(g.scene.scale_source, "measured", "{}", plan.stats.scale.reason);
+        assert!((g.scene.metres_per_unit / truth - 1.0).abs() < 0.25);
+        assert!(walking(&plan));
+        // The floor is at 0; the table top at 0.75 m: every eye is 1.6 m above the floor.
+        for p in &g.probes {
+            let eye_m = p.position[1] * g.scene.metres_per_unit;
+            assert!((eye_m - 1.6).abs() < 0.1, "probe {} has its eye {eye_m:.2} m above the floor", p.id);
+        }
+        assert_eq!(plan.stats.connect.components, 1);
+    }
+
+    #[test]
+    fn a_car_is_an_object_seen_from_around_it() {
+        let (_, _, plan) = planned("car");
+        assert_eq!(plan.graph.scene.space.as_deref(), Some("outside"), "{}", plan.stats.free_space.space_reason);
+        assert!(!walking(&plan));
+        assert_ne!(plan.graph.scene.scale_source, "measured");
+        assert_eq!(plan.stats.connect.components, 1, "{:?}", plan.stats.connect);
+    }
+}

@@ -102,6 +102,12 @@ impl Walk {
     /// stood over the pew, bench or table beside that centre, an eye 1.6 m
     /// above the seat (found on a cathedral's pews: 0.5 and 1 m too high).
     pub fn stand(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
+        self.stand_anywhere(rays, p).filter(|&eye| self.in_the_open(rays, eye))
+    }
+
+    /// [`Walk::stand`] without asking for the open part of a room: for spaces
+    /// with no such part (a cabin, a crawlway).
+    pub fn stand_anywhere(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
         let hit = rays.intersect(&Ray { t_max: self.reach, ..Ray::new(p, Vec3::NEG_Y) })?;
         let up = hit.normal.y.abs();
         if up < SLOPE_COS {
@@ -120,12 +126,12 @@ impl Walk {
         }
         let tall = self.eye + self.head;
         let clear = !rays.occluded(&Ray { t_min: 1e-3 * tall, t_max: tall, ..Ray::new(floor, Vec3::Y) });
-        let eye = floor + Vec3::Y * self.eye;
-        (clear && self.in_the_open(rays, eye)).then_some(eye)
+        clear.then_some(floor + Vec3::Y * self.eye)
     }
 
     /// Whether a visitor would stand at `eye`, as a tour photographer puts the
-    /// tripod: in the open part of a room, at least [`WALL_M`] from walls,
+    /// tripod: in the open part of a room, at least [`WALL_M`] from walls and
+    /// with little of the view within a metre (furniture too),
     /// or, where the space is narrower than twice that and a little more, on
     /// its middle line; never in a door frame or the mouth of a passage (a
     /// narrow place with a wide one within [`DOOR_DEPTH_M`] along it). Walls
@@ -140,7 +146,7 @@ impl Walk {
             return false;
         }
         if width >= wide {
-            return true;
+            return near_share(rays, eye, self.metre) < NEAR_SHARE;
         }
         // A narrow place: along it (across its narrowest), both ways, no wide space.
         let along = (nearest + LEVEL_RAYS / 4) % LEVEL_RAYS;
@@ -160,6 +166,28 @@ pub const WALL_M: f32 = 1.0;
 const MIDDLE_M: f32 = 0.2;
 /// A door frame or a passage's mouth: a wide space within this along a narrow one, metres.
 const DOOR_DEPTH_M: f32 = 0.8;
+
+/// In the open, at most this share of the view below the ceiling lies within a metre.
+const NEAR_SHARE: f32 = 0.04;
+/// Directions the near share is judged by.
+const VIEW_RAYS: usize = 128;
+
+/// The share of the view within a metre of `eye`, over directions below 30°
+/// up (a ceiling a metre above the eye is no wall).
+fn near_share(rays: &RayScene, eye: Vec3, metre: f32) -> f32 {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let list: Vec<Ray> = (0..VIEW_RAYS)
+        .map(|k| {
+            let y = 1.0 - 2.0 * (k as f32 + 0.5) / VIEW_RAYS as f32;
+            let r = (1.0 - y * y).sqrt();
+            let a = golden * k as f32;
+            Ray { t_max: metre, ..Ray::new(eye, Vec3::new(r * a.cos(), y, r * a.sin())) }
+        })
+        .filter(|r| r.dir.y < 0.5)
+        .collect();
+    let near = rays.occluded_batch(&list, Packing::Single).iter().filter(|&&b| b).count();
+    near as f32 / list.len().max(1) as f32
+}
 
 fn level_direction(k: usize) -> Vec3 {
     let a = k as f32 * std::f32::consts::TAU / LEVEL_RAYS as f32;
@@ -390,10 +418,11 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
     let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
-    let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+    let furniture = furniture(grid, &standing, &by_column, &region_of, &sizes, step, 1.0 / metres_per_unit);
+    let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && !furniture[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
     // Smaller room-sized regions: kept when enclosed, judged by 16 level rays
     // from the eyes of up to 16 of their cells (spread through the region).
-    let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+    let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !furniture[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
     let mut cells_of: Vec<Vec<usize>> = vec![Vec::new(); sizes.len()];
     for (k, &g) in region_of.iter().enumerate() {
         if rooms.binary_search(&(g as usize)).is_ok() {
@@ -468,6 +497,43 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step, metre: 1.0 / metres_per_unit };
     (walk, band, stats)
 }
+
+/// Regions that are furniture: beside a region at least 2.5 times their
+/// size, whose floor lies a step to [`FURNITURE_M`] below theirs along their
+/// edge (a bed, a table, a sofa, a counter; a stage too, which nobody tours
+/// from). Terraces of like size and storeys, which stairs join into one
+/// region, are not.
+fn furniture(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], sizes: &[usize], step: f32, metre: f32) -> Vec<bool> {
+    let mut beside: std::collections::HashMap<(u32, u32), usize> = std::collections::HashMap::new();
+    for (a, c) in standing.iter().enumerate() {
+        let (x, z) = ((c.column % grid.dims[0]) as isize, (c.column / grid.dims[0]) as isize);
+        for (dx, dz) in [(1, 0), (-1, 0), (0, 1), (0, -1), (2, 0), (-2, 0), (0, 2), (0, -2)] {
+            let (nx, nz) = (x + dx, z + dz);
+            if nx < 0 || nz < 0 || nx >= grid.dims[0] as isize || nz >= grid.dims[2] as isize {
+                continue;
+            }
+            for &b in &by_column[nx as usize + grid.dims[0] * nz as usize] {
+                let (ra, rb) = (region_of[a], region_of[b as usize]);
+                let rise = c.floor_y - standing[b as usize].floor_y;
+                if ra != rb && rise > step && rise <= FURNITURE_M * metre {
+                    *beside.entry((ra, rb)).or_default() += 1;
+                }
+            }
+        }
+    }
+    let mut out = vec![false; sizes.len()];
+    for &(ra, rb) in beside.keys() {
+        if (sizes[ra as usize] as f32) * FURNITURE_SHARE < sizes[rb as usize] as f32 {
+            out[ra as usize] = true;
+        }
+    }
+    out
+}
+
+/// Furniture tops stand at most this high above the floor, metres (a counter, a bed's head).
+const FURNITURE_M: f32 = 1.3;
+/// A raised region is furniture when the floor beside it is this many times larger.
+const FURNITURE_SHARE: f32 = 2.5;
 
 /// Column offsets (dx, dz) ahead of a column within a stride, at least the
 /// next columns along x and z: the half disc with dz > 0, or dz = 0 and dx > 0,
