@@ -8,12 +8,16 @@
 //!   nearer than 1 m to a wall where the space is 2 m wide or more, or off the
 //!   middle line of a narrower one; probes in a door frame; on furniture; and
 //!   the largest share of a probe's view within 1 m (goal: under 5 %);
-//! - planning time (goals: ≤ 30 s under 1 M triangles, ≤ 10 s on the Sponzas).
+//! - planning time (goals: ≤ 30 s under 1 M triangles, ≤ 10 s on the Sponzas);
+//! - coverage against a plain greedy cover over 3,000 random standpoints of
+//!   the same space at the same probe count (goal: within 2 points).
 //!
 //! `cargo bench -p exploremaps-builder --bench map`; SCENES (comma list)
 //! narrows the run, MODES=auto or fly keeps one mode.
 
-use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode};
+use exploremaps_builder::coverage::coverage_like;
+use exploremaps_builder::explore::{explore, ExploreParams};
+use exploremaps_builder::freespace::{free_space, FreeSpaceParams, HeightMode};
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
@@ -67,12 +71,21 @@ fn main() {
             let guess = exploremaps_builder::scale::guess(scene, &rays);
             let said = guess.as_ref().map_or("no evidence".to_string(), |g| g.describe());
             println!("{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]", truth.map_or("-".into(), |t| t.to_string()), scene.scale_source, t.elapsed().as_secs_f64());
+            if std::env::var("SCALE_ONLY").as_deref() == Ok("peaks") {
+                // The posterior's local peaks, best first.
+                let post = exploremaps_builder::scale::posterior(&exploremaps_builder::scale::gaps(scene, &rays));
+                let mut peaks: Vec<(f64, f64)> = (1..post.len() - 1).filter(|&k| post[k].1 >= post[k - 1].1 && post[k].1 > post[k + 1].1).map(|k| post[k]).collect();
+                peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
+                let top = peaks.first().map_or(0.0, |p| p.1);
+                let shown: Vec<String> = peaks.iter().take(6).map(|(s, l)| format!("{:.4} ({:+.1})", s.exp(), l - top)).collect();
+                println!("{:<10} peaks: {}", "", shown.join(", "));
+            }
         }
         return;
     }
     println!(
-        "{:<10} {:<4} {:>8} {:>9} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6} {:>5} {:>5} {:>5} {:>6} {:>7}",
-        "scene", "mode", "tris", "scale", "truth", "ratio", "walk", "space", "probes", "comps", "plan s", "wall", "door", "furn", "near%", "inside"
+        "{:<10} {:<4} {:>8} {:>9} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6} {:>5} {:>5} {:>5} {:>6} {:>7} {:>6} {:>7}",
+        "scene", "mode", "tris", "scale", "truth", "ratio", "walk", "space", "probes", "comps", "plan s", "wall", "door", "furn", "near%", "inside", "cover%", "greedy%"
     );
     for (name, scene, truth, architecture) in &scenes {
         for mode in modes.split(',') {
@@ -108,10 +121,27 @@ fn main() {
             let near = stands.iter().map(|s| s.near_share).fold(0.0f32, f32::max);
             let inside = stands.iter().filter(|s| s.inside).count();
             let planning = result.seconds - result.coverage.seconds - result.baselines.iter().map(|b| b.report.seconds).sum::<f64>();
+            // Coverage against a plain greedy cover over 3,000 random standpoints
+            // of the same space (eye height when walking), as many probes.
+            let space = {
+                let mut at_scale = scene.clone();
+                at_scale.metres_per_unit = m;
+                at_scale.scale_source = if g.scene.scale_source == "measured" { exploremaps_scenes::ScaleSource::Measured } else { scene.scale_source };
+                free_space(&at_scale, &rays, &FreeSpaceParams { height, ..Default::default() }).map(|s| s.0)
+            };
+            let greedy = match &space {
+                Ok(space) => {
+                    let params = ExploreParams { candidates: 3000, max_probes: probes.len(), coverage_target: 1.0, prefer_open: false, seed: 7, ..Default::default() };
+                    let (chosen, _) = explore(scene, &rays, space, &params);
+                    let chosen: Vec<Vec3> = chosen.iter().map(|c| c.position).collect();
+                    format!("{:.1}", 100.0 * coverage_like(&result.coverage, &rays, space, &chosen).fraction())
+                }
+                Err(_) => "-".into(),
+            };
             let ratio = truth.map_or("-".into(), |t| format!("{:.2}", (m / t).max(t / m)));
             let walk_goal = if *architecture && mode == "auto" && !walking { "NO" } else if walking { "yes" } else { "no" };
             println!(
-                "{name:<10} {mode:<4} {:>8} {:>9.4} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6.1} {:>5} {:>5} {:>5} {:>6.1} {:>7}",
+                "{name:<10} {mode:<4} {:>8} {:>9.4} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6.1} {:>5} {:>5} {:>5} {:>6.1} {:>7} {:>6.1} {:>7}",
                 scene.triangles.len(),
                 m,
                 truth.map_or("-".into(), |t| format!("{t}")),
@@ -125,7 +155,9 @@ fn main() {
                 door,
                 furn,
                 100.0 * near,
-                inside
+                inside,
+                100.0 * result.coverage.fraction(),
+                greedy
             );
             let st = &result.stats;
             let fs = &st.free_space;
@@ -152,7 +184,9 @@ fn main() {
     println!("graph's paths (goal 1); wall = probes nearer than 1 m to a wall where the space is 2 m wide or more, or more than");
     println!("0.25 m off the middle of a narrower one; door = probes in a door frame; furn = probes over furniture (the");
     println!("floor 0.5 m around falls by more than 0.3 m); near% = the largest share of a probe's view within 1 m (goal < 5);");
-    println!("inside = probes whose rays mostly meet back faces (inside geometry, where the scene's faces are oriented).");
+    println!("inside = probes whose rays mostly meet back faces (inside geometry, where the scene's faces are oriented);");
+    println!("cover% = the plan's coverage (of the surface its navigable space sees); greedy% = a plain greedy cover over 3,000");
+    println!("random standpoints of the same space (eye height when walking), as many probes, same samples (goal: cover% within 2).");
 }
 
 struct Standpoint {

@@ -27,7 +27,9 @@
 //!   it newly sees, halfway to any obstruction, while that area grows.
 //!
 //! When the free space is walked ([`crate::walk`]), every probe stands at eye
-//! height above a walkable floor ([`FreeSpace::stand`]).
+//! height above a walkable floor ([`FreeSpace::stand`]), and the greedy choice
+//! takes a standpoint in the open part of a room while it gains at least half
+//! what the best standpoint anywhere would.
 //!
 //! Parameters (defaults): greedy: 2,000 candidates, 20,000 samples, target
 //! 99.5 %; occluded: `face_res` 64, τ = 2r plus two pixel footprints, 3 samples
@@ -75,6 +77,9 @@ pub struct ExploreParams {
     pub max_probes: usize,
     /// Placed first, never moved.
     pub user_probes: Vec<Vec3>,
+    /// Greedy, walking: prefer standpoints in the open part of a room (off
+    /// for a plain greedy cover to compare with).
+    pub prefer_open: bool,
     pub seed: u64,
 }
 
@@ -90,6 +95,7 @@ impl Default for ExploreParams {
             relax_steps: 6,
             max_probes: 256,
             user_probes: Vec::new(),
+            prefer_open: true,
             seed: 1,
         }
     }
@@ -154,6 +160,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let navigable = space.navigable_points();
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
+    let mut open: Vec<bool> = vec![true; positions.len()];
     if !navigable.is_empty() {
         let half = Vec3::splat(0.5 * space.grid.voxel);
         // Several candidates for each probe the budget allows, however large the scene.
@@ -164,12 +171,14 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
                 c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
             })
             .collect();
-        let mut standing: Vec<Vec3> = drawn.iter().filter_map(|&c| space.stand(rays, c)).collect();
-        // A space with no open part (a cabin, a crawlway) is seen from wherever one stands.
-        if standing.is_empty() {
-            standing = drawn.iter().filter_map(|&c| space.stand_anywhere(rays, c)).collect();
-        }
-        positions.extend(standing.into_iter().map(|c| (c, false)));
+        // Where a visitor would stand (in the open part of a room), and
+        // elsewhere where one can stand (near a wall, in a niche).
+        let standing: Vec<(Vec3, bool)> = drawn
+            .par_iter()
+            .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, !params.prefer_open || space.in_the_open(rays, s))))
+            .collect();
+        open.extend(standing.iter().map(|s| s.1));
+        positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
     }
     let t = Instant::now();
     let words = targets.words();
@@ -221,7 +230,14 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         }
         let gain = |bits: &[u64]| bits.iter().zip(&covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
-        let best = (params.user_probes.len()..positions.len()).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        // A standpoint in the open is taken while it gains at least half what
+        // the best anywhere would: probes stand away from walls, and a niche
+        // seen only from beside a wall is still covered.
+        let best_of = |only_open: bool| (params.user_probes.len()..positions.len()).filter(|&k| open[k] || !only_open).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        let best = match (best_of(true), best_of(false)) {
+            (Some(o), Some(a)) if 2 * o.0 >= a.0 => Some(o),
+            (_, any) => any,
+        };
         match best {
             Some((g, k)) if g > 0 => take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen),
             _ => break,

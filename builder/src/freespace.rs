@@ -401,6 +401,11 @@ impl FreeSpace {
         self.is_navigable(standing).then_some(standing)
     }
 
+    /// Whether a visitor would stand at `p` ([`Walk::in_the_open`]; anywhere when flying).
+    pub fn in_the_open(&self, rays: &RayScene, p: Vec3) -> bool {
+        self.walk.as_ref().is_none_or(|w| w.in_the_open(rays, p))
+    }
+
     /// [`FreeSpace::stand`], walking, without asking for the open part of a
     /// room ([`Walk::stand_anywhere`]).
     pub fn stand_anywhere(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {
