@@ -28,8 +28,8 @@
 //!
 //! When the free space is walked ([`crate::walk`]), every probe stands at eye
 //! height above a walkable floor ([`FreeSpace::stand`]), and the greedy choice
-//! takes a standpoint in the open part of a room while it gains at least half
-//! what the best standpoint anywhere would.
+//! takes standpoints in the open part of a room while any gains, then others
+//! only for what none of those sees.
 //!
 //! Parameters (defaults): greedy: 2,000 candidates, 20,000 samples, target
 //! 99.5 %; occluded: `face_res` 64, τ = 2r plus two pixel footprints, 3 samples
@@ -230,14 +230,10 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         }
         let gain = |bits: &[u64]| bits.iter().zip(&covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
-        // A standpoint in the open is taken while it gains at least half what
-        // the best anywhere would: probes stand away from walls, and a niche
-        // seen only from beside a wall is still covered.
+        // Standpoints in the open while any gains; then, for a niche seen
+        // only from beside a wall, anywhere one stands.
         let best_of = |only_open: bool| (params.user_probes.len()..positions.len()).filter(|&k| open[k] || !only_open).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
-        let best = match (best_of(true), best_of(false)) {
-            (Some(o), Some(a)) if 2 * o.0 >= a.0 => Some(o),
-            (_, any) => any,
-        };
+        let best = best_of(true).filter(|o| o.0 > 0).or_else(|| best_of(false));
         match best {
             Some((g, k)) if g > 0 => take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen),
             _ => break,

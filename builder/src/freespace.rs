@@ -22,8 +22,8 @@
 //!
 //! * *fly*: `inside`: open space with clearance ≥ r, in every 6-connected part
 //!   the scene's surface faces (each triangle votes for the part in front of
-//!   it): free flight is for coverage research, and reaches attics and sealed
-//!   rooms too;
+//!   it) with a tenth of the most-faced part's votes, never under water:
+//!   pockets (an attic, the void between a roof and its panels) stay out;
 //!   `outside`: free space with clearance ≥ r around the scene, in the padding
 //!   and in the open space connected to it;
 //! * *walk* ([`crate::walk`]): voxels within a band around eye height above the
@@ -574,6 +574,11 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             for (k, &v) in votes.iter().enumerate() {
                 kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || (walking && exterior[k]));
             }
+            // Nobody visits the sea under its surface (its bed faces it).
+            let drowned = under_water(scene, rays, &grid, &labels, &clearance, sizes.len());
+            for (k, &d) in drowned.iter().enumerate() {
+                kept[k] &= !d;
+            }
         }
     }
     let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
@@ -630,6 +635,26 @@ fn scale_word(source: ScaleSource) -> &'static str {
         ScaleSource::Guessed => "guessed",
         ScaleSource::Measured => "measured from its heights",
     }
+}
+
+/// Per part of the open space: whether its most open voxel lies under a
+/// water surface (the first thing above it is water).
+fn under_water(scene: &Scene, rays: &RayScene, grid: &Grid, labels: &[u32], clearance: &[f32], parts: usize) -> Vec<bool> {
+    let water = walk::water_triangles(scene);
+    if !water.contains(&true) {
+        return vec![false; parts];
+    }
+    let mut open_most: Vec<Option<usize>> = vec![None; parts];
+    for (i, &l) in labels.iter().enumerate().filter(|(_, &l)| l != NONE) {
+        let best = &mut open_most[l as usize];
+        if best.is_none_or(|b| clearance[i] > clearance[b]) {
+            *best = Some(i);
+        }
+    }
+    open_most
+        .iter()
+        .map(|i| i.is_some_and(|i| rays.intersect(&Ray::new(grid.center(grid.coords(i)), Vec3::Y)).is_some_and(|h| water[h.triangle as usize])))
+        .collect()
 }
 
 /// Surface samples of the facing test.
