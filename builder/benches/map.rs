@@ -165,8 +165,8 @@ fn main() {
             println!("{:<10} {}; {}", "", fs.space_reason, fs.height_reason);
             let cluster = st.cluster.as_ref().map_or(0.0, |c| c.seconds);
             println!(
-                "{:<10} parts kept {} of {}; seconds: scale {:.1}, free space {:.1}, explore {:.1}, cluster {:.1}, orient {:.1}, connect {:.1}, smooth {:.1}",
-                "", fs.components_kept, fs.components, st.scale.seconds, fs.seconds, st.explore.seconds, cluster, st.orient.seconds, st.connect.seconds, st.smooth.seconds
+                "{:<10} open candidates {}, probes explored off the open {}; parts kept {} of {}; seconds: scale {:.1}, free space {:.1}, explore {:.1}, cluster {:.1}, orient {:.1}, connect {:.1}, smooth {:.1}",
+                "", st.explore.open_candidates, st.explore.probes_not_in_the_open, fs.components_kept, fs.components, st.scale.seconds, fs.seconds, st.explore.seconds, cluster, st.orient.seconds, st.connect.seconds, st.smooth.seconds
             );
             if comps > 1 {
                 let mut by_root: std::collections::BTreeMap<usize, Vec<String>> = Default::default();

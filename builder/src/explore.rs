@@ -29,7 +29,8 @@
 //! When the free space is walked ([`crate::walk`]), every probe stands at eye
 //! height above a walkable floor ([`FreeSpace::stand`]), and the greedy choice
 //! takes standpoints in the open part of a room while any gains, then others
-//! only for what none of those sees.
+//! only for what none of those sees, and only up to 1.5 points short of the
+//! target.
 //!
 //! Parameters (defaults): greedy: 2,000 candidates, 20,000 samples, target
 //! 99.5 %; occluded: `face_res` 64, τ = 2r plus two pixel footprints, 3 samples
@@ -101,6 +102,10 @@ impl Default for ExploreParams {
     }
 }
 
+/// Walking, probes beside walls are taken only to bring coverage within
+/// this of the target.
+const NICHE_SLACK: f64 = 0.015;
+
 /// The default stop: 99.5 % of the reachable surface as the selection samples
 /// count it, which the independent coverage metric reads as 98-99 % on the
 /// Sponzas. The last percent of a real scene is nooks seen only through narrow
@@ -133,6 +138,10 @@ pub struct ExploreStats {
     /// Placement stopped at `max_probes` short of its target: the scene needs
     /// more probes than it was allowed.
     pub capped: bool,
+    /// Walking: candidates standing in the open part of a room, and probes
+    /// taken elsewhere (for surface no standpoint in the open sees).
+    pub open_candidates: usize,
+    pub probes_not_in_the_open: usize,
     pub seconds: f64,
     /// Seconds in cube-map ray casting, in masking, in relaxation.
     pub seconds_views: f64,
@@ -231,15 +240,22 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         let gain = |bits: &[u64]| bits.iter().zip(&covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
         // Standpoints in the open while any gains; then, for a niche seen
-        // only from beside a wall, anywhere one stands.
+        // only from beside a wall, anywhere one stands, but only up to
+        // [`NICHE_SLACK`] short of the target: a visitor's standpoints cost
+        // that much coverage at most.
         let best_of = |only_open: bool| (params.user_probes.len()..positions.len()).filter(|&k| open[k] || !only_open).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
-        let best = best_of(true).filter(|o| o.0 > 0).or_else(|| best_of(false));
+        let short = (covered_count as f64) < (params.coverage_target - NICHE_SLACK) * targets.len() as f64;
+        let best = best_of(true).filter(|o| o.0 > 0).or_else(|| if short { best_of(false) } else { None });
         match best {
-            Some((g, k)) if g > 0 => take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen),
+            Some((g, k)) if g > 0 => {
+                stats.probes_not_in_the_open += usize::from(!open[k]);
+                take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen)
+            }
             _ => break,
         }
     }
     stats.seconds_masking = t.elapsed().as_secs_f64();
+    stats.open_candidates = open.iter().filter(|&&o| o).count();
     stats.samples_created = targets.len();
     stats.samples_left = targets.len() - covered_count;
     stats.probes = probes.len();
@@ -601,16 +617,24 @@ mod tests {
     }
 
     #[test]
-    fn every_builtin_scene_is_covered_to_99_percent() {
+    fn every_builtin_scene_is_covered_to_97_percent_standing_in_the_open() {
+        // Walking, probes stand in the open part of rooms, which may cost up to
+        // 1.5 points of the target: at least 97 %, and within 2 points of a
+        // plain greedy cover (any standpoint) of as many probes.
         for spec in ["gallery", "maze", "pillars", "big:100000"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             let (space, _) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
             let (probes, stats) = explore(&scene, &rays, &space, &ExploreParams::default());
-            let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
+            let plain = ExploreParams { prefer_open: false, max_probes: probes.len(), coverage_target: 1.0, ..Default::default() };
+            let (anywhere, _) = explore(&scene, &rays, &space, &plain);
             let params = crate::coverage::CoverageParams { samples: 50_000, seed: 9, ..Default::default() };
-            let c = crate::coverage::coverage(&scene, &rays, &space, &positions, &params).fraction();
-            assert!(c >= 0.99, "{spec}: {c:.4} with {} probes ({stats:?})", probes.len());
+            let measured = |c: &[Candidate]| {
+                let positions: Vec<Vec3> = c.iter().map(|p| p.position).collect();
+                crate::coverage::coverage(&scene, &rays, &space, &positions, &params).fraction()
+            };
+            let (c, greedy) = (measured(&probes), measured(&anywhere));
+            assert!(c >= 0.97 && c >= greedy - 0.02, "{spec}: {c:.4} with {} probes, plain greedy {greedy:.4} ({stats:?})", probes.len());
         }
     }
 
