@@ -154,7 +154,7 @@ pub struct SceneArgs {
     /// The file's up axis (x, y, z, optionally signed: -z); it is rotated to +Y.
     #[arg(long, default_value = "y")]
     pub up: String,
-    /// Metres per scene unit, when the file does not say (OBJ and PLY never do; it is guessed otherwise).
+    /// Metres per scene unit, when the file does not say (OBJ and PLY never do; `plan` measures it otherwise from the scene's heights, or guesses it from the size).
     #[arg(long)]
     pub metres_per_unit: Option<f32>,
     /// The most triangles a scene file may hold, checked before its data is read.
