@@ -38,8 +38,12 @@
 //!    wherever people can walk. (Without that span, a staircase's storeys
 //!    were apart in the band, and no path climbed it.)
 //!
+//! Furniture regions (raised a step to 1.3 m beside a floor 2.5 times their
+//! size: beds, tables, counters) are never kept.
+//!
 //! A probe [`Walk::stand`]s exactly at eye height above the floor under it,
-//! which must be a kept floor of its column.
+//! which must be a kept floor of its column, and in the open part of a room
+//! ([`Walk::in_the_open`]); [`Walk::stand_anywhere`] leaves out the latter.
 //! Defaults: eye 1.6 m, head room 0.25 m above the eye, steps up to 0.3 m,
 //! slopes up to 40°.
 
