@@ -331,7 +331,7 @@ fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) 
 fn space_stage(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), PlanError> {
     let (space, stats) = {
         let _span = tracing::info_span!("free space").entered();
-        free_space(scene, &rays, params)?
+        free_space(scene, rays, params)?
     };
     tracing::info!("space: {} ({}); {} ({})", stats.space, stats.space_reason, stats.height, stats.height_reason);
     tracing::info!("free space: {} navigable voxels of {:.3} units, near distance {:.3}; open space {} voxels, {} inside closed solids", stats.navigable, stats.voxel, stats.near, stats.open, stats.solid);
