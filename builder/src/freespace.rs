@@ -471,7 +471,8 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
     // stated, or guessed with rooms of a plausible height.
     let eye = params.eye_height_m / scene.metres_per_unit;
-    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &walk::water_triangles(scene)));
+    let water = walk::water_triangles(scene);
+    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
     let judged = match scene.scale_source {
         ScaleSource::File | ScaleSource::User | ScaleSource::Measured => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
         ScaleSource::Guessed => match &floors {
@@ -575,7 +576,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
                 kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || (walking && exterior[k]));
             }
             // Nobody visits the sea under its surface (its bed faces it).
-            let drowned = under_water(scene, rays, &grid, &labels, &clearance, sizes.len());
+            let drowned = under_water(&water, rays, &grid, &labels, &clearance, sizes.len());
             for (k, &d) in drowned.iter().enumerate() {
                 kept[k] &= !d;
             }
@@ -639,8 +640,7 @@ fn scale_word(source: ScaleSource) -> &'static str {
 
 /// Per part of the open space: whether its most open voxel lies under a
 /// water surface (the first thing above it is water).
-fn under_water(scene: &Scene, rays: &RayScene, grid: &Grid, labels: &[u32], clearance: &[f32], parts: usize) -> Vec<bool> {
-    let water = walk::water_triangles(scene);
+fn under_water(water: &[bool], rays: &RayScene, grid: &Grid, labels: &[u32], clearance: &[f32], parts: usize) -> Vec<bool> {
     if !water.contains(&true) {
         return vec![false; parts];
     }

@@ -227,7 +227,7 @@ fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], dir
     tracing::info!("{} paths, {} components, smoothed in {:.3} s", connect_stats.paths, connect_stats.components, smoothing_s);
     if connect_stats.islands.len() > 1 {
         let named: Vec<String> = connect_stats.islands.iter().map(|group| format!("{:?}", group)).collect();
-        tracing::warn!("the probes form {} groups no path joins (the space between them is closed, e.g. a sealed room): {}; the viewer jumps between them", named.len(), named.join(", "));
+        tracing::warn!("the probes form {} groups no path joins (no free way between them, walking or gliding, keeps the near distance: a sealed room, a narrow gap): {}; the viewer jumps between them", named.len(), named.join(", "));
     }
     let n = smoothed.len().max(1) as f64;
     let smooth_stats = SmoothStats {

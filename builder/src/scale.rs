@@ -93,8 +93,10 @@ impl ScaleGuess {
     }
 }
 
+/// At most four decimals, no trailing zeros (10 stays 10).
 fn short(m: f32) -> String {
-    format!("{}", (m as f64 * 1e4).round() / 1e4).trim_end_matches('0').to_string()
+    let s = format!("{m:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
 fn scale_words(m: f32) -> String {
@@ -285,6 +287,14 @@ mod tests {
         assert!(g.describe().contains("cm"));
         let alt = g.runner_up.expect("a runner-up");
         assert!((alt / g.metres_per_unit).ln().abs() > 1.25f32.ln());
+    }
+
+    #[test]
+    fn scales_are_written_without_trailing_zeros() {
+        assert_eq!(short(10.0), "10");
+        assert_eq!(short(0.3048), "0.3048");
+        assert_eq!(short(0.01), "0.01");
+        assert_eq!(short(1.0), "1");
     }
 
     #[test]
