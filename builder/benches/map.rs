@@ -64,6 +64,16 @@ fn main() {
             scenes.push((name.to_string(), scene, Some(m), true));
         }
     }
+    if std::env::var("KIND").is_ok() {
+        for (name, scene, _, architecture) in &scenes {
+            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+            let b = scene.bounds();
+            let facing = exploremaps_builder::freespace::facing_out(scene, &rays, &b, 1);
+            let (enclosed, ground) = exploremaps_builder::freespace::kind_evidence(&rays, &b, 1);
+            println!("{name:<10} architecture {architecture:<5} facing out {facing:.2} enclosed {enclosed:.2} ground {ground:.2} height {:.2} m", b.extent().y * scene.metres_per_unit);
+        }
+        return;
+    }
     if std::env::var("SCALE_ONLY").is_ok() {
         for (name, scene, truth, _) in &scenes {
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();

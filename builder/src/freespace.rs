@@ -141,6 +141,14 @@ impl Default for FreeSpaceParams {
 /// `auto` takes a scene for an object when more than this share of the rays
 /// leaving its surface leave its box sideways or downward.
 pub(crate) const FACING_OUT_OBJECT: f32 = 0.5;
+/// An object with an interior (a car, a machine) by [`kind_evidence`]: more
+/// of its surface faces out than a place's without thick walls, less of
+/// its box is closed space than a building's rooms, and from above it
+/// shows its top, not a ground. Buildings measured (docs/2026-12-06-map.md)
+/// have closed space over 60 % of the box or a ground over 15 % of it.
+const CABIN_FACING_OUT: f32 = 0.2;
+const CABIN_ENCLOSED: f32 = 0.45;
+const CABIN_GROUND: f32 = 0.15;
 /// When walking, a part of the open space is a visitor's when the scene faces it
 /// with at least this share of the votes of the most-faced part (or it reaches
 /// the box's boundary).
@@ -431,8 +439,10 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     // Which way the surface faces decides `auto`'s space; a scene to be in
     // that is too flat to stand in gets a storey of sky (see `room_box`).
     let facing_out = facing_out(scene, rays, &bounds, params.seed);
+    let kind = (params.space == SpaceMode::Auto).then(|| kind_evidence(rays, &bounds, params.seed));
+    let cabin = kind.is_some_and(|(enclosed, ground)| facing_out > CABIN_FACING_OUT && enclosed < CABIN_ENCLOSED && ground < CABIN_GROUND);
     let inside = match params.space {
-        SpaceMode::Auto => facing_out <= FACING_OUT_OBJECT,
+        SpaceMode::Auto => facing_out <= FACING_OUT_OBJECT && !cabin,
         given => given == SpaceMode::Inside,
     };
     let (room, sky) = if inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
@@ -453,8 +463,18 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
     let mut ray_count = solids.rays;
 
-    ray_count += FACING_SAMPLES;
+    ray_count += FACING_SAMPLES + if kind.is_some() { KIND_POINTS * 14 + KIND_GROUND_SIDE * KIND_GROUND_SIDE } else { 0 };
     let (space, mut space_reason) = match params.space {
+        SpaceMode::Auto if cabin => {
+            let (enclosed, ground) = kind.expect("auto");
+            let why = format!(
+                "auto: an object with an interior: {:.0} % of its surface faces out of its box, only {:.0} % of the box is closed space and {:.0} % of its footprint shows a ground from above; --space inside plans its interior",
+                100.0 * facing_out,
+                100.0 * enclosed,
+                100.0 * ground
+            );
+            (SpaceMode::Outside, why)
+        }
         SpaceMode::Auto if !inside => {
             (SpaceMode::Outside, format!("auto: an object, {:.0} % of its surface faces out of its box", 100.0 * facing_out))
         }
@@ -664,7 +684,7 @@ const FACING_SAMPLES: usize = 4096;
 /// bounding box sideways or downward without hitting anything: high for an
 /// object seen from around it, low for interiors (rays hit walls) and for
 /// landscapes (rays that escape go up, to the sky).
-pub(crate) fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
+pub fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f32 {
     let samples = surface_samples(scene, FACING_SAMPLES, crate::seeds::Stream::Facing.seed(seed));
     let mut rng = crate::seeds::Stream::Outward.rng(seed);
     let eps = 1e-4 * bounds.diagonal().max(1e-6);
@@ -680,6 +700,54 @@ pub(crate) fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u6
     let hits = rays.intersect_batch(&list, Packing::Single);
     let out = list.iter().zip(&hits).filter(|(r, h)| h.is_none() && r.dir.y < 0.5).count();
     out as f32 / list.len() as f32
+}
+
+/// Points of the box of [`kind_evidence`], how many of their 14 rays must
+/// hit for a point to be closed all round (a room's windows let a few out),
+/// and the side of its grid of rays down.
+const KIND_POINTS: usize = 2048;
+const KIND_HITS: usize = 11;
+const KIND_GROUND_SIDE: usize = 48;
+
+/// What tells an object with an interior (a car, a machine) from a place,
+/// whatever the scale: (enclosed, ground).
+/// - enclosed: the share of the box's volume in free space closed all round
+///   (at least 11 of 14 rays from a point hit, mostly front faces): most of
+///   a building's box is its rooms; a car's cabin is a quarter of its box.
+/// - ground: the share of rays cast straight down over the box's footprint
+///   whose first hit faces up in its lower half: a place open to the
+///   sky (a plaza, a courtyard, a landscape, rooms without ceilings) shows
+///   its ground; an object shows its top.
+pub fn kind_evidence(rays: &RayScene, bounds: &Aabb, seed: u64) -> (f32, f32) {
+    let mut rng = crate::seeds::Stream::Kind.rng(seed);
+    let (lo, ext) = (bounds.min, bounds.extent().max(Vec3::splat(1e-6)));
+    let mut dirs: Vec<Vec3> = vec![Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+    for k in 0..8 {
+        dirs.push(Vec3::new(if k & 1 == 0 { 1.0 } else { -1.0 }, if k & 2 == 0 { 1.0 } else { -1.0 }, if k & 4 == 0 { 1.0 } else { -1.0 }).normalize());
+    }
+    let points: Vec<Vec3> = (0..KIND_POINTS).map(|_| lo + ext * Vec3::new(rng.random(), rng.random(), rng.random())).collect();
+    let list: Vec<Ray> = points.iter().flat_map(|&p| dirs.iter().map(move |&d| Ray::new(p, d))).collect();
+    let hits = rays.intersect_batch(&list, Packing::Packets8);
+    let enclosed = hits
+        .chunks(dirs.len())
+        .zip(list.chunks(dirs.len()))
+        .filter(|(h, r)| {
+            let hit = h.iter().filter(|h| h.is_some()).count();
+            let front = h.iter().zip(*r).filter(|(h, r)| h.is_some_and(|h| h.normal.dot(r.dir) < 0.0)).count();
+            hit >= KIND_HITS && 2 * front > hit
+        })
+        .count();
+    let side = KIND_GROUND_SIDE;
+    let top = bounds.max.y + 0.01 * ext.y;
+    let down: Vec<Ray> = (0..side * side)
+        .map(|k| {
+            let (u, v) = (((k % side) as f32 + 0.5) / side as f32, ((k / side) as f32 + 0.5) / side as f32);
+            Ray::new(Vec3::new(lo.x + u * ext.x, top, lo.z + v * ext.z), Vec3::NEG_Y)
+        })
+        .collect();
+    let low = lo.y + 0.5 * ext.y;
+    let ground = rays.intersect_batch(&down, Packing::Packets8).iter().zip(&down).filter(|(h, r)| h.is_some_and(|h| h.normal.y > 0.0 && r.origin.y - h.t < low)).count();
+    (enclosed as f32 / KIND_POINTS as f32, ground as f32 / down.len() as f32)
 }
 
 /// The box a scene to be in is navigated in, and whether it was raised: the

@@ -552,14 +552,19 @@ mod tests {
     }
 
     #[test]
-    fn a_car_is_not_scaled_up_into_a_room_nor_walked() {
+    fn a_car_is_an_object_seen_from_around_it_not_scaled_up_into_a_room() {
         // Its cabin's heights would make a room of it at 6 m a unit; unsure
-        // and no common unit, the size's guess stands. (Taking it for an
-        // object, to be seen from around it, is not done yet: it is flown
-        // inside its box, and its sealed cabin is an island.)
+        // and no common unit, the size's guess stands. Its cabin is a small
+        // share of its box and it shows no ground: the space around it is
+        // the map, one piece, and the sealed cabin is left out.
         let (_, truth, plan) = planned("car");
         assert_eq!(plan.graph.scene.metres_per_unit, truth, "{}", plan.stats.scale.reason);
         assert_ne!(plan.graph.scene.scale_source, "measured");
+        assert_eq!(plan.stats.free_space.space, "outside", "{}", plan.stats.free_space.space_reason);
         assert!(!walking(&plan), "{}", plan.stats.free_space.height_reason);
+        assert_eq!(plan.stats.connect.components, 1);
+        // The cabin (awkward.rs): x 1.2–3.6, y 0.4–1.38, z 0.04–1.76.
+        let in_cabin = |p: [f32; 3]| p[0] > 1.2 && p[0] < 3.6 && p[1] > 0.4 && p[1] < 1.38 && p[2] > 0.04 && p[2] < 1.76;
+        assert!(plan.graph.probes.iter().all(|p| !in_cabin(p.position)));
     }
 }

@@ -35,6 +35,8 @@ pub enum Stream {
     Facing = 0x6661_6365, // "face"
     /// Rays from those samples.
     Outward = 0x6f75_7473, // "outs"
+    /// Points of the box that tell an object from a place.
+    Kind = 0x6b69_6e64, // "kind"
 }
 
 impl Stream {

@@ -26,7 +26,7 @@ pub fn gallery(seed: u64) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6761_6c6c);
     let mut m = MeshBuilder::new("gallery");
     let materials = GalleryMaterials::add(&mut m, seed);
-    wing(&mut m, &materials, &mut rng, Vec3::ZERO, "");
+    wing(&mut m, &materials, &mut rng, Vec3::ZERO, "", Neighbours::default());
     m.add_light(SUN);
     m.finish()
 }
@@ -38,7 +38,7 @@ pub(crate) const SUN: Light = Light::Sun { direction: Vec3::new(0.4243, 0.8485, 
 pub(crate) const WING_SIZE: (f32, f32) = (42.0, 38.0);
 
 pub(crate) struct GalleryMaterials {
-    floor: u32,
+    pub(crate) floor: u32,
     wall: u32,
     wall_red: u32,
     wall_blue: u32,
@@ -79,9 +79,26 @@ impl GalleryMaterials {
     }
 }
 
+/// Which outer walls of a wing have a door to a neighbouring wing: on the
+/// x sides into the corridor (z = 2), on the z sides into the courtyard
+/// (low z) and the store room E (high z), both at x = 16, so that the doors
+/// of wings side by side on a grid face each other.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Neighbours {
+    pub low_x: bool,
+    pub high_x: bool,
+    pub low_z: bool,
+    pub high_z: bool,
+}
+
+/// Where the doors between neighbouring wings are, in wing coordinates: the
+/// line (z) of those on the x sides, and the line (x) of those on the z sides.
+pub(crate) const JOIN_Z: f32 = 2.0;
+pub(crate) const JOIN_X: f32 = 16.0;
+
 /// One museum wing (the plan in the module header) with its origin at `o`;
 /// object names get `prefix`.
-pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64Mcg, o: Vec3, prefix: &str) {
+pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64Mcg, o: Vec3, prefix: &str, next: Neighbours) {
     let v = |x: f32, y: f32, z: f32| o + Vec3::new(x, y, z);
     m.begin_object(&format!("{prefix}ground"));
     m.set_material(mat.floor);
@@ -89,22 +106,23 @@ pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64M
 
     m.begin_object(&format!("{prefix}walls"));
     let door = |c: f32| (c, DOOR_W, DOOR_H);
+    let join = |on: bool, c: f32| if on { vec![door(c)] } else { Vec::new() };
     // (material, along x, line, from, to, doors) in wing coordinates.
-    type Wall<'a> = (u32, bool, f32, f32, f32, &'a [(f32, f32, f32)]);
+    type Wall = (u32, bool, f32, f32, f32, Vec<(f32, f32, f32)>);
     let walls: [Wall; 12] = [
         // Corridor walls: south (courtyard and D doors), north (A, B, C doors); outer walls.
-        (mat.wall, true, 0.0, 0.0, 40.0, &[door(12.0), door(32.0)]),
-        (mat.wall, true, 4.0, 0.0, 40.0, &[door(6.0), door(16.0), door(30.0)]),
-        (mat.wall, false, 0.0, -16.0, 16.0, &[]),
-        (mat.wall, false, 40.0, -12.0, 20.0, &[]),
-        (mat.wall_red, true, 16.0, 0.0, 12.0, &[]),
-        (mat.wall_red, false, 12.0, 4.0, 20.0, &[door(14.0)]),
-        (mat.wood, true, 12.0, 12.0, 20.0, &[door(16.0)]),
-        (mat.wood, true, 20.0, 12.0, 40.0, &[]),
-        (mat.wall_blue, false, 20.0, 4.0, 20.0, &[door(8.0)]),
-        (mat.wall_blue, true, -12.0, 24.0, 40.0, &[]),
-        (mat.bricks, true, -16.0, 0.0, 24.0, &[]),
-        (mat.bricks, false, 24.0, -16.0, 0.0, &[door(-6.0)]),
+        (mat.wall, true, 0.0, 0.0, 40.0, vec![door(12.0), door(32.0)]),
+        (mat.wall, true, 4.0, 0.0, 40.0, vec![door(6.0), door(16.0), door(30.0)]),
+        (mat.wall, false, 0.0, -16.0, 16.0, join(next.low_x, JOIN_Z)),
+        (mat.wall, false, 40.0, -12.0, 20.0, join(next.high_x, JOIN_Z)),
+        (mat.wall_red, true, 16.0, 0.0, 12.0, Vec::new()),
+        (mat.wall_red, false, 12.0, 4.0, 20.0, vec![door(14.0)]),
+        (mat.wood, true, 12.0, 12.0, 20.0, vec![door(16.0)]),
+        (mat.wood, true, 20.0, 12.0, 40.0, join(next.high_z, JOIN_X)),
+        (mat.wall_blue, false, 20.0, 4.0, 20.0, vec![door(8.0)]),
+        (mat.wall_blue, true, -12.0, 24.0, 40.0, Vec::new()),
+        (mat.bricks, true, -16.0, 0.0, 24.0, join(next.low_z, JOIN_X)),
+        (mat.bricks, false, 24.0, -16.0, 0.0, vec![door(-6.0)]),
     ];
     for (material, along_x, line, from, to, doors) in walls {
         m.set_material(material);
