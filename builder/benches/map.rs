@@ -129,6 +129,12 @@ fn main() {
                 ("-".into(), "-".into(), "-".into())
             };
             let near = stands.iter().map(|s| s.near_share).fold(0.0f32, f32::max);
+            if std::env::var("DETAIL").is_ok() {
+                // Each flagged probe: where, and what the checks found.
+                for (k, (s, p)) in stands.iter().zip(&probes).enumerate().filter(|(_, (s, _))| s.too_near_wall || s.door_frame || s.on_furniture || s.near_share > 0.05) {
+                    println!("  probe {k} at {:.2?}: wall {} door {} furniture {} near {:.1} % (nearest wall {:.2} m, across {:.2} m)", p.to_array(), s.too_near_wall, s.door_frame, s.on_furniture, 100.0 * s.near_share, s.nearest * m, s.across * m);
+                }
+            }
             let inside = stands.iter().filter(|s| s.inside).count();
             let planning = result.seconds - result.coverage.seconds - result.baselines.iter().map(|b| b.report.seconds).sum::<f64>();
             // Coverage against a plain greedy cover over 3,000 random standpoints
@@ -205,6 +211,9 @@ struct Standpoint {
     on_furniture: bool,
     near_share: f32,
     inside: bool,
+    /// The nearest wall at eye level, and the width across there.
+    nearest: f32,
+    across: f32,
 }
 
 /// A probe's standpoint, from its own rays; `metre` is a metre in scene units.
@@ -264,5 +273,5 @@ fn standpoint(rays: &RayScene, p: Vec3, metre: f32) -> Standpoint {
     let near_share = hits.iter().filter(|h| h.is_some_and(|h| h.t < metre)).count() as f32 / SPHERE as f32;
     let back = sphere.iter().zip(&hits).filter(|(r, h)| h.is_some_and(|h| h.normal.dot(r.dir) > 0.0)).count();
     let inside = back as f32 > 0.5 * SPHERE as f32;
-    Standpoint { too_near_wall, door_frame, on_furniture, near_share, inside }
+    Standpoint { too_near_wall, door_frame, on_furniture, near_share, inside, nearest: dist[nearest], across: width(nearest) }
 }

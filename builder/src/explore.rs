@@ -39,6 +39,7 @@
 
 use crate::visibility::{CubeView, Targets};
 use crate::freespace::FreeSpace;
+use crate::walk::Standpoint;
 use exploremaps_scenes::Scene;
 use rayon::prelude::*;
 use crate::raycast::{Packing, Ray, RayScene};
@@ -169,7 +170,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let navigable = space.navigable_points();
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
-    let mut open: Vec<bool> = vec![true; positions.len()];
+    let mut rank: Vec<Standpoint> = vec![Standpoint::Open; positions.len()];
     if !navigable.is_empty() {
         let half = Vec3::splat(0.5 * space.grid.voxel);
         // Several candidates for each probe the budget allows, however large the scene.
@@ -182,11 +183,11 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
             .collect();
         // Where a visitor would stand (in the open part of a room), and
         // elsewhere where one can stand (near a wall, in a niche).
-        let standing: Vec<(Vec3, bool)> = drawn
+        let standing: Vec<(Vec3, Standpoint)> = drawn
             .par_iter()
-            .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, !params.prefer_open || space.in_the_open(rays, s))))
+            .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open })))
             .collect();
-        open.extend(standing.iter().map(|s| s.1));
+        rank.extend(standing.iter().map(|s| s.1));
         positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
     }
     let t = Instant::now();
@@ -240,22 +241,29 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         let gain = |bits: &[u64]| bits.iter().zip(&covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
         // Standpoints in the open while any gains; then, for a niche seen
-        // only from beside a wall, anywhere one stands, but only up to
-        // [`NICHE_SLACK`] short of the target: a visitor's standpoints cost
-        // that much coverage at most.
-        let best_of = |only_open: bool| (params.user_probes.len()..positions.len()).filter(|&k| open[k] || !only_open).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        // only from beside a wall, clear ones (unless one anywhere sees twice
+        // as much), then anywhere one stands, but
+        // only up to [`NICHE_SLACK`] short of the target: a visitor's
+        // standpoints cost that much coverage at most.
+        let best_of = |worst: Standpoint| (params.user_probes.len()..positions.len()).filter(|&k| rank[k] <= worst).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
         let short = (covered_count as f64) < (params.coverage_target - NICHE_SLACK) * targets.len() as f64;
-        let best = best_of(true).filter(|o| o.0 > 0).or_else(|| if short { best_of(false) } else { None });
+        let gains = |o: &(usize, usize)| o.0 > 0;
+        let fallback = || {
+            let (clear, any) = (best_of(Standpoint::Clear), best_of(Standpoint::Cramped));
+            // A clear standpoint unless it sees less than half of the best.
+            clear.filter(|c| any.is_some_and(|a| 2 * c.0 >= a.0)).or(any)
+        };
+        let best = best_of(Standpoint::Open).filter(gains).or_else(|| if short { fallback() } else { None });
         match best {
             Some((g, k)) if g > 0 => {
-                stats.probes_not_in_the_open += usize::from(!open[k]);
+                stats.probes_not_in_the_open += usize::from(rank[k] != Standpoint::Open);
                 take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen)
             }
             _ => break,
         }
     }
     stats.seconds_masking = t.elapsed().as_secs_f64();
-    stats.open_candidates = open.iter().filter(|&&o| o).count();
+    stats.open_candidates = rank.iter().filter(|&&r| r == Standpoint::Open).count();
     stats.samples_created = targets.len();
     stats.samples_left = targets.len() - covered_count;
     stats.probes = probes.len();

@@ -414,6 +414,11 @@ impl FreeSpace {
         self.walk.as_ref().is_none_or(|w| w.in_the_open(rays, p))
     }
 
+    /// How a visitor would judge `p` ([`Walk::standpoint_rank`]; open when flying).
+    pub fn standpoint_rank(&self, rays: &RayScene, p: Vec3) -> walk::Standpoint {
+        self.walk.as_ref().map_or(walk::Standpoint::Open, |w| w.standpoint_rank(rays, p))
+    }
+
     /// [`FreeSpace::stand`], walking, without asking for the open part of a
     /// room ([`Walk::stand_anywhere`]).
     pub fn stand_anywhere(&self, rays: &RayScene, p: Vec3) -> Option<Vec3> {

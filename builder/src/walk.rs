@@ -141,18 +141,43 @@ impl Walk {
     /// narrow place with a wide one within [`DOOR_DEPTH_M`] along it). Walls
     /// are what level rays from the eye meet.
     pub fn in_the_open(&self, rays: &RayScene, eye: Vec3) -> bool {
+        self.standpoint_rank(rays, eye) == Standpoint::Open
+    }
+
+    /// How a visitor would judge `eye`: in the open ([`Walk::in_the_open`]);
+    /// else clear (the same test at half the distance from walls, with at
+    /// most a fifth of the view near: a bay, a wide hall's side); else only
+    /// a place one can stand.
+    pub fn standpoint_rank(&self, rays: &RayScene, eye: Vec3) -> Standpoint {
+        if self.keeps_off_walls(rays, eye, WALL_M, NEAR_SHARE) {
+            Standpoint::Open
+        } else if self.keeps_off_walls(rays, eye, 0.5 * WALL_M, CLEAR_NEAR_SHARE) {
+            Standpoint::Clear
+        } else {
+            Standpoint::Cramped
+        }
+    }
+
+    /// At least `wall_m` from walls and under `near_limit` of the view near,
+    /// or, in a narrower place, a passage's middle line (see [`Walk::in_the_open`]).
+    fn keeps_off_walls(&self, rays: &RayScene, eye: Vec3, wall_m: f32, near_limit: f32) -> bool {
         let d = level_distances(rays, eye, 3.0 * self.metre);
         let nearest = (0..LEVEL_RAYS).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0);
         let across = |d: &[f32], k: usize| d[k] + d[(k + LEVEL_RAYS / 2) % LEVEL_RAYS];
         let width = across(&d, nearest);
-        let wide = 2.0 * (WALL_M + MIDDLE_M) * self.metre;
-        if d[nearest] < (WALL_M * self.metre).min(0.5 * width - MIDDLE_M * self.metre) {
+        let wide = 2.0 * (wall_m + MIDDLE_M) * self.metre;
+        if d[nearest] < (wall_m * self.metre).min(0.5 * width - MIDDLE_M * self.metre) {
             return false;
         }
         if width >= wide {
-            return near_share(rays, eye, self.metre) < NEAR_SHARE;
+            return near_share(rays, eye, self.metre) < near_limit;
         }
-        // A narrow place: along it (across its narrowest), both ways, no wide space.
+        // A narrow place: a passage, not a gap between two things (a lamp and
+        // a shelf 0.4 m apart at eye height), not a niche; along it (across
+        // its narrowest), both ways, no wide space.
+        if width < PASSAGE_M * self.metre || near_share(rays, eye, self.metre) >= NARROW_NEAR_SHARE {
+            return false;
+        }
         let along = (nearest + LEVEL_RAYS / 4) % LEVEL_RAYS;
         [along, (along + LEVEL_RAYS / 2) % LEVEL_RAYS].iter().all(|&k| {
             let reach = (DOOR_DEPTH_M * self.metre).min(0.9 * d[k]);
@@ -160,6 +185,14 @@ impl Walk {
             across(&there, nearest) < wide
         })
     }
+}
+
+/// A standpoint's rank, best first (see [`Walk::standpoint_rank`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Standpoint {
+    Open,
+    Clear,
+    Cramped,
 }
 
 /// Level rays a standpoint is judged by.
@@ -173,6 +206,12 @@ const DOOR_DEPTH_M: f32 = 0.8;
 
 /// In the open, at most this share of the view below the ceiling lies within a metre.
 const NEAR_SHARE: f32 = 0.04;
+/// The narrowest passage a probe stands in, metres, and the most of its view
+/// within a metre there (a corridor 1.8 m wide has about a sixth).
+const PASSAGE_M: f32 = 1.0;
+const NARROW_NEAR_SHARE: f32 = 0.25;
+/// A clear standpoint's most view within a metre.
+const CLEAR_NEAR_SHARE: f32 = 0.2;
 /// Directions the near share is judged by.
 const VIEW_RAYS: usize = 128;
 
