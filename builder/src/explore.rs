@@ -242,9 +242,9 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
         // Standpoints in the open while any gains; then, for a niche seen
         // only from beside a wall, clear ones (unless one anywhere sees twice
-        // as much), then anywhere one stands, but
-        // only up to [`NICHE_SLACK`] short of the target: a visitor's
-        // standpoints cost that much coverage at most.
+        // as much), then anywhere one stands, but only up to [`NICHE_SLACK`]
+        // short of the target: a visitor's standpoints cost that much
+        // coverage at most.
         let best_of = |worst: Standpoint| (params.user_probes.len()..positions.len()).filter(|&k| rank[k] <= worst).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
         let short = (covered_count as f64) < (params.coverage_target - NICHE_SLACK) * targets.len() as f64;
         let gains = |o: &(usize, usize)| o.0 > 0;

@@ -468,7 +468,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
     let mut ray_count = solids.rays;
 
-    ray_count += FACING_SAMPLES + if kind.is_some() { KIND_POINTS * 14 + KIND_GROUND_SIDE * KIND_GROUND_SIDE } else { 0 };
+    ray_count += FACING_SAMPLES + if kind.is_some() { KIND_RAYS } else { 0 };
     let (space, mut space_reason) = match params.space {
         SpaceMode::Auto if cabin => {
             let (enclosed, ground) = kind.expect("auto");
@@ -713,6 +713,8 @@ pub fn facing_out(scene: &Scene, rays: &RayScene, bounds: &Aabb, seed: u64) -> f
 const KIND_POINTS: usize = 2048;
 const KIND_HITS: usize = 11;
 const KIND_GROUND_SIDE: usize = 48;
+/// Rays [`kind_evidence`] casts: 14 from each point (6 axes, 8 diagonals) and the grid down.
+const KIND_RAYS: usize = KIND_POINTS * 14 + KIND_GROUND_SIDE * KIND_GROUND_SIDE;
 
 /// What tells an object with an interior (a car, a machine) from a place,
 /// whatever the scale: (enclosed, ground).
@@ -1585,6 +1587,32 @@ mod tests {
             }
         }
         assert!(stood > 20, "only {stood} of 240 points between the pews stand");
+    }
+
+    #[test]
+    fn a_slot_between_two_walls_is_no_standpoint_and_a_corridor_middle_is() {
+        // A walled yard with a corridor 2.1 m wide and a slot 0.45 m wide,
+        // both 6 m long. The slot's middle line is no passage a visitor
+        // stands in (it counted as one before the 1 m passage rule).
+        let mut m = MeshBuilder::new("slot");
+        m.cuboid(Vec3::new(-6.0, -0.2, -6.0), Vec3::new(6.0, 0.0, 6.0));
+        for (x0, z0, x1, z1) in [(-6.0, -6.0, 6.0, -5.8), (-6.0, 5.8, 6.0, 6.0), (-6.0, -6.0, -5.8, 6.0), (5.8, -6.0, 6.0, 6.0)] {
+            m.cuboid(Vec3::new(x0, 0.0, z0), Vec3::new(x1, 3.0, z1));
+        }
+        for (z0, z1) in [(0.85, 0.95), (3.05, 3.15), (-3.1, -3.0), (-2.55, -2.45)] {
+            m.cuboid(Vec3::new(-5.0, 0.0, z0), Vec3::new(1.0, 3.0, z1));
+        }
+        let mut yard = m.finish();
+        (yard.scale_source, yard.metres_per_unit) = (ScaleSource::File, 1.0);
+        let rays = RayScene::new(&yard.positions, &yard.triangles, 0).unwrap();
+        let (space, stats) = free_space(&yard, &rays, &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        let (corridor, slot) = (Vec3::new(-2.0, 1.6, 2.0), Vec3::new(-2.0, 1.6, -2.775));
+        assert_eq!(space.standpoint_rank(&rays, corridor), walk::Standpoint::Open);
+        assert!(space.in_the_open(&rays, corridor));
+        assert_eq!(space.standpoint_rank(&rays, slot), walk::Standpoint::Cramped);
+        // Half a metre from the yard's wall, with little of the view near: clear, not open.
+        assert_eq!(space.standpoint_rank(&rays, Vec3::new(3.5, 1.6, -5.1)), walk::Standpoint::Clear);
     }
 
     #[test]

@@ -149,33 +149,37 @@ impl Walk {
     /// most a fifth of the view near: a bay, a wide hall's side); else only
     /// a place one can stand.
     pub fn standpoint_rank(&self, rays: &RayScene, eye: Vec3) -> Standpoint {
-        if self.keeps_off_walls(rays, eye, WALL_M, NEAR_SHARE) {
+        // Both tests share the level rays and, when asked, the near share.
+        let d = level_distances(rays, eye, 3.0 * self.metre);
+        let share = std::cell::OnceCell::new();
+        let near = || *share.get_or_init(|| near_share(rays, eye, self.metre));
+        if self.keeps_off_walls(rays, eye, &d, &near, WALL_M, NEAR_SHARE) {
             Standpoint::Open
-        } else if self.keeps_off_walls(rays, eye, 0.5 * WALL_M, CLEAR_NEAR_SHARE) {
+        } else if self.keeps_off_walls(rays, eye, &d, &near, 0.5 * WALL_M, CLEAR_NEAR_SHARE) {
             Standpoint::Clear
         } else {
             Standpoint::Cramped
         }
     }
 
-    /// At least `wall_m` from walls and under `near_limit` of the view near,
-    /// or, in a narrower place, a passage's middle line (see [`Walk::in_the_open`]).
-    fn keeps_off_walls(&self, rays: &RayScene, eye: Vec3, wall_m: f32, near_limit: f32) -> bool {
-        let d = level_distances(rays, eye, 3.0 * self.metre);
+    /// At least `wall_m` from walls (`d`: the level rays' distances) and
+    /// under `near_limit` of the view near, or, in a narrower place, a
+    /// passage's middle line (see [`Walk::in_the_open`]).
+    fn keeps_off_walls(&self, rays: &RayScene, eye: Vec3, d: &[f32], near: &dyn Fn() -> f32, wall_m: f32, near_limit: f32) -> bool {
         let nearest = (0..LEVEL_RAYS).min_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(0);
         let across = |d: &[f32], k: usize| d[k] + d[(k + LEVEL_RAYS / 2) % LEVEL_RAYS];
-        let width = across(&d, nearest);
+        let width = across(d, nearest);
         let wide = 2.0 * (wall_m + MIDDLE_M) * self.metre;
         if d[nearest] < (wall_m * self.metre).min(0.5 * width - MIDDLE_M * self.metre) {
             return false;
         }
         if width >= wide {
-            return near_share(rays, eye, self.metre) < near_limit;
+            return near() < near_limit;
         }
         // A narrow place: a passage, not a gap between two things (a lamp and
         // a shelf 0.4 m apart at eye height), not a niche; along it (across
         // its narrowest), both ways, no wide space.
-        if width < PASSAGE_M * self.metre || near_share(rays, eye, self.metre) >= NARROW_NEAR_SHARE {
+        if width < PASSAGE_M * self.metre || near() >= NARROW_NEAR_SHARE {
             return false;
         }
         let along = (nearest + LEVEL_RAYS / 4) % LEVEL_RAYS;

@@ -20,8 +20,7 @@ pub fn big(seed: u64, target_triangles: usize) -> Scene {
     // of them, each joined to its neighbours by a door and a paved walk.
     let per_wing = {
         let mut probe = MeshBuilder::new("wing");
-        let materials = GalleryMaterials::add(&mut probe, seed);
-        wing(&mut probe, &materials, &mut rng.clone(), Vec3::ZERO, "", Neighbours::default());
+        wing(&mut probe, &GalleryMaterials::default(), &mut rng.clone(), Vec3::ZERO, "", Neighbours::default());
         probe.triangle_count()
     };
     let count = target_triangles.div_ceil(per_wing).max(1);

@@ -37,6 +37,9 @@ pub(crate) const SUN: Light = Light::Sun { direction: Vec3::new(0.4243, 0.8485, 
 /// Footprint of one wing on the ground, x by z, with a margin.
 pub(crate) const WING_SIZE: (f32, f32) = (42.0, 38.0);
 
+/// The wing's materials; the default (every index 0) serves to count a
+/// wing's triangles without making its textures.
+#[derive(Default)]
 pub(crate) struct GalleryMaterials {
     pub(crate) floor: u32,
     wall: u32,
