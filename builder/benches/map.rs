@@ -13,7 +13,10 @@
 //!   the same space at the same probe count (goal: within 2 points).
 //!
 //! `cargo bench -p exploremaps-builder --bench map`; SCENES (comma list)
-//! narrows the run, MODES=auto or fly keeps one mode.
+//! narrows the run, MODES=auto or fly keeps one mode, DETAIL=1 lists the
+//! flagged probes; SCALE_ONLY=1 prints the scale alone (=peaks: the
+//! posterior's peaks; =gaps: the measured gaps at the true scale), KIND=1
+//! the kind's evidence.
 
 use exploremaps_builder::coverage::coverage_like;
 use exploremaps_builder::explore::{explore, ExploreParams};
@@ -89,6 +92,19 @@ fn main() {
                 let top = peaks.first().map_or(0.0, |p| p.1);
                 let shown: Vec<String> = peaks.iter().take(6).map(|(s, l)| format!("{:.4} ({:+.1})", s.exp(), l - top)).collect();
                 println!("{:<10} peaks: {}", "", shown.join(", "));
+            }
+            if std::env::var("SCALE_ONLY").as_deref() == Ok("gaps") {
+                // Gaps at the true scale, metres, in bins of a fifth of a decade.
+                let t = truth.unwrap_or(1.0);
+                let mut bins = [0usize; 25];
+                for g in exploremaps_builder::scale::gaps(scene, &rays) {
+                    let b = ((g * t).log10() * 5.0 + 15.0).floor();
+                    if (0.0..25.0).contains(&b) {
+                        bins[b as usize] += 1;
+                    }
+                }
+                let shown: Vec<String> = bins.iter().enumerate().filter(|b| *b.1 > 0).map(|(k, n)| format!("{:.2}:{n}", 10f32.powf((k as f32 - 15.0) / 5.0))).collect();
+                println!("{:<10} gaps (m from): {}", "", shown.join(" "));
             }
         }
         return;

@@ -51,6 +51,8 @@ pub struct SynthesisStats {
     pub mcl_iterations: usize,
     /// Candidates put back because the synthesized set lost coverage.
     pub added_back: usize,
+    /// Probes dropped afterwards because the others see what they see.
+    pub pruned: usize,
     pub final_probes: usize,
     /// Selection-sample coverage of the candidates and of the final set.
     pub candidate_coverage: f64,
@@ -133,8 +135,8 @@ pub fn synthesize(
     };
     let total = targets.len().max(1) as f64;
     stats.candidate_coverage = count_bits(&union(&mut seen.iter())) as f64 / total;
-    let finals: Vec<Vec<u64>> = out.probes.par_iter().map(|&p| targets.seen_by(rays, p, None).0).collect();
-    let mut covered = union(&mut finals.iter());
+    let mut views: Vec<Vec<u64>> = out.probes.par_iter().map(|&p| targets.seen_by(rays, p, None).0).collect();
+    let mut covered = union(&mut views.iter());
     let group_of_candidate: Vec<usize> = {
         let mut g = vec![0; candidates.len()];
         groups.iter().enumerate().for_each(|(i, members)| members.iter().for_each(|&k| g[k] = i));
@@ -147,16 +149,63 @@ pub fn synthesize(
             break;
         }
         covered.iter_mut().zip(&seen[best]).for_each(|(c, s)| *c |= s);
+        views.push(seen[best].clone());
         out.probes.push(candidates[best].position);
         out.user_placed.push(candidates[best].user_placed);
         out.cluster_of.push(group_of_candidate[best] as u32);
         stats.added_back += 1;
     }
-    stats.final_coverage = count_bits(&covered) as f64 / total;
-    stats.clusters = groups.len();
+    let floor = (stats.candidate_coverage - params.tolerance).min(count_bits(&covered) as f64 / total);
+    stats.pruned = prune(&mut out, &mut views, (floor * total).ceil() as usize);
+    stats.final_coverage = count_bits(&union(&mut views.iter())) as f64 / total;
+    stats.clusters = out.clusters.len();
     stats.final_probes = out.probes.len();
     stats.seconds = started.elapsed().as_secs_f64();
     (out, stats)
+}
+
+/// Drops the probes the others make redundant, the one that alone sees
+/// least first, while the set still sees `floor` samples; user probes stay.
+/// (Candidates put back for coverage often see all that a synthesized probe
+/// sees, and greedy's early picks all that its later ones see.) Clusters left
+/// without a probe are dropped and the rest renumbered. Returns how many went.
+fn prune(out: &mut Synthesized, views: &mut Vec<Vec<u64>>, floor: usize) -> usize {
+    let words = views.first().map_or(0, Vec::len);
+    let mut dropped = 0;
+    loop {
+        // Samples seen by some probe, and by two or more.
+        let (mut once, mut twice) = (vec![0u64; words], vec![0u64; words]);
+        for v in views.iter() {
+            for ((o, t), b) in once.iter_mut().zip(twice.iter_mut()).zip(v) {
+                *t |= *o & b;
+                *o |= b;
+            }
+        }
+        let covered = count_bits(&once);
+        let alone = |k: usize| views[k].iter().zip(&twice).map(|(v, t)| (v & !t).count_ones() as usize).sum::<usize>();
+        // Least seen alone; ties go to the later probe (put back or picked later).
+        let Some(k) = (0..views.len()).filter(|&k| !out.user_placed[k]).min_by(|&a, &b| alone(a).cmp(&alone(b)).then(b.cmp(&a))) else { break };
+        if covered - alone(k) < floor {
+            break;
+        }
+        out.probes.remove(k);
+        out.user_placed.remove(k);
+        out.cluster_of.remove(k);
+        views.remove(k);
+        dropped += 1;
+    }
+    // Each cluster's probe: its synthesized one if kept, else a member put back.
+    let mut renumber = vec![u32::MAX; out.clusters.len()];
+    let mut clusters = Vec::new();
+    for (c, &(_, merged)) in out.clusters.iter().enumerate() {
+        if let Some(probe) = out.cluster_of.iter().position(|&o| o as usize == c) {
+            renumber[c] = clusters.len() as u32;
+            clusters.push((probe, merged));
+        }
+    }
+    out.cluster_of.iter_mut().for_each(|o| *o = renumber[*o as usize]);
+    out.clusters = clusters;
+    dropped
 }
 
 /// Simulated annealing of one cluster's probe: from the member that sees most
@@ -347,6 +396,31 @@ mod tests {
             }
         }
         (w, perm.iter().map(|&p| block[p]).collect())
+    }
+
+    #[test]
+    fn probes_the_rest_see_for_are_dropped_and_clusters_renumbered() {
+        // Four probes over 8 samples (one word): probe 1 sees only what 0 and
+        // 2 see; probe 3 (a user's) sees only what 2 sees, and stays.
+        let views: Vec<Vec<u64>> = vec![vec![0b0000_1111], vec![0b0011_1000], vec![0b1111_0000], vec![0b0100_0000]];
+        let mut out = Synthesized {
+            probes: (0..4).map(|k| Vec3::splat(k as f32)).collect(),
+            user_placed: vec![false, false, false, true],
+            cluster_of: vec![0, 1, 2, 3],
+            clusters: vec![(0, 2), (1, 1), (2, 3), (3, 1)],
+        };
+        let mut kept = views.clone();
+        assert_eq!(prune(&mut out, &mut kept, 8), 1);
+        assert_eq!(out.probes, vec![Vec3::splat(0.0), Vec3::splat(2.0), Vec3::splat(3.0)]);
+        assert_eq!(out.cluster_of, vec![0, 1, 2]);
+        assert_eq!(out.clusters, vec![(0, 2), (1, 3), (2, 1)]);
+        // With half the samples to spare, of two probes seeing 4 alone each
+        // the later goes too, and the last stays: never below the floor.
+        let mut out2 = Synthesized { probes: (0..3).map(|k| Vec3::splat(k as f32)).collect(), user_placed: vec![false; 3], cluster_of: vec![0, 0, 1], clusters: vec![(0, 2), (2, 1)] };
+        let mut v2 = vec![views[0].clone(), views[1].clone(), views[2].clone()];
+        assert_eq!(prune(&mut out2, &mut v2, 4), 2);
+        assert_eq!(out2.probes, vec![Vec3::splat(0.0)]);
+        assert_eq!(out2.clusters, vec![(0, 2)]);
     }
 
     #[test]

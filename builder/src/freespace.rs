@@ -1616,6 +1616,27 @@ mod tests {
     }
 
     #[test]
+    fn the_edge_of_a_terrace_is_no_standpoint_and_its_middle_is() {
+        // A walled yard with a terrace 6 m square and 1 m high in its middle.
+        let mut m = MeshBuilder::new("terrace");
+        m.cuboid(Vec3::new(-8.0, -0.2, -8.0), Vec3::new(8.0, 0.0, 8.0));
+        for (x0, z0, x1, z1) in [(-8.0, -8.0, 8.0, -7.8), (-8.0, 7.8, 8.0, 8.0), (-8.0, -8.0, -7.8, 8.0), (7.8, -8.0, 8.0, 8.0)] {
+            m.cuboid(Vec3::new(x0, 0.0, z0), Vec3::new(x1, 3.5, z1));
+        }
+        m.cuboid(Vec3::new(-3.0, 0.0, -3.0), Vec3::new(3.0, 1.0, 3.0));
+        let mut yard = m.finish();
+        (yard.scale_source, yard.metres_per_unit) = (ScaleSource::File, 1.0);
+        let rays = RayScene::new(&yard.positions, &yard.triangles, 0).unwrap();
+        let (space, stats) = free_space(&yard, &rays, &FreeSpaceParams::default()).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        let rank = |x: f32, y: f32| space.standpoint_rank(&rays, Vec3::new(x, y, 0.5));
+        assert_eq!(rank(0.0, 2.6), walk::Standpoint::Open, "the terrace's middle");
+        assert_eq!(rank(2.6, 2.6), walk::Standpoint::Cramped, "0.4 m from the terrace's edge");
+        // Below the terrace the floor rises, and nothing falls: open.
+        assert_eq!(rank(5.0, 1.6), walk::Standpoint::Open, "the yard beside the terrace");
+    }
+
+    #[test]
     fn a_flat_plaza_or_a_bare_ground_plane_has_sky_to_stand_in() {
         // A 40 m plaza whose tallest things are 1.2 m hedges: its own box ends
         // below eye height. Walked on at eye height, never above the sky given.

@@ -175,7 +175,7 @@ fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[C
     };
     let _span = tracing::info_span!("cluster").entered();
     let (out, stats) = cluster::synthesize(scene, rays, space, candidates, params);
-    tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.seconds);
+    tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back, {} dropped as seen by the rest) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.pruned, stats.seconds);
     (out, Some(stats))
 }
 
