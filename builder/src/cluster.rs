@@ -110,7 +110,8 @@ pub fn synthesize(
         .par_iter()
         .enumerate()
         .map(|(g, members)| {
-            if members.len() == 1 && candidates[members[0]].user_placed {
+            // A cluster of one has nothing to merge: its candidate is its probe.
+            if members.len() == 1 {
                 return (candidates[members[0]].position, 0);
             }
             anneal(rays, space, &targets, &seen, candidates, members, diagonal, params, params.seed ^ (g as u64).wrapping_mul(0x9e37_79b9))

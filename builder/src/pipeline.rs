@@ -63,7 +63,9 @@ pub struct Plan {
     /// Per material and per object: (name, reachable area, covered area).
     pub per_material: Vec<(String, f64, f64)>,
     pub per_object: Vec<(String, f64, f64)>,
+    /// The whole plan, and of it the report (coverage, baselines, pictures).
     pub seconds: f64,
+    pub report_seconds: f64,
 }
 
 /// What the planning stages report, one entry each in graph.json's `stats`
@@ -345,6 +347,7 @@ struct Measured {
     images: Vec<(String, RgbImage)>,
     per_material: Vec<(String, f64, f64)>,
     per_object: Vec<(String, f64, f64)>,
+    seconds: f64,
 }
 
 impl Measured {
@@ -366,13 +369,14 @@ impl Measured {
     }
 
     fn into_plan(self, graph: format::Graph, stats: PlanStats, started: Instant) -> Plan {
-        let Measured { report, baselines, images, per_material, per_object } = self;
-        Plan { graph, stats, coverage: report, baselines, images, per_material, per_object, seconds: started.elapsed().as_secs_f64() }
+        let Measured { report, baselines, images, per_material, per_object, seconds } = self;
+        Plan { graph, stats, coverage: report, baselines, images, per_material, per_object, seconds: started.elapsed().as_secs_f64(), report_seconds: seconds }
     }
 }
 
 /// Coverage, baselines and pictures for the probes.
 fn measure(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &PlanParams) -> Measured {
+    let started = Instant::now();
     let report = {
         let _span = tracing::info_span!("coverage").entered();
         coverage(scene, rays, space, probes, &params.coverage)
@@ -398,7 +402,7 @@ fn measure(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], p
     }
     let per_material = report.per_group(&scene.triangle_material, &scene.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>());
     let per_object = report.per_group(&scene.triangle_object, &scene.objects);
-    Measured { report, baselines, images, per_material, per_object }
+    Measured { report, baselines, images, per_material, per_object, seconds: started.elapsed().as_secs_f64() }
 }
 
 /// Random navigable points and a regular lattice of navigable points, `count`
