@@ -114,7 +114,8 @@ pub fn synthesize(
             if members.len() == 1 {
                 return (candidates[members[0]].position, 0);
             }
-            anneal(rays, space, &targets, &seen, candidates, members, diagonal, params, params.seed ^ (g as u64).wrapping_mul(0x9e37_79b9))
+            let seed = crate::seeds::substream(crate::seeds::Stream::Anneal.seed(params.seed), g as u64);
+            anneal(rays, space, &targets, &seen, candidates, members, diagonal, params, seed)
         })
         .collect();
     stats.rays += results.iter().map(|r| r.1).sum::<usize>();

@@ -202,10 +202,11 @@ pub(crate) fn reachability(rays: &RayScene, space: &FreeSpace, samples: &Surface
     // Largest distance worth marching: the grid's diagonal.
     let far = space.grid.voxel * (space.grid.dims.iter().map(|&d| (d * d) as f32).sum::<f32>()).sqrt();
     let roomy = CEILING_CLEARANCE_VOXELS * space.grid.voxel;
+    let reach = crate::seeds::Stream::Reach.seed(seed);
     let reached: Vec<(i8, FromOpen)> = (0..samples.points.len())
         .into_par_iter()
         .map(|i| {
-            let mut rng = Pcg64Mcg::seed_from_u64(seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            let mut rng = Pcg64Mcg::seed_from_u64(crate::seeds::substream(reach, i as u64));
             let (mut reached, mut from_open) = (0i8, FromOpen::No);
             for side in [1.0f32, -1.0] {
                 let n = samples.normals[i] * side;

@@ -44,8 +44,7 @@ use exploremaps_scenes::Scene;
 use rayon::prelude::*;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64Mcg;
+use rand::Rng;
 use std::time::Instant;
 
 /// How probes are placed.
@@ -115,8 +114,9 @@ const NICHE_SLACK: f64 = 0.015;
 pub const DEFAULT_COVERAGE_TARGET: f64 = 0.995;
 
 /// Greedy: after the whole reaches its target, objects below the target minus
-/// this still get probes (while any candidate sees more of them).
-const OBJECT_SLACK: f64 = 0.02;
+/// this still get probes (while any candidate sees more of them). (At 0.02 a
+/// small object's 256 samples let 5 % of it go unseen for some seeds.)
+const OBJECT_SLACK: f64 = 0.01;
 
 /// Greedy: every object gets at least this many selection samples, so small
 /// objects in big spaces are not lost among the walls (see `stratified_samples`).
@@ -168,7 +168,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
 
     // Candidates: user probes, then seeded random navigable voxel centres.
     let navigable = space.navigable_points();
-    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut rng = crate::seeds::Stream::Candidates.rng(params.seed);
     let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
     let mut rank: Vec<Standpoint> = vec![Standpoint::Open; positions.len()];
     if !navigable.is_empty() {
@@ -556,9 +556,7 @@ mod tests {
         m.begin_object("teapot");
         m.blob(Vec3::new(30.0, 1.3, 20.0), Vec3::new(0.3, 0.25, 0.2), 4, |d| 1.0 + 0.3 * d.x.max(0.0).powi(4));
         let scene = m.finish();
-        let (probes, stats, space) = plan(&scene, &ExploreParams::default());
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
         // The metric on 2,000 samples of the teapot alone (its share of 200,000
         // area-uniform samples would be about 20).
         let teapot = scene.objects.iter().position(|o| o == "teapot").unwrap() as u32;
@@ -568,9 +566,15 @@ mod tests {
         samples.normals = keep.iter().map(|&i| samples.normals[i]).collect();
         samples.triangles = keep.iter().map(|&i| samples.triangles[i]).collect();
         samples.area_each = 1.0;
-        let report = crate::coverage::coverage_of(samples, &rays, &space, &positions, &Default::default());
-        assert!(report.reachable_area > 1000.0, "most of the teapot is reachable: {}", report.reachable_area);
-        assert!(report.fraction() > 0.97, "teapot {:.3} seen with {} probes ({stats:?})", report.fraction(), probes.len());
+        // Whatever the seed (an object's share of 256 selection samples is a
+        // coarse estimate, and its target allows for that).
+        for seed in 1..5 {
+            let (probes, stats, space) = plan(&scene, &ExploreParams { seed, ..Default::default() });
+            let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
+            let report = crate::coverage::coverage_of(samples.clone(), &rays, &space, &positions, &Default::default());
+            assert!(report.reachable_area > 1000.0, "most of the teapot is reachable: {}", report.reachable_area);
+            assert!(report.fraction() > 0.97, "seed {seed}: teapot {:.3} seen with {} probes ({stats:?})", report.fraction(), probes.len());
+        }
     }
 
     #[test]
