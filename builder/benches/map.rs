@@ -150,8 +150,8 @@ fn main() {
             let near = stands.iter().map(|s| s.near_share).fold(0.0f32, f32::max);
             if std::env::var("DETAIL").is_ok() {
                 // Each flagged probe: where, and what the checks found.
-                for (k, (s, p)) in stands.iter().zip(&probes).enumerate().filter(|(_, (s, _))| s.too_near_wall || s.door_frame || s.on_furniture || s.near_share > 0.05) {
-                    println!("  probe {k} at {:.2?}: wall {} door {} furniture {} near {:.1} % (nearest wall {:.2} m, across {:.2} m)", p.to_array(), s.too_near_wall, s.door_frame, s.on_furniture, 100.0 * s.near_share, s.nearest * m, s.across * m);
+                for (k, (s, p)) in stands.iter().zip(&probes).enumerate().filter(|(_, (s, _))| s.too_near_wall || s.door_frame || s.on_furniture || s.near_share > 0.05 || s.inside) {
+                    println!("  probe {k} at {:.2?}: wall {} door {} furniture {} near {:.1} % inside {} (nearest wall {:.2} m, across {:.2} m)", p.to_array(), s.too_near_wall, s.door_frame, s.on_furniture, 100.0 * s.near_share, s.inside, s.nearest * m, s.across * m);
                 }
             }
             let inside = stands.iter().filter(|s| s.inside).count();
