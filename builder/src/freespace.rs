@@ -1589,16 +1589,23 @@ mod tests {
         assert!(stood > 20, "only {stood} of 240 points between the pews stand");
     }
 
+    /// A square yard `2·half` m across, walled 0.2 m thick and `high` m high.
+    fn walled_yard(name: &str, half: f32, high: f32) -> MeshBuilder {
+        let mut m = MeshBuilder::new(name);
+        m.cuboid(Vec3::new(-half, -0.2, -half), Vec3::new(half, 0.0, half));
+        let inner = half - 0.2;
+        for (x0, z0, x1, z1) in [(-half, -half, half, -inner), (-half, inner, half, half), (-half, -half, -inner, half), (inner, -half, half, half)] {
+            m.cuboid(Vec3::new(x0, 0.0, z0), Vec3::new(x1, high, z1));
+        }
+        m
+    }
+
     #[test]
     fn a_slot_between_two_walls_is_no_standpoint_and_a_corridor_middle_is() {
         // A walled yard with a corridor 2.1 m wide and a slot 0.45 m wide,
         // both 6 m long. The slot's middle line is no passage a visitor
         // stands in (it counted as one before the 1 m passage rule).
-        let mut m = MeshBuilder::new("slot");
-        m.cuboid(Vec3::new(-6.0, -0.2, -6.0), Vec3::new(6.0, 0.0, 6.0));
-        for (x0, z0, x1, z1) in [(-6.0, -6.0, 6.0, -5.8), (-6.0, 5.8, 6.0, 6.0), (-6.0, -6.0, -5.8, 6.0), (5.8, -6.0, 6.0, 6.0)] {
-            m.cuboid(Vec3::new(x0, 0.0, z0), Vec3::new(x1, 3.0, z1));
-        }
+        let mut m = walled_yard("slot", 6.0, 3.0);
         for (z0, z1) in [(0.85, 0.95), (3.05, 3.15), (-3.1, -3.0), (-2.55, -2.45)] {
             m.cuboid(Vec3::new(-5.0, 0.0, z0), Vec3::new(1.0, 3.0, z1));
         }
@@ -1618,11 +1625,7 @@ mod tests {
     #[test]
     fn the_edge_of_a_terrace_is_no_standpoint_and_its_middle_is() {
         // A walled yard with a terrace 6 m square and 1 m high in its middle.
-        let mut m = MeshBuilder::new("terrace");
-        m.cuboid(Vec3::new(-8.0, -0.2, -8.0), Vec3::new(8.0, 0.0, 8.0));
-        for (x0, z0, x1, z1) in [(-8.0, -8.0, 8.0, -7.8), (-8.0, 7.8, 8.0, 8.0), (-8.0, -8.0, -7.8, 8.0), (7.8, -8.0, 8.0, 8.0)] {
-            m.cuboid(Vec3::new(x0, 0.0, z0), Vec3::new(x1, 3.5, z1));
-        }
+        let mut m = walled_yard("terrace", 8.0, 3.5);
         m.cuboid(Vec3::new(-3.0, 0.0, -3.0), Vec3::new(3.0, 1.0, 3.0));
         let mut yard = m.finish();
         (yard.scale_source, yard.metres_per_unit) = (ScaleSource::File, 1.0);
