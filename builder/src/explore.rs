@@ -118,6 +118,10 @@ pub const DEFAULT_COVERAGE_TARGET: f64 = 0.995;
 /// small object's 256 samples let 5 % of it go unseen for some seeds.)
 const OBJECT_SLACK: f64 = 0.01;
 
+/// Greedy: batches of candidates drawn at most, while fewer than half a
+/// batch's worth stand in the open.
+const OPEN_BATCHES: usize = 3;
+
 /// Greedy: every object gets at least this many selection samples, so small
 /// objects in big spaces are not lost among the walls (see `stratified_samples`).
 const MIN_SAMPLES_PER_OBJECT: usize = 256;
@@ -174,21 +178,33 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     if !navigable.is_empty() {
         let half = Vec3::splat(0.5 * space.grid.voxel);
         // Several candidates for each probe the budget allows, however large the scene.
-        let drawn: Vec<Vec3> = (0..params.candidates.max(4 * params.max_probes))
-            .map(|_| {
-                let c = navigable[rng.random_range(0..navigable.len())];
-                // Jitter inside the voxel so candidates are not locked to the grid.
-                c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
-            })
-            .collect();
+        let count = params.candidates.max(4 * params.max_probes);
         // Where a visitor would stand (in the open part of a room), and
-        // elsewhere where one can stand (near a wall, in a niche).
-        let standing: Vec<(Vec3, Standpoint)> = drawn
-            .par_iter()
-            .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open })))
-            .collect();
-        rank.extend(standing.iter().map(|s| s.1));
-        positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
+        // elsewhere where one can stand (near a wall, in a niche). Where the
+        // open is scarce (corridors, small furnished rooms), more batches
+        // are drawn for open standpoints alone, so that coverage need not
+        // fall back on standing by a wall.
+        let mut open = 0;
+        for batch in 0..OPEN_BATCHES {
+            let drawn: Vec<Vec3> = (0..count)
+                .map(|_| {
+                    let c = navigable[rng.random_range(0..navigable.len())];
+                    // Jitter inside the voxel so candidates are not locked to the grid.
+                    c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
+                })
+                .collect();
+            let standing: Vec<(Vec3, Standpoint)> = drawn
+                .par_iter()
+                .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open })))
+                .filter(|s| batch == 0 || s.1 == Standpoint::Open)
+                .collect();
+            open += standing.iter().filter(|s| s.1 == Standpoint::Open).count();
+            rank.extend(standing.iter().map(|s| s.1));
+            positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
+            if !params.prefer_open || 2 * open >= count {
+                break;
+            }
+        }
     }
     let t = Instant::now();
     let words = targets.words();
@@ -442,6 +458,16 @@ mod tests {
         (c, s, space)
     }
 
+
+    #[test]
+    fn where_the_open_is_scarce_more_open_standpoints_are_drawn() {
+        // The maze's corridors: one draw in thirteen stands in the open. One
+        // batch left four probes by walls; the further batches leave none.
+        let scene = BuiltIn::Maze(8).generate(1);
+        let (probes, stats, _) = plan_in(&scene, &ExploreParams::default(), FreeSpaceParams::default());
+        assert!(stats.open_candidates > 400, "{stats:?}");
+        assert_eq!(stats.probes_not_in_the_open, 0, "{} probes: {stats:?}", probes.len());
+    }
 
     const STRATEGIES: [Strategy; 2] = [Strategy::Greedy, Strategy::Occluded];
     /// Coverage each strategy must reach on the small scenes (indexed by strategy):
