@@ -184,10 +184,10 @@ fn prune(out: &mut Synthesized, views: &mut Vec<Vec<u64>>, floor: usize) -> usiz
             }
         }
         let covered = count_bits(&once);
-        let alone = |k: usize| views[k].iter().zip(&twice).map(|(v, t)| (v & !t).count_ones() as usize).sum::<usize>();
+        let alone: Vec<usize> = views.iter().map(|v| v.iter().zip(&twice).map(|(v, t)| (v & !t).count_ones() as usize).sum()).collect();
         // Least seen alone; ties go to the later probe (put back or picked later).
-        let Some(k) = (0..views.len()).filter(|&k| !out.user_placed[k]).min_by(|&a, &b| alone(a).cmp(&alone(b)).then(b.cmp(&a))) else { break };
-        if covered - alone(k) < floor {
+        let Some(k) = (0..views.len()).filter(|&k| !out.user_placed[k]).min_by(|&a, &b| alone[a].cmp(&alone[b]).then(b.cmp(&a))) else { break };
+        if covered - alone[k] < floor {
             break;
         }
         out.probes.remove(k);
