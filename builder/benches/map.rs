@@ -89,7 +89,7 @@ fn main() {
             println!("{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]", truth.map_or("-".into(), |t| t.to_string()), scene.scale_source, t.elapsed().as_secs_f64());
             if std::env::var("SCALE_ONLY").as_deref() == Ok("peaks") {
                 // The posterior's local peaks, best first.
-                let post = exploremaps_builder::scale::posterior(&exploremaps_builder::scale::gaps(scene, &rays));
+                let post = exploremaps_builder::scale::posterior(&exploremaps_builder::scale::evidence(scene, &rays));
                 let mut peaks: Vec<(f64, f64)> = (1..post.len() - 1).filter(|&k| post[k].1 >= post[k - 1].1 && post[k].1 > post[k + 1].1).map(|k| post[k]).collect();
                 peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
                 let top = peaks.first().map_or(0.0, |p| p.1);
@@ -99,15 +99,18 @@ fn main() {
             if std::env::var("SCALE_ONLY").as_deref() == Ok("gaps") {
                 // Gaps at the true scale, metres, in bins of a fifth of a decade.
                 let t = truth.unwrap_or(1.0);
-                let mut bins = [0usize; 25];
-                for g in exploremaps_builder::scale::gaps(scene, &rays) {
-                    let b = ((g * t).log10() * 5.0 + 15.0).floor();
-                    if (0.0..25.0).contains(&b) {
-                        bins[b as usize] += 1;
+                let evidence = exploremaps_builder::scale::evidence(scene, &rays);
+                for (what, heights) in [("gaps", &evidence.gaps), ("parapets", &evidence.parapets)] {
+                    let mut bins = [0usize; 25];
+                    for g in heights {
+                        let b = ((g * t).log10() * 5.0 + 15.0).floor();
+                        if (0.0..25.0).contains(&b) {
+                            bins[b as usize] += 1;
+                        }
                     }
+                    let shown: Vec<String> = bins.iter().enumerate().filter(|b| *b.1 > 0).map(|(k, n)| format!("{:.2}:{n}", 10f32.powf((k as f32 - 15.0) / 5.0))).collect();
+                    println!("{:<10} {what} (m from): {}", "", shown.join(" "));
                 }
-                let shown: Vec<String> = bins.iter().enumerate().filter(|b| *b.1 > 0).map(|(k, n)| format!("{:.2}:{n}", 10f32.powf((k as f32 - 15.0) / 5.0))).collect();
-                println!("{:<10} gaps (m from): {}", "", shown.join(" "));
             }
         }
         return;

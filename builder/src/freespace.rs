@@ -499,7 +499,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     let water = walk::water_triangles(scene);
     let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
     let judged = match scene.scale_source {
-        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), scene.metres_per_unit)),
+        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::scale::short(scene.metres_per_unit))),
         ScaleSource::Guessed => match &floors {
             Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
             None => Err("the scale is only guessed".to_string()),
