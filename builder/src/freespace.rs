@@ -1640,6 +1640,33 @@ mod tests {
     }
 
     #[test]
+    fn terraces_a_metre_up_in_the_open_are_walked_and_a_bench_is_not() {
+        // A yard 40 m across within 1 m walls (open: level rays leave it); a
+        // terrace 8 × 6 m and 1 m high, a second 4 × 4 m a metre higher on
+        // it, each far under a sixth of the yard and reached only over a 1 m
+        // ledge (before, both were left out: too small, and furniture beside
+        // the yard). A solid bench 2 × 0.8 m beside them, a tower 8 m high
+        // in a corner.
+        let mut m = walled_yard("terraces", 20.0, 1.0);
+        m.cuboid(Vec3::new(-19.8, 0.0, -19.8), Vec3::new(-17.8, 8.0, -17.8));
+        m.cuboid(Vec3::new(0.0, 0.0, 0.0), Vec3::new(8.0, 1.0, 6.0));
+        m.cuboid(Vec3::new(4.0, 1.0, 1.0), Vec3::new(8.0, 2.0, 5.0));
+        m.cuboid(Vec3::new(-8.0, 0.0, -8.0), Vec3::new(-6.0, 0.5, -7.2));
+        let mut yard = m.finish();
+        (yard.scale_source, yard.metres_per_unit) = (ScaleSource::File, 1.0);
+        let rays = RayScene::new(&yard.positions, &yard.triangles, 0).unwrap();
+        // (A yard this open reads as an object in auto mode: it is given.)
+        let params = FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Walk, ..Default::default() };
+        let (space, stats) = free_space(&yard, &rays, &params).unwrap();
+        assert_eq!(stats.height, "walk", "{stats:?}");
+        let eye_over = |x: f32, floor: f32, z: f32| space.stand_anywhere(&rays, Vec3::new(x, floor + 1.6, z)).map(|p| p.y - 1.6);
+        assert!(eye_over(-10.0, 0.0, 10.0).is_some_and(|f| f.abs() < 0.1), "the yard");
+        assert!(eye_over(2.0, 1.0, 3.0).is_some_and(|f| (f - 1.0).abs() < 0.1), "the first terrace");
+        assert!(eye_over(6.0, 2.0, 3.0).is_some_and(|f| (f - 2.0).abs() < 0.1), "the second terrace");
+        assert!(eye_over(-7.0, 0.5, -7.6).is_none_or(|f| (f - 0.5).abs() > 0.1), "the bench");
+    }
+
+    #[test]
     fn a_flat_plaza_or_a_bare_ground_plane_has_sky_to_stand_in() {
         // A 40 m plaza whose tallest things are 1.2 m hedges: its own box ends
         // below eye height. Walked on at eye height, never above the sky given.

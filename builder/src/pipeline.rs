@@ -541,6 +541,29 @@ mod tests {
     }
 
     #[test]
+    fn a_block_city_is_one_walking_map_over_its_terraces_and_none_in_its_sealed_house() {
+        let (_, truth, plan) = planned("block_city");
+        let g = &plan.graph;
+        assert!((g.scene.metres_per_unit / truth - 1.0).abs() < 0.25, "{}", plan.stats.scale.reason);
+        assert!(walking(&plan), "{}", plan.stats.free_space.height_reason);
+        assert_eq!(plan.stats.connect.components, 1, "{:?}", plan.stats.connect);
+        // The street is at 1, the hill's lots at 2 to 4 (1 m ledges between).
+        let mut levels: Vec<i32> = g.probes.iter().map(|p| (p.position[1] - 1.6).round() as i32).collect();
+        levels.sort();
+        levels.dedup();
+        assert!([1, 2, 3, 4].iter().all(|l| levels.contains(l)), "probes stand at levels {levels:?}");
+        // Houses stand 5 blocks into each lot of 16, 8 to 10 blocks a side.
+        let in_a_house = |p: &[f32; 3]| {
+            let (x, z) = (p[0].rem_euclid(16.0), p[2].rem_euclid(16.0));
+            (5.0..15.0).contains(&x) && (5.0..15.0).contains(&z)
+        };
+        assert!(g.probes.iter().any(|p| p.position[1] > 3.0 && !in_a_house(&p.position)), "no probe on the hill's open terraces");
+        // The sealed house: blocks x 37..45, z 21..29.
+        let sealed = |p: &[f32; 3]| (37.0..45.0).contains(&p[0]) && (21.0..29.0).contains(&p[2]);
+        assert!(!g.probes.iter().any(|p| sealed(&p.position)), "a probe in the sealed house");
+    }
+
+    #[test]
     fn a_conference_room_in_feet_walks_at_its_floor_never_on_the_table() {
         let (_, truth, plan) = planned("conference");
         let g = &plan.graph;

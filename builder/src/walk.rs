@@ -29,8 +29,10 @@
 //!    floor mostly sees the sky with another floor below it: nobody tours the
 //!    roof of the building they visit). Table tops, beds and window sills are
 //!    smaller and drop out, as does ground at the model's edge that no door
-//!    leads to. A room joins the rest through its door: the walking grid is
-//!    fine enough for doors (see [`crate::freespace`]).
+//!    leads to. Room-sized regions a ledge of up to 1.3 m joins to a kept one,
+//!    with nothing between, are kept too (the terraces of a hill or a block
+//!    world: a path glides over the ledge). A room joins the rest through its
+//!    door: the walking grid is fine enough for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    and where floor cells joined across a stride (a nosing) the band spans
@@ -39,7 +41,7 @@
 //!    were apart in the band, and no path climbed it.)
 //!
 //! Furniture regions (raised a step to 1.3 m beside a floor 2.5 times their
-//! size: beds, tables, counters) are never kept.
+//! size, indoors or under 12 m²: beds, tables, counters) are never kept.
 //!
 //! A probe [`Walk::stand`]s exactly at eye height above the floor under it,
 //! which must be a kept floor of its column, and in the open part of a room
@@ -52,6 +54,7 @@ use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
 use petgraph::unionfind::UnionFind;
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 
 pub const HEAD_ROOM_M: f32 = 0.25;
 pub const STEP_M: f32 = 0.3;
@@ -470,6 +473,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let mut region_of = vec![u32::MAX; standing.len()];
     let mut sizes: Vec<usize> = Vec::new();
     let mut roofish: Vec<usize> = Vec::new();
+    let mut sky: Vec<usize> = Vec::new();
     let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
     for k in 0..standing.len() {
         let r = roots[k] as usize;
@@ -477,11 +481,13 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             region_of[r] = sizes.len() as u32;
             sizes.push(0);
             roofish.push(0);
+            sky.push(0);
         }
         let g = region_of[r] as usize;
         region_of[k] = g as u32;
         sizes[g] += 1;
         let c = &standing[k];
+        sky[g] += c.headroom.is_infinite() as usize;
         if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - rise {
             roofish[g] += 1;
         }
@@ -489,7 +495,9 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
     let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
     let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
-    let furniture = furniture(grid, &standing, &by_column, &region_of, &sizes, step, 1.0 / metres_per_unit);
+    let ledges = ledges(grid, &standing, &by_column, &region_of, step, 1.0 / metres_per_unit, eye, rays);
+    let outdoors: Vec<bool> = (0..sizes.len()).map(|g| 2 * sky[g] > sizes[g]).collect();
+    let furniture = furniture(&ledges, &sizes, &outdoors, cell_m2);
     let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && !furniture[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
     // Smaller room-sized regions: kept when enclosed, judged by 16 level rays
     // from the eyes of up to 16 of their cells (spread through the region).
@@ -518,6 +526,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         kept[g] = met[at..at + n].iter().filter(|&&m| m).count() as f32 >= ENCLOSED_SHARE * n as f32;
         at += n;
     }
+    keep_terraces(&mut kept, &ledges, |g| !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2);
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
@@ -569,13 +578,20 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     (walk, band, stats)
 }
 
-/// Regions that are furniture: beside a region at least 2.5 times their
-/// size, whose floor lies a step to [`FURNITURE_M`] below theirs along their
-/// edge (a bed, a table, a sofa, a counter; a stage too, which nobody tours
-/// from). Terraces of like size and storeys, which stairs join into one
-/// region, are not.
-fn furniture(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], sizes: &[usize], step: f32, metre: f32) -> Vec<bool> {
-    let mut beside: std::collections::HashMap<(u32, u32), usize> = std::collections::HashMap::new();
+/// Where one region's floor lies a step to [`FURNITURE_M`] above another's
+/// along their edge (within two columns).
+struct Ledge {
+    /// A level ray from the higher region's eye over the lower floor is free
+    /// for at least half the columns tried (no wall between).
+    open: bool,
+}
+
+/// The ledges between regions, keyed (higher region, lower region).
+#[allow(clippy::too_many_arguments)] // the walking grid's parts, as walk_space holds them
+fn ledges(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], step: f32, metre: f32, eye: f32, rays: &RayScene) -> BTreeMap<(u32, u32), Ledge> {
+    /// Column pairs tried a ledge for openness.
+    const TRIED: usize = 8;
+    let mut samples: BTreeMap<(u32, u32), Vec<(usize, usize)>> = BTreeMap::new();
     for (a, c) in standing.iter().enumerate() {
         let (x, z) = ((c.column % grid.dims[0]) as isize, (c.column / grid.dims[0]) as isize);
         for (dx, dz) in [(1, 0), (-1, 0), (0, 1), (0, -1), (2, 0), (-2, 0), (0, 2), (0, -2)] {
@@ -587,22 +603,82 @@ fn furniture(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region
                 let (ra, rb) = (region_of[a], region_of[b as usize]);
                 let rise = c.floor_y - standing[b as usize].floor_y;
                 if ra != rb && rise > step && rise <= FURNITURE_M * metre {
-                    *beside.entry((ra, rb)).or_default() += 1;
+                    let tried = samples.entry((ra, rb)).or_default();
+                    if tried.len() < TRIED {
+                        tried.push((a, b as usize));
+                    }
                 }
             }
         }
     }
+    let eye_over = |c: &FloorCell, y: f32| {
+        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
+        Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, y, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
+    };
+    let level: Vec<Ray> = samples
+        .values()
+        .flatten()
+        .map(|&(a, b)| {
+            let y = standing[a].floor_y + eye;
+            Ray::segment(eye_over(&standing[a], y), eye_over(&standing[b], y))
+        })
+        .collect();
+    let blocked = rays.occluded_batch(&level, Packing::Single);
+    let mut at = 0;
+    samples
+        .into_iter()
+        .map(|(key, tried)| {
+            let free = blocked[at..at + tried.len()].iter().filter(|&&b| !b).count();
+            at += tried.len();
+            (key, Ledge { open: 2 * free >= tried.len() })
+        })
+        .collect()
+}
+
+/// Regions that are furniture: beside a region at least 2.5 times their
+/// size, whose floor lies a step to [`FURNITURE_M`] below theirs along their
+/// edge (a bed, a table, a sofa, a counter; a stage too, which nobody tours
+/// from), and indoors or smaller than [`FURNITURE_MAX_M2`]. Terraces in the
+/// open, and terraces of like size and storeys, which stairs join into one
+/// region, are not.
+fn furniture(ledges: &BTreeMap<(u32, u32), Ledge>, sizes: &[usize], outdoors: &[bool], cell_m2: f32) -> Vec<bool> {
     let mut out = vec![false; sizes.len()];
-    for &(ra, rb) in beside.keys() {
-        if (sizes[ra as usize] as f32) * FURNITURE_SHARE < sizes[rb as usize] as f32 {
-            out[ra as usize] = true;
+    for &(ra, rb) in ledges.keys() {
+        let (ra, rb) = (ra as usize, rb as usize);
+        let small = sizes[ra] as f32 * cell_m2 < FURNITURE_MAX_M2;
+        if (sizes[ra] as f32) * FURNITURE_SHARE < sizes[rb] as f32 && (small || !outdoors[ra]) {
+            out[ra] = true;
         }
     }
     out
 }
 
-/// Furniture tops stand at most this high above the floor, metres (a counter, a bed's head).
+/// Regions an open ledge joins to a kept region are kept too, in chains,
+/// where `eligible` (not roofs or furniture, room-sized): the terraces of a
+/// hill or a block world, a metre up or down from the street, which a path
+/// reaches by gliding over the ledge.
+fn keep_terraces(kept: &mut [bool], ledges: &BTreeMap<(u32, u32), Ledge>, eligible: impl Fn(usize) -> bool) {
+    loop {
+        let mut grown = false;
+        for (&(hi, lo), _) in ledges.iter().filter(|(_, l)| l.open) {
+            for (from, to) in [(lo as usize, hi as usize), (hi as usize, lo as usize)] {
+                if kept[from] && !kept[to] && eligible(to) {
+                    kept[to] = true;
+                    grown = true;
+                }
+            }
+        }
+        if !grown {
+            return;
+        }
+    }
+}
+
+/// Furniture tops stand at most this high above the floor, metres (a counter,
+/// a bed's head); ledges a path glides over are as high.
 const FURNITURE_M: f32 = 1.3;
+/// Furniture in the open is smaller than this, m² (a picnic table, a bench).
+const FURNITURE_MAX_M2: f32 = 12.0;
 /// A raised region is furniture when the floor beside it is this many times larger.
 const FURNITURE_SHARE: f32 = 2.5;
 
