@@ -40,12 +40,14 @@ pub enum BuiltIn {
     House,
     Cathedral,
     Sunroom,
+    /// One of [`awkward::AWKWARD`], in its own unit.
+    Awkward(&'static str),
 }
 
 pub const DEFAULT_SCENE: &str = "gallery";
 
 /// (name, parameter meaning, one-line description) of every built-in scene.
-pub const CATALOGUE: [(&str, &str, &str); 8] = [
+pub const CATALOGUE: [(&str, &str, &str); 9] = [
     ("gallery", "", "museum: rooms, doors, corridor, pillars, statues, open courtyard (the default)"),
     ("maze", "cells per side, default 8", "roofed labyrinth of 2 m corridors"),
     ("pillars", "", "hall with a 6x4 grid of columns hiding small props"),
@@ -54,11 +56,15 @@ pub const CATALOGUE: [(&str, &str, &str); 8] = [
     ("house", "", "two-storey house with a staircase, in a walled garden"),
     ("cathedral", "", "basilica: tall nave, aisles under galleries reached by a long stair, windows at every height, solid towers"),
     ("sunroom", "", "plain white room lit only by the sun through a window (rendering test)"),
+    ("awkward", "name", "third-party-like scenes in their own units, scale to guess: cm_room, conference, car, blocks, atrium, suite, block_city"),
 ];
 
 impl BuiltIn {
     /// Parses `name` or `name:parameter`, e.g. `maze:12` or `big:5000000`.
     pub fn parse(spec: &str) -> Option<BuiltIn> {
+        if let Some(name) = spec.strip_prefix("awkward:") {
+            return awkward::AWKWARD.iter().find(|&&a| a == name).map(|&a| BuiltIn::Awkward(a));
+        }
         let (name, param) = match spec.split_once(':') {
             Some((n, p)) => (n, Some(p.trim().replace('_', "").parse::<usize>().ok()?)),
             None => (spec, None),
@@ -86,6 +92,7 @@ impl BuiltIn {
             BuiltIn::House => house::house(seed),
             BuiltIn::Cathedral => cathedral::cathedral(seed),
             BuiltIn::Sunroom => sunroom::sunroom(),
+            BuiltIn::Awkward(name) => awkward::awkward(name).map(|(scene, _)| scene).expect("parsed from the list"),
         }
     }
 }
@@ -96,7 +103,7 @@ mod tests {
 
     #[test]
     fn every_builtin_is_valid_and_seeded() {
-        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "cathedral", "sunroom"] {
+        for spec in ["gallery", "maze", "pillars", "big:50000", "island", "house", "cathedral", "sunroom", "awkward:atrium"] {
             let scene = BuiltIn::parse(spec).unwrap().generate(1);
             scene.validate().unwrap_or_else(|e| panic!("{spec}: {e}"));
             assert_eq!(scene.stats, SceneStats::default(), "{spec} made bad triangles");
