@@ -1664,6 +1664,8 @@ mod tests {
         assert!(eye_over(2.0, 1.0, 3.0).is_some_and(|f| (f - 1.0).abs() < 0.1), "the first terrace");
         assert!(eye_over(6.0, 2.0, 3.0).is_some_and(|f| (f - 2.0).abs() < 0.1), "the second terrace");
         assert!(eye_over(-7.0, 0.5, -7.6).is_none_or(|f| (f - 0.5).abs() > 0.1), "the bench");
+        // The yard's wall is as high as a terrace, and as large: too narrow.
+        assert!(eye_over(0.0, 1.0, 19.9).is_none_or(|f| (f - 1.0).abs() > 0.1), "the wall's top");
     }
 
     #[test]

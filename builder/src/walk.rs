@@ -29,8 +29,8 @@
 //!    floor mostly sees the sky with another floor below it: nobody tours the
 //!    roof of the building they visit). Table tops, beds and window sills are
 //!    smaller and drop out, as does ground at the model's edge that no door
-//!    leads to. Room-sized regions a ledge of up to 1.3 m joins to a kept one,
-//!    with nothing between, are kept too (the terraces of a hill or a block
+//!    leads to. Room-sized regions at least 1 m wide somewhere that a ledge
+//!    of up to 1.3 m joins to a kept one, with nothing between, are kept too (the terraces of a hill or a block
 //!    world: a path glides over the ledge). A room joins the rest through its
 //!    door: the walking grid is fine enough for doors (see [`crate::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
@@ -526,7 +526,9 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         kept[g] = met[at..at + n].iter().filter(|&&m| m).count() as f32 >= ENCLOSED_SHARE * n as f32;
         at += n;
     }
-    keep_terraces(&mut kept, &ledges, |g| !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2);
+    let candidates: Vec<bool> = (0..sizes.len()).map(|g| !kept[g] && !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+    let wide = wide_regions(grid, &standing, &by_column, &region_of, &candidates, (TERRACE_WIDTH_M / (2.0 * grid.voxel * metres_per_unit)).ceil() as isize);
+    keep_terraces(&mut kept, &ledges, |g| candidates[g] && wide[g]);
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
@@ -653,10 +655,32 @@ fn furniture(ledges: &BTreeMap<(u32, u32), Ledge>, sizes: &[usize], outdoors: &[
     out
 }
 
+/// A terrace is at least this wide somewhere, metres (a wall's top is not).
+const TERRACE_WIDTH_M: f32 = 1.0;
+
+/// Of the `candidates`, the regions with a cell whose square of `radius`
+/// cells around it is all theirs: somewhere a person's footprint fits with
+/// room to turn.
+fn wide_regions(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], candidates: &[bool], radius: isize) -> Vec<bool> {
+    let mut wide = vec![false; candidates.len()];
+    let theirs = |x: isize, z: isize, g: u32| {
+        (0..grid.dims[0] as isize).contains(&x) && (0..grid.dims[2] as isize).contains(&z) && by_column[x as usize + grid.dims[0] * z as usize].iter().any(|&b| region_of[b as usize] == g)
+    };
+    for (k, c) in standing.iter().enumerate() {
+        let g = region_of[k];
+        if !candidates[g as usize] || wide[g as usize] {
+            continue;
+        }
+        let (x, z) = ((c.column % grid.dims[0]) as isize, (c.column / grid.dims[0]) as isize);
+        wide[g as usize] = (-radius..=radius).all(|dz| (-radius..=radius).all(|dx| theirs(x + dx, z + dz, g)));
+    }
+    wide
+}
+
 /// Regions an open ledge joins to a kept region are kept too, in chains,
-/// where `eligible` (not roofs or furniture, room-sized): the terraces of a
-/// hill or a block world, a metre up or down from the street, which a path
-/// reaches by gliding over the ledge.
+/// where `eligible` (room-sized, wide, not roofs or furniture): the terraces
+/// of a hill or a block world, a metre up or down from the street, which a
+/// path reaches by gliding over the ledge.
 fn keep_terraces(kept: &mut [bool], ledges: &BTreeMap<(u32, u32), Ledge>, eligible: impl Fn(usize) -> bool) {
     loop {
         let mut grown = false;
