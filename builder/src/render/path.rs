@@ -11,10 +11,6 @@ use glam::Vec3;
 use std::ops::ControlFlow;
 use std::path::Path;
 
-/// Random-number streams of video frames (path id × 2²⁴ + frame), apart from
-/// panoramas' and thumbnails'.
-const VIDEO_STREAMS: u64 = 2 << 48;
-
 /// The video's and the poster's file names.
 pub(super) fn files(id: usize) -> (String, String) {
     (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
@@ -29,7 +25,7 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encod
     // Each frame goes to the encoder as it is rendered; the first is the poster too.
     let mut stream = encoder.stream(crate::smooth::FPS);
     let (mut first, mut failed) = (None, None);
-    renderer.path_frames(&settings.video, &eyes, w, VIDEO_STREAMS + ((id as u64) << 24), settings.video_keys, |_, frame| {
+    renderer.path_frames(&settings.video, &eyes, w, crate::seeds::image::video(id as u32), settings.video_keys, |_, frame| {
         let image = renderer.to_image(w, w / 2, &frame.color);
         failed = stream.push(&image).err();
         first.get_or_insert(image);

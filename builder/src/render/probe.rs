@@ -10,10 +10,6 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::path::Path;
 
-/// Random-number streams of thumbnails, apart from the cube faces' (probe id
-/// × 8 + face) and the videos', so no two images share samples.
-const THUMBNAIL_STREAMS: u64 = 1 << 48;
-
 /// Tour tiles are 512 pixels, as tour viewers' are; the preview strip's
 /// faces 256 (or the face, if smaller).
 const TILE: u32 = 512;
@@ -62,7 +58,7 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
         }
         Ok(f.color)
     };
-    let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, id as u64).into_iter().map(denoised).collect::<Result<_, _>>()?;
+    let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, crate::seeds::image::cube(id as u32)).into_iter().map(denoised).collect::<Result<_, _>>()?;
     let full = faces.clone();
     // Levels from the largest down, each box-filtered from the one above.
     let mut images = Vec::with_capacity(cube.len());
@@ -87,6 +83,6 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
     let equirect = equirect_from_cube(&full, settings.face, pano_width);
     write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), QUALITY))?;
     let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-    let view = denoised(renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, THUMBNAIL_STREAMS + id as u64))?;
+    let view = denoised(renderer.perspective(&settings.panorama, eye, yaw, pitch, 1.0, 320, 180, crate::seeds::image::thumbnail(id as u32)))?;
     write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view), 85))
 }

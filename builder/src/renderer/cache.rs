@@ -15,7 +15,7 @@
 //! gather: E(c) = π/K · Σ_j [A_j + ρ_j/π · E(target_j)].
 
 use super::surface::{cosine_direction, fibonacci_sphere, lattice, Surface, Which};
-use super::trace::{sampler, Tracer};
+use super::trace::{image, sampler, Tracer, Work};
 use crate::raycast::Ray;
 use glam::{IVec3, Vec2, Vec3};
 use rand::Rng;
@@ -324,7 +324,7 @@ impl RadianceCache {
                 .par_iter()
                 .enumerate()
                 .map(|(c, cell)| {
-                    let mut rng = sampler(params.seed, 0x5A45, c as u64);
+                    let mut rng = sampler(params.seed, Work::CacheSun, image::NONE, c as u64);
                     cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>() / cell.points.len() as f32
                 })
                 .collect()
@@ -445,7 +445,7 @@ fn cell_surface(position: Vec3, normal: Vec3) -> Surface {
 
 /// A cell's gather: stratified cosine-weighted rays from its points.
 fn gather(tracer: &Tracer, cell: &Cell, index: u64, params: &CacheParams) -> Gathered {
-    let mut rng = sampler(params.seed, 0xCAC4E, index);
+    let mut rng = sampler(params.seed, Work::CacheGather, image::NONE, index);
     let mut out = Gathered::default();
     let k = params.gather_rays;
     // A Fibonacci lattice shifted at random: even over the hemisphere for any

@@ -39,7 +39,7 @@
 //! point), so the result does not depend on the thread count.
 
 use super::surface::{cosine_direction, Surface, Which};
-use super::trace::{sampler, Tracer};
+use super::trace::{sampler, Tracer, Work};
 use crate::raycast::{Hit, Ray};
 use glam::{Vec2, Vec3};
 use rand::Rng;
@@ -48,10 +48,6 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::ops::RangeInclusive;
 
-/// Random streams of gather points, apart from the pixels' own.
-const STREAM: u64 = 0x6A7E_0000_0000;
-/// The same for the near field's grid.
-const NEAR_STREAM: u64 = 0x6A7F_0000_0000;
 /// The B3-spline taps of one à-trous pass.
 const TAPS: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 /// Sharpness of the normal weight: cos^N.
@@ -196,7 +192,7 @@ impl Tracer<'_> {
         let reach_at = |depth: f32| reach * unit * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
         // Only at pixels the frame traces.
-        far.points = self.gather_grid(&far, seed, STREAM ^ image, eye, side, &reach_at, true, project, |x, y| traced(x as u32, y as u32));
+        far.points = self.gather_grid(&far, (seed, Work::Gather, image), eye, side, &reach_at, true, project, |x, y| traced(x as u32, y as u32));
         for pass in 0..params.passes {
             far.filter(1 << pass, false, None);
         }
@@ -207,7 +203,7 @@ impl Tracer<'_> {
             let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
             // Only where a coarse point around had surfaces within reach.
             let crowded = |x: f32, y: f32| far.around(x, y, 1).any(|p| p.open < 1.0);
-            near.points = self.gather_grid(&near, seed, NEAR_STREAM ^ image, eye, side, &reach_at, false, project, crowded);
+            near.points = self.gather_grid(&near, (seed, Work::NearGather, image), eye, side, &reach_at, false, project, crowded);
             for pass in 0..passes {
                 near.filter(1 << pass, true, None);
             }
@@ -223,8 +219,7 @@ impl Tracer<'_> {
     fn gather_grid(
         &self,
         grid: &Grid,
-        seed: u64,
-        stream: u64,
+        (seed, work, image): (u64, Work, u64),
         eye: Vec3,
         side: u32,
         reach_at: &(impl Fn(f32) -> f32 + Sync),
@@ -247,7 +242,7 @@ impl Tracer<'_> {
                 let mut ray = Ray::new(eye, project(x / width, y / height));
                 let hit = self.intersect(&mut ray)?;
                 let s = self.materials.surface(&ray, &hit);
-                let mut rng = sampler(seed, stream, g as u64);
+                let mut rng = sampler(seed, work, image, g as u64);
                 let depth = hit.t * ray.dir.length();
                 Some(self.gather_at(&s, depth, side, reach_at(depth), far, &mut rng))
             })

@@ -23,7 +23,7 @@
 //! choice stays uniform, so no cell that carries light is ever left out.
 
 use super::surface::{cosine_direction, fibonacci_sphere, Lighting, Surface};
-use super::trace::{sampler, Tracer};
+use super::trace::{image, sampler, Tracer, Work};
 use super::luminance;
 use crate::raycast::Ray;
 use exploremaps_scenes::Scene;
@@ -32,6 +32,10 @@ use rand::Rng;
 use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::f32::consts::PI;
+
+/// The reference's light tables are the same whatever the run's seed, so
+/// references drawn with different seeds differ only in their samples.
+const TABLES_SEED: u64 = 0x5EED;
 
 /// Where the reference's light samples come from.
 pub struct LightSampler {
@@ -158,7 +162,7 @@ impl LightSampler {
         let surfaces: Vec<Surface> = (0..views.len() * dirs.len())
             .into_par_iter()
             .flat_map_iter(|i| {
-                let mut rng = sampler(0x5EED, 1, i as u64);
+                let mut rng = sampler(TABLES_SEED, Work::LightPilot, image::NONE, i as u64);
                 let mut ray = Ray::new(views[i / dirs.len()], dirs[i % dirs.len()]);
                 let first = tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h));
                 let second = first.and_then(|s| {
@@ -181,7 +185,7 @@ impl LightSampler {
                 let counts: Vec<f32> = (0..CELLS * CELLS)
                     .into_par_iter()
                     .map(|c| {
-                        let mut rng = sampler(0x5EED, 2, c as u64);
+                        let mut rng = sampler(TABLES_SEED, Work::LightCells, image::NONE, c as u64);
                         let mut seen = 0;
                         for _ in 0..4 {
                             let (a, b) = cell_point(c, rng.random(), rng.random());
@@ -212,7 +216,7 @@ impl LightSampler {
                 .par_iter()
                 .enumerate()
                 .flat_map_iter(|(i, s)| {
-                    let mut rng = sampler(0x5EED, 3, i as u64);
+                    let mut rng = sampler(TABLES_SEED, Work::LightExits, image::NONE, i as u64);
                     (0..64)
                         .filter_map(|_| {
                             let w = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));

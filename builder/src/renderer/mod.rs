@@ -209,7 +209,7 @@ impl<'a> Renderer<'a> {
     /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
         let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed: self.settings.seed };
-        let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, u64::MAX - i as u64).color).map(luminance).filter(|l| l.is_finite()).collect();
+        let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, crate::seeds::image::exposure(i as u32)).color).map(luminance).filter(|l| l.is_finite()).collect();
         if seen.is_empty() {
             return 1.0;
         }
@@ -220,9 +220,9 @@ impl<'a> Renderer<'a> {
     }
 
     /// The six cube faces seen from `eye`, `size` pixels square, in the
-    /// format's face order and orientation.
+    /// format's face order and orientation; face f draws from image `image + f`.
     pub fn cube(&self, params: &TraceParams, eye: Vec3, size: u32, image: u64) -> Vec<Frame> {
-        (0..6).map(|face| self.tracer.render(params, eye, size, size, image * 8 + face as u64, |s, t| Vec3::from(cube_direction(face, s, t)))).collect()
+        (0..6).map(|face| self.tracer.render(params, eye, size, size, image + face as u64, |s, t| Vec3::from(cube_direction(face, s, t)))).collect()
     }
 
     /// An equirectangular frame, `width` × `width`/2: column 0 looks toward
@@ -300,7 +300,7 @@ impl<'a> Renderer<'a> {
     /// along `n`. Samples are spread over a disc of `radius` across `n`;
     /// `None` when none finds a surface. Random stream `image`.
     pub fn surface_radiance(&self, p: Vec3, n: Vec3, radius: f32, reach: f32, samples: u32, image: u64) -> Option<Vec3> {
-        let mut rng = trace::sampler(self.settings.seed, image, 0);
+        let mut rng = trace::sampler(self.settings.seed, trace::Work::Bake, image, 0);
         let (t1, t2) = n.any_orthonormal_pair();
         let (mut sum, mut found) = (Vec3::ZERO, 0);
         for k in 0..samples {

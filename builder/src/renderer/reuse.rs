@@ -263,7 +263,7 @@ mod tests {
         // radius 3 with a tilted normal and its own light; some see the sky.
         let (width, height) = (64u32, 32u32);
         let eye = Vec3::new(0.5, 1.5, -0.25);
-        let mut rng = crate::seeds::sampler(3, 0, 0);
+        let mut rng = crate::seeds::sampler(3, crate::seeds::Work::Pixels, 0, 0);
         let mut r = || rand::Rng::random::<f32>(&mut rng);
         let mut points = Vec::new();
         for y in 0..height {

@@ -20,7 +20,7 @@ use rand_pcg::Pcg32;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
-pub use crate::seeds::sampler;
+pub use crate::seeds::{image, sampler, Work};
 
 /// How rays are turned into radiance.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -357,8 +357,8 @@ impl<'a> Tracer<'a> {
         // Each pixel's random stream, made when first drawn from (frames
         // between video keys draw only where neither key saw the point).
         let stream = |k: usize| match jitter {
-            None => sampler(params.seed, image, (pixels[k].1 * width + pixels[k].0) as u64),
-            Some((_, first)) => sampler(params.seed, image, first + k as u64),
+            None => sampler(params.seed, Work::Pixels, image, (pixels[k].1 * width + pixels[k].0) as u64),
+            Some((_, first)) => sampler(params.seed, Work::Pixels, image, first + k as u64),
         };
         let mut rngs: Vec<Option<Pcg32>> = vec![None; pixels.len()];
         // Colour, albedo, normal, and the colour without rouletted lamps.
