@@ -56,10 +56,7 @@ fn find_library() -> Result<PathBuf, String> {
 }
 
 fn system_embree() -> Option<PathBuf> {
-    let out = Command::new("pkg-config")
-        .args(["--atleast-version=4.0", "--variable=libdir", "embree4"])
-        .output()
-        .ok()?;
+    let out = Command::new("pkg-config").args(["--atleast-version=4.0", "--variable=libdir", "embree4"]).output().ok()?;
     let dir = PathBuf::from(String::from_utf8(out.stdout).ok()?.trim());
     (out.status.success() && dir.join("libembree4.so").exists()).then_some(dir)
 }

@@ -75,6 +75,11 @@ fi
 
 command -v cargo >/dev/null || { echo "setup: cargo is missing; install Rust with rustup (https://rustup.rs), then run this again" >&2; exit 1; }
 
+# The formatter and the linter the test command runs first.
+for component in rustfmt clippy; do
+  rustup component list --installed 2>/dev/null | grep -q "^$component" || rustup component add "$component"
+done
+
 # The web viewer: the wasm32 target and wasm-bindgen's CLI at the version
 # the viewer pins (they must match), then the build itself (web/build.sh),
 # which `exploremaps build` copies into every bundle.

@@ -237,7 +237,8 @@ pub struct PlanArgs {
 
 /// `x,y,z` as three finite numbers.
 fn parse_point(text: &str) -> Result<[f32; 3], String> {
-    let parts: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| format!("{text}: {e}; expected x,y,z"))?;
+    let parts: Vec<f32> =
+        text.split(',').map(|p| p.trim().parse::<f32>()).collect::<Result<_, _>>().map_err(|e| format!("{text}: {e}; expected x,y,z"))?;
     match parts.as_slice() {
         [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok([*x, *y, *z]),
         _ => Err(format!("{text}: expected three finite numbers x,y,z")),
@@ -320,7 +321,8 @@ pub fn shard_from_env(count: Option<usize>, var: impl Fn(&str) -> Option<String>
     let number = |name: &str| -> Result<Option<usize>, String> {
         var(name).map(|v| v.trim().parse::<usize>().map_err(|_| format!("{name}={v} is not a number"))).transpose()
     };
-    let checked = |i: usize, n: usize, from: &'static str| if i < n { Ok((i, n, from)) } else { Err(format!("{from}: shard {i} of {n} is out of range")) };
+    let checked =
+        |i: usize, n: usize, from: &'static str| if i < n { Ok((i, n, from)) } else { Err(format!("{from}: shard {i} of {n} is out of range")) };
     if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
         // With the count given, the task id is the shard (so `--array=2`
         // redoes shard 2 alone); else the array's own numbering is used.
@@ -435,7 +437,14 @@ impl Recorded {
             near_m: planning.near_m,
             max_cells: planning.max_cells,
             cluster: !planning.no_cluster,
-            height: (if planning.walk { "walk" } else if planning.fly { "fly" } else { "auto" }).into(),
+            height: (if planning.walk {
+                "walk"
+            } else if planning.fly {
+                "fly"
+            } else {
+                "auto"
+            })
+            .into(),
             eye_height_m: planning.eye_height_m,
             seconds,
         }

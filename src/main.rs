@@ -8,17 +8,17 @@ mod serve;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs, ShardArg};
-use exploremaps_builder::render::{Quality, Settings};
-use exploremaps_builder::explore::{ExploreParams, Strategy};
-use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
-use exploremaps_builder::pipeline::{self, PlanParams};
 use exploremaps_builder::cluster::SynthesisParams;
 use exploremaps_builder::coverage::CoverageParams;
+use exploremaps_builder::explore::{ExploreParams, Strategy};
+use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
+use exploremaps_builder::load::{self, LoadError, LoadOptions};
+use exploremaps_builder::pipeline::{self, PlanParams};
+use exploremaps_builder::render::{Quality, Settings};
+use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
 use exploremaps_format::{Graph, GRAPH_FILE};
 use glam::Vec3;
 use std::path::Path;
-use exploremaps_builder::load::{self, LoadError, LoadOptions};
-use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
@@ -58,7 +58,10 @@ fn exit_code(e: &anyhow::Error) -> u8 {
             || cause.is::<LoadError>()
             || matches!(cause.downcast_ref(), Some(pipeline::PlanError::FreeSpace(_)))
             || cause.is::<ExportError>()
-            || matches!(cause.downcast_ref(), Some(TourError::Image { .. } | TourError::NotRendered(_) | TourError::Occupied(_) | TourError::Library { .. }))
+            || matches!(
+                cause.downcast_ref(),
+                Some(TourError::Image { .. } | TourError::NotRendered(_) | TourError::Occupied(_) | TourError::Library { .. })
+            )
             || matches!(cause.downcast_ref(), Some(ViewError::Read { .. } | ViewError::Format { .. } | ViewError::Link(_) | ViewError::Empty))
     });
     if bad_input {
@@ -168,7 +171,8 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
     }
     let graph = read_graph(bundle)?;
     let out = output.map_or_else(|| tour::default_folder(bundle), Path::to_path_buf);
-    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64).with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
+    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64)
+        .with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
     let started = Instant::now();
     let report = tour::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
@@ -207,8 +211,8 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
         return Ok((scene, source));
     }
     let name = builtin_name.unwrap_or(&args.scene);
-    let builtin = BuiltIn::parse(name)
-        .ok_or_else(|| BadInput(format!("{name}: no such file, and not a built-in scene (`exploremaps scenes` lists them)")))?;
+    let builtin =
+        BuiltIn::parse(name).ok_or_else(|| BadInput(format!("{name}: no such file, and not a built-in scene (`exploremaps scenes` lists them)")))?;
     let mut scene = builtin.generate(seed);
     if let Some(m) = args.metres_per_unit {
         scene.metres_per_unit = m;
@@ -263,10 +267,7 @@ fn plan_params(planning: &PlanArgs, seed: u64) -> PlanParams {
             seed,
             ..Default::default()
         },
-        synthesis: (!planning.no_cluster).then(|| SynthesisParams {
-            seed,
-            ..Default::default()
-        }),
+        synthesis: (!planning.no_cluster).then(|| SynthesisParams { seed, ..Default::default() }),
         coverage: CoverageParams { samples: planning.samples.clamp(1, 10_000_000), seed, ..Default::default() },
     }
 }
@@ -293,7 +294,9 @@ fn plan(job: &PlanJob, seed: u64) -> Result<(Graph, Scene)> {
 /// A bundle's graph.json, read and validated; errors are the user's (exit 2).
 fn read_graph(bundle: &Path) -> Result<Graph> {
     let graph_path = bundle.join(GRAPH_FILE);
-    let text = std::fs::read_to_string(&graph_path).map_err(|e| BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display())))?;
+    let text = std::fs::read_to_string(&graph_path).map_err(|e| {
+        BadInput(format!("cannot read {}: {e}; is {} a bundle written by `exploremaps plan`?", graph_path.display(), bundle.display()))
+    })?;
     Ok(Graph::from_json(&text).map_err(|e| BadInput(format!("{}: {e}", graph_path.display())))?)
 }
 
@@ -301,10 +304,12 @@ fn read_graph(bundle: &Path) -> Result<Graph> {
 fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, cli::Recorded)> {
     let graph = read_graph(bundle)?;
     let recorded: cli::Recorded = match graph.stats.get("plan") {
-        Some(entry) => serde_json::from_value(entry.clone()).map_err(|e| BadInput(format!("{}: its stats.plan entry: {e}", bundle.join(GRAPH_FILE).display())))?,
+        Some(entry) => serde_json::from_value(entry.clone())
+            .map_err(|e| BadInput(format!("{}: its stats.plan entry: {e}", bundle.join(GRAPH_FILE).display())))?,
         None => cli::Recorded::default(),
     };
-    let (mut scene, _) = load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
+    let (mut scene, _) =
+        load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
     // A scale the plan measured from the scene's heights is the bundle's.
     if scene.scale_source == ScaleSource::Guessed && graph.scene.scale_source == "measured" {
         scene.metres_per_unit = graph.scene.metres_per_unit;
@@ -329,7 +334,9 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
     }
     if let Some(width) = args.video_width {
         if !(64..=4096).contains(&width) || !width.is_multiple_of(32) {
-            bail!(BadInput(format!("--video-width {width}: use a multiple of 32 from 64 to 4096 (video frames are width x width/2, both multiples of 16)")));
+            bail!(BadInput(format!(
+                "--video-width {width}: use a multiple of 32 from 64 to 4096 (video frames are width x width/2, both multiples of 16)"
+            )));
         }
         settings.video_width = width;
     }
@@ -356,11 +363,21 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
 fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>, (mut graph, scene): (Graph, Scene)) -> Result<()> {
     let (index, count) = shard.unwrap_or((0, 1));
     let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.quality.name()));
-    bar.set_style(indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
-    let report = exploremaps_builder::render::render_missing(bundle, &scene, &mut graph, settings, exploremaps_builder::render::Shard { index, count }, |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })?;
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let report = exploremaps_builder::render::render_missing(
+        bundle,
+        &scene,
+        &mut graph,
+        settings,
+        exploremaps_builder::render::Shard { index, count },
+        |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        },
+    )?;
     bar.finish_and_clear();
     if let Some(proxy) = &graph.proxy {
         let levels: Vec<String> = proxy
@@ -375,14 +392,20 @@ fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>, (mu
         if let Some(s) = &proxy.stream {
             let bytes: u64 = s.packets.iter().map(|p| p.bytes).sum();
             let (from, to) = (proxy.levels.get(s.from).map_or(0, |l| l.triangles), proxy.levels.get(s.to).map_or(0, |l| l.triangles));
-            println!("  streamed    {from} -> {to} triangles by vertex splits in {:.0} KB ({} packets, proxy/splits-0.emvs …)", bytes as f64 / 1024.0, s.packets.len());
+            println!(
+                "  streamed    {from} -> {to} triangles by vertex splits in {:.0} KB ({} packets, proxy/splits-0.emvs …)",
+                bytes as f64 / 1024.0,
+                s.packets.len()
+            );
         }
     }
     match web_dir() {
         Some(web) => {
             exploremaps_builder::bundle::install_web_viewer(bundle, &web)?;
         }
-        None => tracing::warn!("the web viewer is not built, so the bundle has none; run web/build.sh, then `exploremaps render` again (it only adds what is missing)"),
+        None => tracing::warn!(
+            "the web viewer is not built, so the bundle has none; run web/build.sh, then `exploremaps render` again (it only adds what is missing)"
+        ),
     }
     println!(
         "{}: rendered {} probes and {} paths{}, {} already there ({:.1} s{})",
@@ -464,7 +487,14 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
     let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
     println!("  space       {} ({}); {} ({})", f.space, f.space_reason, f.height, f.height_reason);
-    println!("  free space  voxel {}, near {} units, {} navigable voxels of {} open ({:.2} s)", num(f.voxel as f64), num(f.near as f64), f.navigable, f.open, f.seconds);
+    println!(
+        "  free space  voxel {}, near {} units, {} navigable voxels of {} open ({:.2} s)",
+        num(f.voxel as f64),
+        num(f.near as f64),
+        f.navigable,
+        f.open,
+        f.seconds
+    );
     if let Some(w) = &f.walk {
         let levels: Vec<String> = w.levels.iter().map(|(y, share)| format!("{} ({:.0} %)", num(*y as f64), 100.0 * share)).collect();
         println!(
@@ -482,7 +512,10 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
         println!("  explore     {} candidate probes{capped}, {:.1} M rays ({:.2} s)", e.probes, e.rays as f64 / 1e6, e.seconds);
     }
     if let Some(c) = &plan.stats.cluster {
-        println!("  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)", c.clusters, c.final_probes, c.added_back, c.seconds);
+        println!(
+            "  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)",
+            c.clusters, c.final_probes, c.added_back, c.seconds
+        );
     }
     let (paths, m) = (&plan.stats.connect, &plan.stats.smooth);
     if e.probes > 0 {
@@ -524,7 +557,13 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
         println!("  baseline    {} placement, same {} probes: {:.2} %", b.name, b.probes.len(), 100.0 * b.report.fraction());
     }
     let files: Vec<&str> = plan.images.iter().map(|(n, _)| n.as_str()).chain(["coverage.json", GRAPH_FILE]).collect();
-    println!("  wrote       {} ({:.2} s in all: planning {:.2} s, the report {:.2} s)", files.join(", "), plan.seconds, plan.seconds - plan.report_seconds, plan.report_seconds);
+    println!(
+        "  wrote       {} ({:.2} s in all: planning {:.2} s, the report {:.2} s)",
+        files.join(", "),
+        plan.seconds,
+        plan.seconds - plan.report_seconds,
+        plan.report_seconds
+    );
 }
 
 /// A spinner on stderr while a long step runs; hidden when stderr is not a terminal.
@@ -550,7 +589,13 @@ fn info(scene: &Scene) -> Result<()> {
     };
     let m = scene.metres_per_unit;
     println!("scene       {}", scene.name);
-    println!("triangles   {} ({} vertices; dropped {} degenerate, {} non-finite)", scene.triangles.len(), scene.positions.len(), scene.stats.dropped_degenerate, scene.stats.dropped_non_finite);
+    println!(
+        "triangles   {} ({} vertices; dropped {} degenerate, {} non-finite)",
+        scene.triangles.len(),
+        scene.positions.len(),
+        scene.stats.dropped_degenerate,
+        scene.stats.dropped_non_finite
+    );
     println!("objects     {}", scene.objects.len());
     println!("materials   {} ({textured} textured, {emissive} emissive, {cutout} with alpha)", scene.materials.len());
     println!("textures    {} ({} could not be loaded)", scene.textures.len(), scene.stats.missing_textures);

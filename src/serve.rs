@@ -288,14 +288,18 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     // A folder without graph.json is not a bundle; a graph the viewer cannot
     // read is still served, so the viewer shows the reason in the page.
     if !tour && !root.join(exploremaps_format::GRAPH_FILE).is_file() {
-        anyhow::bail!("{}: no graph.json here; is this a bundle folder written by `exploremaps build` (or a tour written by `exploremaps export`)?", root.display());
+        anyhow::bail!(
+            "{}: no graph.json here; is this a bundle folder written by `exploremaps build` (or a tour written by `exploremaps export`)?",
+            root.display()
+        );
     }
     let graph_file = root.join(exploremaps_format::GRAPH_FILE);
     let graph = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
     if let (false, Err(e)) = (tour, graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| e.to_string()))) {
         tracing::warn!("{}: {e}", graph_file.display());
     }
-    let listener = std::net::TcpListener::bind(address).map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;
+    let listener = std::net::TcpListener::bind(address)
+        .map_err(|e| anyhow::anyhow!("cannot listen on {address}: {e}; choose another --address (e.g. 127.0.0.1:8081)"))?;
     let shown = listener.local_addr().map_or(address.to_string(), |a| a.to_string());
     if !root.join("index.html").is_file() && web.is_none() {
         tracing::warn!("this bundle has no web viewer and none is built; run web/build.sh, then `exploremaps serve` again");
@@ -345,7 +349,9 @@ mod tests {
         std::fs::write(dir.path().join("a.js"), &script).unwrap();
         std::fs::write(dir.path().join("b.jpg"), [0xffu8, 0xd8, 1, 2, 3]).unwrap();
         let root = dir.path().canonicalize().unwrap();
-        let get = |url: &str, range: Option<&str>, gzip: bool| respond(&root, None, &Request { method: "GET".into(), url: url.into(), range: range.map(str::to_string), gzip });
+        let get = |url: &str, range: Option<&str>, gzip: bool| {
+            respond(&root, None, &Request { method: "GET".into(), url: url.into(), range: range.map(str::to_string), gzip })
+        };
         let zipped = get("/a.js", None, true);
         assert!(zipped.headers.iter().any(|h| h == "Content-Encoding: gzip") && zipped.body.len() < script.len() / 10);
         let mut back = String::new();
@@ -416,7 +422,8 @@ mod tests {
         // request time; while they hold every slot, one more gets 503 at once.
         // (A moment first, for the threads of the requests above to end.)
         std::thread::sleep(std::time::Duration::from_millis(300));
-        let stalled: Vec<_> = (0..MAX_CONNECTIONS).map(|_| std::thread::spawn(move || status_of(address, b"GET /a.txt HTTP/1.1\r\n".to_vec(), true))).collect();
+        let stalled: Vec<_> =
+            (0..MAX_CONNECTIONS).map(|_| std::thread::spawn(move || status_of(address, b"GET /a.txt HTTP/1.1\r\n".to_vec(), true))).collect();
         std::thread::sleep(std::time::Duration::from_secs(2));
         let started = std::time::Instant::now();
         assert_eq!(status_of(address, b"GET /a.txt HTTP/1.1\r\n\r\n".to_vec(), false), 503, "every slot is held");

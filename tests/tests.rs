@@ -1,8 +1,8 @@
 //! End-to-end tests of the `exploremaps` command line.
 
+use exploremaps_builder::smooth::{MAX_DURATION_S, MIN_DURATION_S};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use exploremaps_builder::smooth::{MAX_DURATION_S, MIN_DURATION_S};
 
 mod tour;
 mod viewer;
@@ -91,7 +91,8 @@ fn scenes_lists_and_exports_builtins_that_load_back() {
 fn bad_input_exits_2_with_a_message_naming_it() {
     let dir = tempfile::tempdir().unwrap();
     let cut = dir.path().join("cut.ply");
-    std::fs::write(&cut, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n").unwrap();
+    std::fs::write(&cut, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n")
+        .unwrap();
     let binary = dir.path().join("noise.obj");
     std::fs::write(&binary, [0u8, 1, 2, 3, 255, 0, 7]).unwrap();
     let missing = dir.path().join("missing.glb");
@@ -306,7 +307,8 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let coarse = &proxy.levels[stream.from];
     let mut base = exploremaps_format::meshcode::decode(&std::fs::read(one.join(&coarse.file)).unwrap()).unwrap();
     let probes = graph.probes.len() as u32;
-    let seen = exploremaps_format::seen::decode(&std::fs::read(one.join(coarse.seen.as_ref().unwrap())).unwrap(), base.triangles.len(), probes).unwrap();
+    let seen =
+        exploremaps_format::seen::decode(&std::fs::read(one.join(coarse.seen.as_ref().unwrap())).unwrap(), base.triangles.len(), probes).unwrap();
     base.groups = seen.iter().map(|&p| p.min(probes)).collect();
     let mut refiner = exploremaps_format::splits::Refiner::new(base).unwrap();
     for (file, packets) in stream.files() {
@@ -345,7 +347,11 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), planned, "a shard does not touch graph.json");
     let run = finalize();
     assert_eq!(run.status.code(), Some(1));
-    assert!(stderr(&run).contains("shard 1/2 has not finished") && stderr(&run).contains("probes/1/pano.jpg (shard 1/2): missing"), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("shard 1/2 has not finished") && stderr(&run).contains("probes/1/pano.jpg (shard 1/2): missing"),
+        "{}",
+        stderr(&run)
+    );
     let run = render(&sharded, &["--shard", "1/2"]);
     assert!(run.status.success(), "{}", stderr(&run));
     std::fs::write(sharded.join("probes/2/64_px.jpg"), b"\xff\xd8 torn").unwrap();
@@ -356,7 +362,11 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     assert!(stdout(&run).contains("rendered 1 probes and 0 paths"), "{}", stdout(&run));
     let run = finalize();
     assert!(run.status.success(), "{}", stderr(&run));
-    assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), std::fs::read(one.join("graph.json")).unwrap(), "finalize writes the graph one run writes");
+    assert_eq!(
+        std::fs::read(sharded.join("graph.json")).unwrap(),
+        std::fs::read(one.join("graph.json")).unwrap(),
+        "finalize writes the graph one run writes"
+    );
     for (name, bytes) in bundle_files(&one).into_iter().filter(|(n, _)| !n.to_string_lossy().ends_with(".tmp")) {
         assert!(std::fs::read(sharded.join(&name)).is_ok_and(|b| b == bytes), "{} differs", name.display());
     }
@@ -376,7 +386,16 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let g = exploremaps_format::Graph::from_json(&std::fs::read_to_string(denoised.join("graph.json")).unwrap()).unwrap();
     assert_eq!(g.stats["render"]["denoised"], true);
     assert!(g.probes.iter().all(|p| p.assets.equirect.is_some()));
-    for bad in [vec!["--face", "7"], vec!["--video-width", "100"], vec!["--proxy-triangles", "5"], vec!["--spp", "0"], vec!["--bounces", "99"], vec!["--shard", "2/2"], vec!["--quality", "best"], vec!["--threads", "100000"]] {
+    for bad in [
+        vec!["--face", "7"],
+        vec!["--video-width", "100"],
+        vec!["--proxy-triangles", "5"],
+        vec!["--spp", "0"],
+        vec!["--bounces", "99"],
+        vec!["--shard", "2/2"],
+        vec!["--quality", "best"],
+        vec!["--threads", "100000"],
+    ] {
         let mut args = vec!["render", one.to_str().unwrap()];
         args.extend(bad.iter());
         let run = exploremaps(&args);
@@ -390,7 +409,22 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
     let dir = tempfile::tempdir().unwrap();
     let build = |threads: &str| {
         let out = dir.path().join(format!("t{threads}"));
-        let args = ["build", "maze:3", "-o", out.to_str().unwrap(), "--samples", "5000", "--quality", "preview", "--face", "64", "--video-width", "128", "--threads", threads];
+        let args = [
+            "build",
+            "maze:3",
+            "-o",
+            out.to_str().unwrap(),
+            "--samples",
+            "5000",
+            "--quality",
+            "preview",
+            "--face",
+            "64",
+            "--video-width",
+            "128",
+            "--threads",
+            threads,
+        ];
         let run = exploremaps(&args);
         assert!(run.status.success(), "{}", stderr(&run));
         out
@@ -413,10 +447,13 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
 /// Every file of a bundle but timings.json (which varies by design), with
 /// its bytes, by path.
 fn bundle_files(root: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
-    bundle_names(root).into_iter().map(|name| {
-        let bytes = std::fs::read(root.join(&name)).unwrap();
-        (name, bytes)
-    }).collect()
+    bundle_names(root)
+        .into_iter()
+        .map(|name| {
+            let bytes = std::fs::read(root.join(&name)).unwrap();
+            (name, bytes)
+        })
+        .collect()
 }
 
 /// The paths of a bundle's files but timings.json, sorted. Safe to call while
@@ -541,7 +578,9 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(!stdout(&run).contains(" 0 already there"), "finished probes are not redone: {}", stdout(&run));
     let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(b.join("graph.json")).unwrap()).unwrap();
-    assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some() && p.assets.cube_levels.len() == 1 && p.assets.tiles.as_ref().is_some_and(|t| (t.size, t.levels) == (256, 1))));
+    assert!(graph.probes.iter().all(|p| p.assets.equirect.is_some()
+        && p.assets.cube_levels.len() == 1
+        && p.assets.tiles.as_ref().is_some_and(|t| (t.size, t.levels) == (256, 1))));
     assert!(graph.paths.iter().all(|p| p.assets.video.is_some()));
 }
 

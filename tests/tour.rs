@@ -21,7 +21,11 @@ fn colour(p: usize, d: [f32; 3]) -> [f32; 3] {
     let [x, y, z] = d.map(|c| c / n);
     let ripple = 25.0 * (9.0 * x).sin() * (9.0 * y).sin();
     let c = [128.0 + 95.0 * x + ripple, 128.0 + 95.0 * y - ripple, 128.0 + 95.0 * z];
-    if p == 0 { c } else { [c[2], c[0], c[1]] }
+    if p == 0 {
+        c
+    } else {
+        [c[2], c[0], c[1]]
+    }
 }
 
 fn jpeg(img: &image::RgbImage) -> Vec<u8> {
@@ -200,13 +204,16 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
         assert!(run.status.success(), "{}\n{lines:?}", stderr(&run));
         for l in &lines {
             // The missing video's request may be dropped: that is the fallback.
-            let dropped_video = l["step"] == "requestfailed" && l["url"].as_str().is_some_and(|u| u.ends_with("/videos/0.mp4")) && !out.join("videos/0.mp4").exists();
+            let dropped_video =
+                l["step"] == "requestfailed" && l["url"].as_str().is_some_and(|u| u.ends_with("/videos/0.mp4")) && !out.join("videos/0.mp4").exists();
             assert!(l["step"] != "error" && l["step"] != "pageerror" && (l["step"] != "requestfailed" || dropped_video), "{l}\nall: {lines:?}");
         }
         lines
     };
     let lines = drive(&VIEWS.map(|(y, p, f)| format!("{y},{p},{f}")).join(";"));
-    let step = |name: &str, viewer: &str| lines.iter().find(|l| l["step"] == name && l["viewer"] == viewer).unwrap_or_else(|| panic!("no {name} for {viewer}: {lines:?}")).clone();
+    let step = |name: &str, viewer: &str| {
+        lines.iter().find(|l| l["step"] == name && l["viewer"] == viewer).unwrap_or_else(|| panic!("no {name} for {viewer}: {lines:?}")).clone()
+    };
     if let Ok(keep) = std::env::var("EXPLOREMAPS_KEEP_SHOTS") {
         for e in std::fs::read_dir(&shots).unwrap().flatten() {
             std::fs::create_dir_all(&keep).unwrap();
@@ -215,7 +222,10 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
     }
     for viewer in viewers {
         for (k, (yaw, pitch, _)) in VIEWS.into_iter().enumerate() {
-            let first = lines.iter().find(|l| l["step"] == "first" && l["viewer"] == viewer && l["k"] == k).unwrap_or_else(|| panic!("no view {k} for {viewer}: {lines:?}"));
+            let first = lines
+                .iter()
+                .find(|l| l["step"] == "first" && l["viewer"] == viewer && l["k"] == k)
+                .unwrap_or_else(|| panic!("no view {k} for {viewer}: {lines:?}"));
             let view = &first["view"];
             assert_eq!(view["scene"], "0", "{viewer} starts at the first probe of the bar");
             assert!((view["yaw"].as_f64().unwrap() - yaw).abs() < 0.01 && (view["pitch"].as_f64().unwrap() - pitch).abs() < 0.01, "{viewer}: {view}");
@@ -226,7 +236,10 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
         assert_eq!(view["scene"], "1", "{viewer} follows the link: {followed}");
         assert_eq!(transition["kind"], "video", "{viewer} plays the path's video: {followed}");
         assert!(transition["frames"].as_u64().unwrap() >= 2, "{viewer} drew the video (frames come slowly on a busy CPU renderer): {followed}");
-        assert!((view["yaw"].as_f64().unwrap() - 2.5).abs() < 0.02 && (view["pitch"].as_f64().unwrap() - 0.15).abs() < 0.02, "{viewer} arrives facing the arrival direction: {view}");
+        assert!(
+            (view["yaw"].as_f64().unwrap() - 2.5).abs() < 0.02 && (view["pitch"].as_f64().unwrap() - 0.15).abs() < 0.02,
+            "{viewer} arrives facing the arrival direction: {view}"
+        );
         check_view(viewer, &shots.join(format!("{viewer}-1.png")), 1, view);
     }
     // Without the video, each link falls back to the viewer's own change of
@@ -234,9 +247,13 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
     std::fs::remove_file(out.join("videos/0.mp4")).unwrap();
     let lines = drive("0,0,1");
     for viewer in viewers {
-        let followed = lines.iter().find(|l| l["step"] == "followed" && l["viewer"] == viewer).unwrap_or_else(|| panic!("no follow for {viewer}: {lines:?}"));
+        let followed =
+            lines.iter().find(|l| l["step"] == "followed" && l["viewer"] == viewer).unwrap_or_else(|| panic!("no follow for {viewer}: {lines:?}"));
         let view = &followed["view"];
         assert_eq!((view["scene"].as_str(), followed["transition"]["kind"].as_str()), (Some("1"), Some("fade")), "{viewer}: {followed}");
-        assert!((view["yaw"].as_f64().unwrap() - 2.5).abs() < 0.02 && (view["pitch"].as_f64().unwrap() - 0.15).abs() < 0.02, "{viewer} arrives facing the arrival direction: {view}");
+        assert!(
+            (view["yaw"].as_f64().unwrap() - 2.5).abs() < 0.02 && (view["pitch"].as_f64().unwrap() - 0.15).abs() < 0.02,
+            "{viewer} arrives facing the arrival direction: {view}"
+        );
     }
 }

@@ -64,7 +64,9 @@ pub(super) fn writer(dir: &Path) -> impl Fn(&str, &[u8]) + '_ {
 pub(super) fn push_path(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
     let frames: Vec<image::RgbImage> = (0..50).map(|_| image::RgbImage::from_pixel(256, 128, image::Rgb(VIDEO))).collect();
     write("paths/0.mp4", &exploremaps_builder::video::Encoder::OpenH264.encode(&frames, 25.0).unwrap());
-    let camera = (0..50).map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 }).collect();
+    let camera = (0..50)
+        .map(|i| CameraKey { t_s: i as f32 / 25.0, position: [4.0 * i as f32 / 49.0, 1.5, 0.0], yaw: std::f32::consts::FRAC_PI_2, pitch: 0.0 })
+        .collect();
     graph.paths.push(GraphPath {
         id: 0,
         from: 0,
@@ -134,7 +136,15 @@ pub fn synthetic_bundle(dir: &Path) {
         let seen: Vec<u32> = coded.order.triangles.iter().map(|&t| best[t as usize]).collect();
         write(&file, &coded.bytes);
         write(&table, &exploremaps_format::seen::encode(&seen));
-        levels.push(exploremaps_format::ProxyLevel { file, triangles: mesh.triangles.len() as u64, vertices: mesh.positions.len() as u64, error: 0.0, bytes: coded.bytes.len() as u64, seen: Some(table), chunks: vec![] });
+        levels.push(exploremaps_format::ProxyLevel {
+            file,
+            triangles: mesh.triangles.len() as u64,
+            vertices: mesh.positions.len() as u64,
+            error: 0.0,
+            bytes: coded.bytes.len() as u64,
+            seen: Some(table),
+            chunks: vec![],
+        });
         coded_coarse = Some((coded, seen));
     }
     let (coded, seen) = coded_coarse.unwrap();
@@ -144,10 +154,20 @@ pub fn synthetic_bundle(dir: &Path) {
     let [e, f] = [4, 5].map(decoded);
     let g = base.positions.len() as u32;
     let moved = coded.order.triangles.iter().position(|&t| t == 2).unwrap() as u32;
-    let split = exploremaps_format::splits::Refinement::Split { vertex: f, position: [9.0, 0.0, -5.0], new_position: [9.0, 0.0, 9.0], colour: EAST, new_colour: EAST, moved: vec![moved], added: vec![[e, f, g]], groups: vec![1] };
+    let split = exploremaps_format::splits::Refinement::Split {
+        vertex: f,
+        position: [9.0, 0.0, -5.0],
+        new_position: [9.0, 0.0, 9.0],
+        colour: EAST,
+        new_colour: EAST,
+        moved: vec![moved],
+        added: vec![[e, f, g]],
+        groups: vec![1],
+    };
     let packet = exploremaps_format::splits::encode(&base, &[split], 14, 1).unwrap().remove(0);
     write("proxy/splits-0.emvs", &packet.bytes);
-    let packets = vec![exploremaps_format::ProxyPacket { file: "proxy/splits-0.emvs".into(), offset: 0, bytes: packet.bytes.len() as u64, triangles: 4 }];
+    let packets =
+        vec![exploremaps_format::ProxyPacket { file: "proxy/splits-0.emvs".into(), offset: 0, bytes: packet.bytes.len() as u64, triangles: 4 }];
     let stream = Some(exploremaps_format::ProxyStream { from: 1, to: 0, packets });
     // Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
     let mut depth_maps = Vec::new();
@@ -329,7 +349,11 @@ fn the_web_viewer_does_the_same_on_webgpu() {
 
 /// A deep link's value for `key`.
 fn link_value(hash: &str, key: &str) -> f32 {
-    hash.trim_start_matches('#').split('&').find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no {key} in {hash}"))
+    hash.trim_start_matches('#')
+        .split('&')
+        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no {key} in {hash}"))
 }
 
 /// Gives probe 0 a tile pyramid of 256-pixel faces in 64-pixel tiles (4 × 4
@@ -382,7 +406,13 @@ fn the_web_viewer_works_on_a_portrait_phone_screen_with_touch() {
     // The dollhouse on the phone frames the ground for a 720 × 1480 canvas facing yaw 0
     // (probe 0's way; the tap on the path bar leaves the view turned toward +X on arrival,
     // where probe 1 faces +Z: yaw π). A tap on the west half goes to probe 0.
-    let camera = exploremaps_viewer::dollhouse::Orbit::framing(glam::Vec3::new(-5.0, 0.0, -5.0), glam::Vec3::new(9.0, 0.0, 9.0), std::f32::consts::PI, 720.0 / 1480.0).camera();
+    let camera = exploremaps_viewer::dollhouse::Orbit::framing(
+        glam::Vec3::new(-5.0, 0.0, -5.0),
+        glam::Vec3::new(9.0, 0.0, 9.0),
+        std::f32::consts::PI,
+        720.0 / 1480.0,
+    )
+    .camera();
     let [x, y] = camera.project(glam::Vec3::new(-3.0, 0.0, 3.0), 720.0, 1480.0).unwrap().map(|c| c / 2.0);
     let lines = browser_with("phone", &server.url, dir.path(), false, &[("DOLLHOUSE_TAP", format!("{x:.0},{y:.0}"))]);
     let centre = colour_at(&dir.path().join("phone.png"), 360, 600);
@@ -428,7 +458,10 @@ fn the_web_viewer_shows_the_dollhouse_and_a_click_on_it_flies_to_the_probe_that_
     let hash = landed["hash"].as_str().unwrap();
     let d = east_point - Vec3::new(4.0, 1.5, 0.0);
     let (yaw, pitch) = (d.x.atan2(-d.z).to_degrees(), (d.y / d.length()).asin().to_degrees());
-    assert!((link_value(hash, "yaw") - yaw).abs() < 1.5 && (link_value(hash, "pitch") - pitch).abs() < 1.5, "{hash}: wanted yaw {yaw}, pitch {pitch}");
+    assert!(
+        (link_value(hash, "yaw") - yaw).abs() < 1.5 && (link_value(hash, "pitch") - pitch).abs() < 1.5,
+        "{hash}: wanted yaw {yaw}, pitch {pitch}"
+    );
     assert_eq!(step(&lines, "floor")["dollhouse"], true, "back in the dollhouse");
 }
 

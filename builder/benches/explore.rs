@@ -10,10 +10,10 @@
 
 use exploremaps_builder::coverage::{coverage, CoverageParams};
 use exploremaps_builder::explore::{explore, ExploreParams, Strategy};
-use exploremaps_builder::visibility::CubeView;
 use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::raycast::RayScene;
+use exploremaps_builder::visibility::CubeView;
 use exploremaps_scenes::{BuiltIn, Scene};
 use std::path::Path;
 use std::time::Instant;
@@ -57,7 +57,16 @@ fn main() {
         let total = t.elapsed().as_secs_f64();
         println!(
             "{name:<34} {:>9} {:>7} {:>6} {:>7} {:>8} {:>7.2} {:>7.2} {:>7.2} {:>8.2} {:>8.2}",
-            scene.triangles.len(), fs.space, probes.len(), st.samples_left, st.rays, fs.seconds, st.seconds_views, st.seconds_masking, st.seconds_relax, total
+            scene.triangles.len(),
+            fs.space,
+            probes.len(),
+            st.samples_left,
+            st.rays,
+            fs.seconds,
+            st.seconds_views,
+            st.seconds_masking,
+            st.seconds_relax,
+            total
         );
         // Throughput of the cube-map views against a reference run of the same views.
         let t = Instant::now();
@@ -69,7 +78,14 @@ fn main() {
         let need = |f: f64| report.probes_for(f).map_or("-".to_string(), |n| n.to_string());
         println!(
             "{:<34} coverage {:.2} % of {:.0} units² reachable; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
-            "", 100.0 * report.fraction(), report.reachable_area, need(0.90), need(0.95), need(0.98), need(0.99), report.seconds
+            "",
+            100.0 * report.fraction(),
+            report.reachable_area,
+            need(0.90),
+            need(0.95),
+            need(0.98),
+            need(0.99),
+            report.seconds
         );
         if strategy == Strategy::Greedy {
             // Cluster, synthesize and orient the candidates (issue: cluster).

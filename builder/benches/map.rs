@@ -76,7 +76,10 @@ fn main() {
             let b = scene.bounds();
             let facing = exploremaps_builder::freespace::facing_out(scene, &rays, &b, 1);
             let (enclosed, ground) = exploremaps_builder::freespace::kind_evidence(&rays, &b, 1);
-            println!("{name:<10} architecture {architecture:<5} facing out {facing:.2} enclosed {enclosed:.2} ground {ground:.2} height {:.2} m", b.extent().y * scene.metres_per_unit);
+            println!(
+                "{name:<10} architecture {architecture:<5} facing out {facing:.2} enclosed {enclosed:.2} ground {ground:.2} height {:.2} m",
+                b.extent().y * scene.metres_per_unit
+            );
         }
         return;
     }
@@ -86,11 +89,17 @@ fn main() {
             let t = std::time::Instant::now();
             let guess = exploremaps_builder::scale::guess(scene, &rays);
             let said = guess.as_ref().map_or("no evidence".to_string(), |g| g.describe());
-            println!("{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]", truth.map_or("-".into(), |t| t.to_string()), scene.scale_source, t.elapsed().as_secs_f64());
+            println!(
+                "{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]",
+                truth.map_or("-".into(), |t| t.to_string()),
+                scene.scale_source,
+                t.elapsed().as_secs_f64()
+            );
             if std::env::var("SCALE_ONLY").as_deref() == Ok("peaks") {
                 // The posterior's local peaks, best first.
                 let post = exploremaps_builder::scale::posterior(&exploremaps_builder::scale::evidence(scene, &rays));
-                let mut peaks: Vec<(f64, f64)> = (1..post.len() - 1).filter(|&k| post[k].1 >= post[k - 1].1 && post[k].1 > post[k + 1].1).map(|k| post[k]).collect();
+                let mut peaks: Vec<(f64, f64)> =
+                    (1..post.len() - 1).filter(|&k| post[k].1 >= post[k - 1].1 && post[k].1 > post[k + 1].1).map(|k| post[k]).collect();
                 peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
                 let top = peaks.first().map_or(0.0, |p| p.1);
                 let shown: Vec<String> = peaks.iter().take(6).map(|(s, l)| format!("{:.4} ({:+.1})", s.exp(), l - top)).collect();
@@ -108,7 +117,12 @@ fn main() {
                             bins[b as usize] += 1;
                         }
                     }
-                    let shown: Vec<String> = bins.iter().enumerate().filter(|b| *b.1 > 0).map(|(k, n)| format!("{:.2}:{n}", 10f32.powf((k as f32 - 15.0) / 5.0))).collect();
+                    let shown: Vec<String> = bins
+                        .iter()
+                        .enumerate()
+                        .filter(|b| *b.1 > 0)
+                        .map(|(k, n)| format!("{:.2}:{n}", 10f32.powf((k as f32 - 15.0) / 5.0)))
+                        .collect();
                     println!("{:<10} {what} (m from): {}", "", shown.join(" "));
                 }
             }
@@ -117,12 +131,33 @@ fn main() {
     }
     println!(
         "{:<10} {:<4} {:>8} {:>9} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6} {:>5} {:>5} {:>5} {:>6} {:>7} {:>6} {:>7}",
-        "scene", "mode", "tris", "scale", "truth", "ratio", "walk", "space", "probes", "comps", "plan s", "wall", "door", "furn", "near%", "inside", "cover%", "greedy%"
+        "scene",
+        "mode",
+        "tris",
+        "scale",
+        "truth",
+        "ratio",
+        "walk",
+        "space",
+        "probes",
+        "comps",
+        "plan s",
+        "wall",
+        "door",
+        "furn",
+        "near%",
+        "inside",
+        "cover%",
+        "greedy%"
     );
     for (name, scene, truth, architecture) in &scenes {
         for mode in modes.split(',') {
             let height = if mode == "fly" { HeightMode::Fly } else { HeightMode::Auto };
-            let params = PlanParams { free_space: FreeSpaceParams { height, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() };
+            let params = PlanParams {
+                free_space: FreeSpaceParams { height, ..Default::default() },
+                synthesis: Some(Default::default()),
+                ..Default::default()
+            };
             let result = match plan(scene, name, &params) {
                 Ok(r) => r,
                 Err(e) => {
@@ -153,8 +188,23 @@ fn main() {
             let near = stands.iter().map(|s| s.near_share).fold(0.0f32, f32::max);
             if std::env::var("DETAIL").is_ok() {
                 // Each flagged probe: where, and what the checks found.
-                for (k, (s, p)) in stands.iter().zip(&probes).enumerate().filter(|(_, (s, _))| s.too_near_wall || s.door_frame || s.on_furniture || s.near_share > 0.05 || s.inside) {
-                    println!("  probe {k} at {:.2?}: wall {} door {} furniture {} near {:.1} % inside {} (nearest wall {:.2} m, across {:.2} m)", p.to_array(), s.too_near_wall, s.door_frame, s.on_furniture, 100.0 * s.near_share, s.inside, s.nearest * m, s.across * m);
+                for (k, (s, p)) in stands
+                    .iter()
+                    .zip(&probes)
+                    .enumerate()
+                    .filter(|(_, (s, _))| s.too_near_wall || s.door_frame || s.on_furniture || s.near_share > 0.05 || s.inside)
+                {
+                    println!(
+                        "  probe {k} at {:.2?}: wall {} door {} furniture {} near {:.1} % inside {} (nearest wall {:.2} m, across {:.2} m)",
+                        p.to_array(),
+                        s.too_near_wall,
+                        s.door_frame,
+                        s.on_furniture,
+                        100.0 * s.near_share,
+                        s.inside,
+                        s.nearest * m,
+                        s.across * m
+                    );
                 }
             }
             let inside = stands.iter().filter(|s| s.inside).count();
@@ -164,12 +214,20 @@ fn main() {
             let space = {
                 let mut at_scale = scene.clone();
                 at_scale.metres_per_unit = m;
-                at_scale.scale_source = if g.scene.scale_source == "measured" { exploremaps_scenes::ScaleSource::Measured } else { scene.scale_source };
+                at_scale.scale_source =
+                    if g.scene.scale_source == "measured" { exploremaps_scenes::ScaleSource::Measured } else { scene.scale_source };
                 free_space(&at_scale, &rays, &FreeSpaceParams { height, ..Default::default() }).map(|s| s.0)
             };
             let greedy = match &space {
                 Ok(space) => {
-                    let params = ExploreParams { candidates: 3000, max_probes: probes.len(), coverage_target: 1.0, prefer_open: false, seed: 7, ..Default::default() };
+                    let params = ExploreParams {
+                        candidates: 3000,
+                        max_probes: probes.len(),
+                        coverage_target: 1.0,
+                        prefer_open: false,
+                        seed: 7,
+                        ..Default::default()
+                    };
                     let (chosen, _) = explore(scene, &rays, space, &params);
                     let chosen: Vec<Vec3> = chosen.iter().map(|c| c.position).collect();
                     format!("{:.1}", 100.0 * coverage_like(&result.coverage, &rays, space, &chosen).fraction())
@@ -177,7 +235,13 @@ fn main() {
                 Err(_) => "-".into(),
             };
             let ratio = truth.map_or("-".into(), |t| format!("{:.2}", (m / t).max(t / m)));
-            let walk_goal = if *architecture && mode == "auto" && !walking { "NO" } else if walking { "yes" } else { "no" };
+            let walk_goal = if *architecture && mode == "auto" && !walking {
+                "NO"
+            } else if walking {
+                "yes"
+            } else {
+                "no"
+            };
             println!(
                 "{name:<10} {mode:<4} {:>8} {:>9.4} {:>6} {:>5} {:<5} {:<7} {:>6} {:>5} {:>6.1} {:>5} {:>5} {:>5} {:>6.1} {:>7} {:>6.1} {:>7}",
                 scene.triangles.len(),
@@ -251,11 +315,8 @@ fn standpoint(rays: &RayScene, p: Vec3, metre: f32) -> Standpoint {
     let dist: Vec<f32> = rays.intersect_batch(&level, Packing::Single).iter().map(|h| h.map_or(far, |h| h.t)).collect();
     let width = |k: usize| dist[k] + dist[(k + AROUND / 2) % AROUND];
     let nearest = (0..AROUND).min_by(|&a, &b| dist[a].total_cmp(&dist[b])).unwrap_or(0);
-    let too_near_wall = if width(nearest) >= 2.0 * metre {
-        dist[nearest] < metre
-    } else {
-        (dist[nearest] - 0.5 * width(nearest)).abs() > 0.25 * metre
-    };
+    let too_near_wall =
+        if width(nearest) >= 2.0 * metre { dist[nearest] < metre } else { (dist[nearest] - 0.5 * width(nearest)).abs() > 0.25 * metre };
     // A door frame: narrower than 1.5 m across one way, with room 0.6 m ahead and behind.
     let door_frame = (0..AROUND / 2).any(|k| {
         let across = (k + AROUND / 4) % AROUND;

@@ -27,9 +27,25 @@ fn main() {
     }
     println!(
         "{:<16} {:>9} {:>6} {:>6} {:>8} {:>5} | {:>6} {:>6} {:>7} {:>7} {:>6} {:>7} {:>7} {:>6} | {:>8} {:>7}",
-        "scene", "triangles", "cands", "probes", "clusters", "paths", "load", "free", "explore", "cluster", "orient", "connect", "smooth", "order", "planning", "ms/path"
+        "scene",
+        "triangles",
+        "cands",
+        "probes",
+        "clusters",
+        "paths",
+        "load",
+        "free",
+        "explore",
+        "cluster",
+        "orient",
+        "connect",
+        "smooth",
+        "order",
+        "planning",
+        "ms/path"
     );
-    let params = PlanParams { coverage: CoverageParams { samples: 10_000, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() };
+    let params =
+        PlanParams { coverage: CoverageParams { samples: 10_000, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() };
     for (name, scene, load_s) in &scenes {
         let p = plan(scene, name, &params).expect("plan");
         let s = &p.stats;

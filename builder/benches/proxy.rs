@@ -45,10 +45,10 @@
 //! `ONE_GROUP=1` simplifies without material borders, as meshoptimizer does.
 
 use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::proxy::simplify::{simplify, simplify_with_colours, Colours, SimplifyParams, Simplified};
+use exploremaps_builder::proxy::progressive::Progressive;
+use exploremaps_builder::proxy::simplify::{simplify, simplify_with_colours, Colours, Simplified, SimplifyParams};
 use exploremaps_builder::proxy::weld::weld_scene;
 use exploremaps_builder::proxy::{vertex_albedo, Mesh, COLOUR_WEIGHT};
-use exploremaps_builder::proxy::progressive::Progressive;
 use exploremaps_format::{meshcode, splits};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
@@ -93,7 +93,24 @@ fn main() {
     let mut goals = Goals::default();
     let mut streams = Vec::new();
     println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way; seconds: median of 3 runs)");
-    println!("{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8} | {:>8} {:>9} {:>8}", "scene", "ratio", "input", "reached", "seconds", "Hausdorff", "RMS", "flip", "reached", "seconds", "Hausdorff", "RMS", "seams: reached", "Hausdorff", "RMS");
+    println!(
+        "{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8} | {:>8} {:>9} {:>8}",
+        "scene",
+        "ratio",
+        "input",
+        "reached",
+        "seconds",
+        "Hausdorff",
+        "RMS",
+        "flip",
+        "reached",
+        "seconds",
+        "Hausdorff",
+        "RMS",
+        "seams: reached",
+        "Hausdorff",
+        "RMS"
+    );
     for (name, scene) in &scenes {
         let t = Instant::now();
         let diagonal = scene.bounds().diagonal();
@@ -102,7 +119,14 @@ fn main() {
             // As meshoptimizer sees it: no material borders to keep.
             mesh.groups.fill(0);
         }
-        println!("{name}: welded {} -> {} vertices, {} degenerate and {} repeated triangles dropped ({:.2} s)", stats.vertices_before, stats.vertices_after, stats.degenerate, stats.duplicates, t.elapsed().as_secs_f64());
+        println!(
+            "{name}: welded {} -> {} vertices, {} degenerate and {} repeated triangles dropped ({:.2} s)",
+            stats.vertices_before,
+            stats.vertices_after,
+            stats.degenerate,
+            stats.duplicates,
+            t.elapsed().as_secs_f64()
+        );
         let input_tree = tree(&mesh.positions, &mesh.triangles);
         let input_samples = sample(&mesh.positions, &mesh.triangles);
         let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
@@ -132,15 +156,24 @@ fn main() {
             let normal = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
             let flipped = (0..mesh.triangles.len())
                 .filter(|&t| s.alive[t])
-                .filter(|&t| normal(mesh.triangles[t].map(|v| mesh.positions[v as usize])).dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize]))) < 0.0)
+                .filter(|&t| {
+                    normal(mesh.triangles[t].map(|v| mesh.positions[v as usize]))
+                        .dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize])))
+                        < 0.0
+                })
                 .count();
             let ours = s.compact();
             let (oh, or) = distances(&input_tree, &input_samples, &ours.positions, &ours.triangles);
 
-            let (simplified, theirs_seconds) = median_of_3(|| meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None));
+            let (simplified, theirs_seconds) =
+                median_of_3(|| meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None));
             let theirs: Vec<[u32; 3]> = simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             let (th, tr) = distances(&input_tree, &input_samples, &mesh.positions, &theirs);
-            let seamed: Vec<[u32; 3]> = meshopt::simplify_decoder(&seam_indices, &seam_positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let seamed: Vec<[u32; 3]> =
+                meshopt::simplify_decoder(&seam_indices, &seam_positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None)
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect();
             let (sh, sr) = distances(&input_tree, &input_samples, &seam_points, &seamed);
             let pct = |x: f32| 100.0 * x / diagonal;
             println!(
@@ -168,9 +201,15 @@ fn main() {
     }
 
     let colour_weight = std::env::var("COLOUR_WEIGHT").ok().and_then(|w| w.parse().ok()).unwrap_or(COLOUR_WEIGHT);
-    println!("\n== colour-aware simplification (a full colour step counts as {} % of the diagonal): geometry only | with colour", 100.0 * colour_weight);
+    println!(
+        "\n== colour-aware simplification (a full colour step counts as {} % of the diagonal): geometry only | with colour",
+        100.0 * colour_weight
+    );
     println!("   colours: each vertex's mean surface colour (display-encoded, 0-255), compared at {SAMPLES} input points with the simplified mesh's nearest point");
-    println!("{:<16} {:>5} | {:>7} {:>9} {:>8} {:>9} | {:>7} {:>9} {:>8} {:>9}", "scene", "ratio", "seconds", "Hausdorff", "RMS", "colour", "seconds", "Hausdorff", "RMS", "colour");
+    println!(
+        "{:<16} {:>5} | {:>7} {:>9} {:>8} {:>9} | {:>7} {:>9} {:>8} {:>9}",
+        "scene", "ratio", "seconds", "Hausdorff", "RMS", "colour", "seconds", "Hausdorff", "RMS", "colour"
+    );
     for (name, scene) in &scenes {
         let diagonal = scene.bounds().diagonal();
         let (mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
@@ -187,7 +226,9 @@ fn main() {
             let pct = |x: f32| 100.0 * x / diagonal;
             let mut row = format!("{name:<16} {:>4.0}%", ratio * 100.0);
             for with in [false, true] {
-                let (s, seconds) = median_of_3(|| simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params));
+                let (s, seconds) = median_of_3(|| {
+                    simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params)
+                });
                 let (out, out_colours) = if with {
                     s.compact_with_colours()
                 } else {
@@ -209,17 +250,22 @@ fn main() {
     }
     let wasm = wasm_module().map_err(|e| println!("wasm decode skipped: {e}")).ok();
     println!("\n== coding each level whole: meshcode (Edgebreaker, 14-bit parallelogram) | meshoptimizer codecs (16-bit) + gzip -9");
-    println!("{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} {:>9} | {:>9} {:>8} | {:>9} {:>8} {:>10}", "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "wasm M/s", "meshopt B", "B/tri", "Draco B", "B/tri", "wasm M/s");
+    println!(
+        "{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} {:>9} | {:>9} {:>8} | {:>9} {:>8} {:>10}",
+        "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "wasm M/s", "meshopt B", "B/tri", "Draco B", "B/tri", "wasm M/s"
+    );
     for (name, mesh) in &coding {
         let encoded = meshcode::encode(&mesh.to_coded(), 14).expect("codes");
         let n = mesh.triangles.len() as f64;
         let decode_rate = n * median_rate(|| {
             std::hint::black_box(meshcode::decode(&encoded.bytes).expect("decodes"));
         }) / 1e6;
-        let wasm_rate = wasm.as_ref().map_or(0.0, |module| wasm_decode(module, &encoded.bytes).unwrap_or_else(|e| {
-            println!("wasm decode skipped: {e}");
-            0.0
-        }));
+        let wasm_rate = wasm.as_ref().map_or(0.0, |module| {
+            wasm_decode(module, &encoded.bytes).unwrap_or_else(|e| {
+                println!("wasm decode skipped: {e}");
+                0.0
+            })
+        });
         goals.decode.push((name.clone(), decode_rate));
         goals.connectivity.push((name.clone(), encoded.sizes.connectivity as f64 * 8.0 / n));
         let theirs = meshopt_coded(mesh);
@@ -245,7 +291,11 @@ fn main() {
     let mut curves: Vec<Curve> = Vec::new();
     println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
     for (name, mesh, diagonal) in &streams {
-        let detail = if mesh.triangles.len() > 25_000 { simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact() } else { mesh.clone() };
+        let detail = if mesh.triangles.len() > 25_000 {
+            simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact()
+        } else {
+            mesh.clone()
+        };
         if detail.triangles.len() <= 5_000 {
             println!("{name:<16} skipped: {} triangles, no stream", detail.triangles.len());
             continue;
@@ -278,13 +328,15 @@ fn main() {
         let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
         let last_error = curve.last().map_or(0.0, |p| p.1);
         curves.push((name.clone(), curve, (whole as f64, last_error)));
-        let rate = added as f64 * median_rate(|| {
-            let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
-            for p in &packets {
-                r.apply_packet(&p.bytes).expect("applies");
-            }
-            std::hint::black_box(r);
-        }) / 1e6;
+        let rate = added as f64
+            * median_rate(|| {
+                let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
+                for p in &packets {
+                    r.apply_packet(&p.bytes).expect("applies");
+                }
+                std::hint::black_box(r);
+            })
+            / 1e6;
         println!(
             "{name:<16} splits {split_bytes} B for {added} triangles ({:.2} B/tri, {} packets); base + splits {} B vs the level whole {whole} B ({:.2}x); apply {rate:.1} M tri/s",
             split_bytes as f64 / added as f64,
@@ -321,21 +373,33 @@ impl Goals {
         println!("\n== goals, against this run's figures");
         let worst = self.error.iter().flat_map(|(level, h, r)| [(level, "Hausdorff", *h), (level, "RMS", *r)]).max_by(|a, b| a.2.total_cmp(&b.2));
         if let Some((level, what, ratio)) = worst {
-            println!("error within 10 % of meshoptimizer's at every ratio: the farthest is {level}'s {what}, {ratio:.3} times theirs: {}", verdict(ratio <= 1.1));
+            println!(
+                "error within 10 % of meshoptimizer's at every ratio: the farthest is {level}'s {what}, {ratio:.3} times theirs: {}",
+                verdict(ratio <= 1.1)
+            );
         }
         match self.sponza_seconds {
-            Some((reached, of, seconds)) => println!("the Crytek Sponza to 25 k triangles in 0.5 s: {reached} of its {of} welded triangles (10 %) in {seconds:.3} s: {}", verdict(seconds <= 0.5)),
+            Some((reached, of, seconds)) => println!(
+                "the Crytek Sponza to 25 k triangles in 0.5 s: {reached} of its {of} welded triangles (10 %) in {seconds:.3} s: {}",
+                verdict(seconds <= 0.5)
+            ),
             None => println!("the Crytek Sponza to 25 k triangles in 0.5 s: not measured (scene absent)"),
         }
         // (The Crytek Sponza's 1 % level is its base: 2.3 k triangles.)
-        let judged: Vec<_> = self.connectivity.iter().filter(|(level, _)| level.starts_with("stanford_bunny") || level == "sponza_crytek 1%").collect();
+        let judged: Vec<_> =
+            self.connectivity.iter().filter(|(level, _)| level.starts_with("stanford_bunny") || level == "sponza_crytek 1%").collect();
         if let Some((level, bits)) = judged.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
             println!("connectivity at most 2.0 bits a triangle on the bunny and the Crytek Sponza's base (its 1 % level): the most is {bits:.3} ({level}): {}", verdict(*bits <= 2.0));
         }
         if let Some((level, rate)) = self.decode.iter().min_by(|a, b| a.1.total_cmp(&b.1)) {
-            println!("decoding at least 20 M triangles a second natively, every level: the slowest is {level} at {rate:.1}: {}", verdict(*rate >= 20.0));
+            println!(
+                "decoding at least 20 M triangles a second natively, every level: the slowest is {level} at {rate:.1}: {}",
+                verdict(*rate >= 20.0)
+            );
         }
-        println!("(the sizes with baked colour, 150 KB at 25 k triangles and 25 KB for the base, are the bundle's: `render` logs them on its proxy line)");
+        println!(
+            "(the sizes with baked colour, 150 KB at 25 k triangles and 25 KB for the base, are the bundle's: `render` logs them on its proxy line)"
+        );
     }
 }
 
@@ -357,7 +421,12 @@ fn sample(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
 
 /// [`sample`]'s points as (triangle, barycentric u, v).
 fn sample_places(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<(usize, f32, f32)> {
-    let areas: Vec<f64> = triangles.iter().map(|t| 0.5 * (positions[t[1] as usize] - positions[t[0] as usize]).cross(positions[t[2] as usize] - positions[t[0] as usize]).length() as f64).collect();
+    let areas: Vec<f64> = triangles
+        .iter()
+        .map(|t| {
+            0.5 * (positions[t[1] as usize] - positions[t[0] as usize]).cross(positions[t[2] as usize] - positions[t[0] as usize]).length() as f64
+        })
+        .collect();
     let mut cumulative = Vec::with_capacity(areas.len());
     let mut total = 0.0;
     for a in &areas {
@@ -463,7 +532,12 @@ fn draco(mesh: &Mesh) -> Result<(usize, f64), String> {
     let prefix = root.join("../target/bench-node");
     let module = prefix.join("node_modules/draco3d");
     if !module.exists() {
-        let status = Command::new("npm").args(["install", "--silent", "--prefix"]).arg(&prefix).arg("draco3d@1.5.7").status().map_err(|e| format!("npm: {e}"))?;
+        let status = Command::new("npm")
+            .args(["install", "--silent", "--prefix"])
+            .arg(&prefix)
+            .arg("draco3d@1.5.7")
+            .status()
+            .map_err(|e| format!("npm: {e}"))?;
         if !status.success() {
             return Err("npm install draco3d failed".into());
         }
@@ -481,7 +555,8 @@ fn draco(mesh: &Mesh) -> Result<(usize, f64), String> {
     }
     let file = prefix.join("mesh.bin");
     std::fs::write(&file, data).map_err(|e| format!("{}: {e}", file.display()))?;
-    let out = Command::new("node").arg(root.join("benches/draco.js")).arg(&file).env("DRACO3D", &module).output().map_err(|e| format!("node: {e}"))?;
+    let out =
+        Command::new("node").arg(root.join("benches/draco.js")).arg(&file).env("DRACO3D", &module).output().map_err(|e| format!("node: {e}"))?;
     let text = String::from_utf8_lossy(&out.stdout);
     let field = |key: &str| text.lines().find_map(|l| l.strip_prefix(key)).map(str::trim).map(str::to_string);
     match (field("bytes "), field("decode ")) {
@@ -512,7 +587,10 @@ fn wasm_decode(module: &Path, bytes: &[u8]) -> Result<f64, String> {
     std::fs::write(&file, bytes).map_err(|e| format!("{}: {e}", file.display()))?;
     let out = Command::new("node").arg(root.join("benches/wasm_decode.js")).arg(module).arg(&file).output().map_err(|e| format!("node: {e}"))?;
     let text = String::from_utf8_lossy(&out.stdout);
-    text.lines().find_map(|l| l.strip_prefix("decode ")).and_then(|r| r.trim().parse().ok()).ok_or_else(|| format!("node said: {text} {}", String::from_utf8_lossy(&out.stderr)))
+    text.lines()
+        .find_map(|l| l.strip_prefix("decode "))
+        .and_then(|r| r.trim().parse().ok())
+        .ok_or_else(|| format!("node said: {text} {}", String::from_utf8_lossy(&out.stderr)))
 }
 
 /// A scene's stream: its name, (bytes received, RMS error in % of the diagonal) per
@@ -550,25 +628,50 @@ fn stream_chart(curves: &[Curve]) -> String {
     let (lo, hi) = (lo.floor(), hi.ceil().max(lo.floor() + 1.0));
     let px = |kb: f64| m + kb / max_x * (w - 2.0 * m);
     let py = |e: f64| h - m - (e.max(1e-4).log10() - lo) / (hi - lo) * (h - 1.5 * m);
-    let mut svg = format!(r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12"><rect width="100%" height="100%" fill="white"/>"##);
+    let mut svg = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12"><rect width="100%" height="100%" fill="white"/>"##
+    );
     let mut decade = lo;
     while decade <= hi {
         let y = py(10f64.powf(decade));
-        svg += &format!(r##"<line x1="{m}" x2="{}" y1="{y}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">{}</text>"##, w - m / 2.0, m - 6.0, y + 4.0, 10f64.powf(decade));
+        svg += &format!(
+            r##"<line x1="{m}" x2="{}" y1="{y}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">{}</text>"##,
+            w - m / 2.0,
+            m - 6.0,
+            y + 4.0,
+            10f64.powf(decade)
+        );
         decade += 1.0;
     }
     let step = [10.0, 20.0, 50.0, 100.0].into_iter().find(|s| max_x / s <= 8.0).unwrap_or(200.0);
     let mut kb = 0.0;
     while kb <= max_x {
-        svg += &format!(r##"<line x1="{0}" x2="{0}" y1="{1}" y2="{2}" stroke="#ddd"/><text x="{0}" y="{3}" text-anchor="middle">{kb}</text>"##, px(kb), m / 2.0, h - m, h - m + 16.0);
+        svg += &format!(
+            r##"<line x1="{0}" x2="{0}" y1="{1}" y2="{2}" stroke="#ddd"/><text x="{0}" y="{3}" text-anchor="middle">{kb}</text>"##,
+            px(kb),
+            m / 2.0,
+            h - m,
+            h - m + 16.0
+        );
         kb += step;
     }
-    svg += &format!(r##"<text x="{}" y="{}" text-anchor="middle">kilobytes received (base, then each packet of splits)</text><text x="14" y="{}" transform="rotate(-90 14 {})" text-anchor="middle">RMS error, % of the diagonal</text>"##, w / 2.0, h - 12.0, h / 2.0, h / 2.0);
+    svg += &format!(
+        r##"<text x="{}" y="{}" text-anchor="middle">kilobytes received (base, then each packet of splits)</text><text x="14" y="{}" transform="rotate(-90 14 {})" text-anchor="middle">RMS error, % of the diagonal</text>"##,
+        w / 2.0,
+        h - 12.0,
+        h / 2.0,
+        h / 2.0
+    );
     let colours = ["#1b7837", "#c51b7d", "#2166ac", "#e08214", "#542788"];
     for (k, (name, curve, whole)) in curves.iter().enumerate() {
         let c = colours[k % colours.len()];
         let line: Vec<String> = curve.iter().map(|&(b, e)| format!("{:.1},{:.1}", px(b / 1024.0), py(e))).collect();
-        svg += &format!(r##"<polyline fill="none" stroke="{c}" stroke-width="2" points="{}"/><circle cx="{:.1}" cy="{:.1}" r="5" fill="{c}"/>"##, line.join(" "), px(whole.0 / 1024.0), py(whole.1));
+        svg += &format!(
+            r##"<polyline fill="none" stroke="{c}" stroke-width="2" points="{}"/><circle cx="{:.1}" cy="{:.1}" r="5" fill="{c}"/>"##,
+            line.join(" "),
+            px(whole.0 / 1024.0),
+            py(whole.1)
+        );
         svg += &format!(r##"<text x="{}" y="{}" fill="{c}">{name}</text>"##, w - 260.0, m + 16.0 * k as f64);
     }
     svg += &format!(r##"<text x="{}" y="{}">dots: the 25,000-triangle level sent whole</text>"##, w - 260.0, m + 16.0 * curves.len() as f64);

@@ -42,9 +42,7 @@
 use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::pipeline::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
-use exploremaps_builder::renderer::{
-    downsample, psnr, srgb_to_linear, to_image, Quality, Renderer, Settings, TraceParams, Tracer,
-};
+use exploremaps_builder::renderer::{downsample, psnr, srgb_to_linear, to_image, Quality, Renderer, Settings, TraceParams, Tracer};
 use exploremaps_format::cube_direction;
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
@@ -57,27 +55,17 @@ fn main() {
     std::fs::create_dir_all(&out).unwrap();
     let python = root.join("target/bench-py/bin/python");
     let flip_script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/flip.py");
-    let has_flip = std::process::Command::new(&python)
-        .args(["-c", "import flip_evaluator"])
-        .output()
-        .is_ok_and(|o| o.status.success());
+    let has_flip = std::process::Command::new(&python).args(["-c", "import flip_evaluator"]).output().is_ok_and(|o| o.status.success());
     if !has_flip {
         println!("no FLIP package: run scripts/bench-env.sh once; PSNR only");
     }
-    let only: Option<Vec<String>> = std::env::var("SCENES")
-        .ok()
-        .map(|s| s.split(',').map(str::to_string).collect());
-    let face: u32 = std::env::var("FACE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1024);
-    let ref_spp: u32 = std::env::var("REF_SPP")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1024);
+    let only: Option<Vec<String>> = std::env::var("SCENES").ok().map(|s| s.split(',').map(str::to_string).collect());
+    let face: u32 = std::env::var("FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
+    let ref_spp: u32 = std::env::var("REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
     // FACES=2,4 compares only those cube faces (0-5: +x -x +y -y +z -z), as 90° views:
     // a reference at 1024² costs hours for six faces here.
-    let views: Vec<usize> = std::env::var("FACES").map_or((0..6).collect(), |v| v.split(',').filter_map(|f| f.trim().parse().ok()).filter(|&f| f < 6).collect());
+    let views: Vec<usize> =
+        std::env::var("FACES").map_or((0..6).collect(), |v| v.split(',').filter_map(|f| f.trim().parse().ok()).filter(|&f| f < 6).collect());
     assert!(!views.is_empty(), "FACES names no face of 0-5");
     let mut scenes: Vec<(&str, Scene)> = Vec::new();
     // The three scenes of the protocol, or any built-in scene SCENES names.
@@ -150,17 +138,8 @@ fn main() {
     for (name, scene) in &scenes {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
-        let mut viewpoints: Vec<Vec3> = graph
-            .probes
-            .iter()
-            .map(|p| Vec3::from(p.position))
-            .collect();
-        viewpoints.extend(
-            graph
-                .paths
-                .iter()
-                .flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))),
-        );
+        let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+        viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
         let eye = viewpoints[0];
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let mut settings = Settings::new(Quality::Final, 1);
@@ -228,7 +207,8 @@ fn main() {
         // each takes every surface's reflectance to be; then the next scene.
         if albedo_only() {
             let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
-            let ours: Vec<Vec<Vec3>> = views.iter().map(|&f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
+            let ours: Vec<Vec<Vec3>> =
+                views.iter().map(|&f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
             save("albedo", face, &ours);
             match cycles(&python, scene, &renderer, eye, &[("albedo".into(), 64, false, face)], 0, &out.join(format!("cycles-albedo-{name}"))) {
                 Err(e) => println!("Cycles albedo comparison failed: {e}"),
@@ -242,7 +222,8 @@ fn main() {
             }
             continue;
         }
-        let (half_ref, full_ref, ref_s) = reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0), &views);
+        let (half_ref, full_ref, ref_s) =
+            reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0), &views);
         let ref_paths = save("reference", face, &full_ref);
         let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
         // Video frames are compared at about their own resolution (or FACE, when smaller).
@@ -255,57 +236,24 @@ fn main() {
         // (method, seconds, its images, the reference's, the reference's at half its samples).
         type Row = (String, f64, Vec<PathBuf>, Vec<PathBuf>, Option<Vec<PathBuf>>);
         let mut rows: Vec<Row> = Vec::new();
-        rows.push((
-            format!("reference at {} spp vs {ref_spp}", ref_spp / 2),
-            ref_s,
-            half_paths.clone(),
-            ref_paths.clone(),
-            None,
-        ));
-        let before = TraceParams {
-            gather: None,
-            ..settings.panorama
-        };
-        for (tag, params) in [
-            ("cache at first hit (before)", before),
-            ("final panorama", settings.panorama),
-        ] {
+        rows.push((format!("reference at {} spp vs {ref_spp}", ref_spp / 2), ref_s, half_paths.clone(), ref_paths.clone(), None));
+        let before = TraceParams { gather: None, ..settings.panorama };
+        for (tag, params) in [("cache at first hit (before)", before), ("final panorama", settings.panorama)] {
             let t = Instant::now();
             let faces = renderer.cube(&params, eye, 2048, 0);
             let seconds = t.elapsed().as_secs_f64();
             let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, 2048, face)).collect();
-            rows.push((
-                tag.to_string(),
-                seconds,
-                save(&tag.replace(' ', "_"), face, &faces),
-                ref_paths.clone(),
-                Some(half_paths.clone()),
-            ));
+            rows.push((tag.to_string(), seconds, save(&tag.replace(' ', "_"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
         }
         for (tag, params) in [
-            (
-                "video, cache at first hit (before)",
-                TraceParams {
-                    gather: None,
-                    ..settings.video
-                },
-            ),
-            (
-                "video, centres only (no antialiasing)",
-                TraceParams {
-                    antialias: false,
-                    ..settings.video
-                },
-            ),
+            ("video, cache at first hit (before)", TraceParams { gather: None, ..settings.video }),
+            ("video, centres only (no antialiasing)", TraceParams { antialias: false, ..settings.video }),
             ("final video frame", settings.video),
         ] {
             let t = Instant::now();
             let frame = renderer.equirect(&params, eye, settings.video_width, 0);
             let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = views
-                .iter()
-                .map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small))
-                .collect();
+            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
             rows.push((
                 tag.to_string(),
                 seconds,
@@ -366,7 +314,13 @@ fn main() {
                         let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, cycles_face, face)).collect();
                         let seconds = t.elapsed().as_secs_f64();
                         cycles_rows.push((rows.len(), 0, seconds));
-                        rows.push((format!("final panorama, {cycles_face}² faces"), seconds, save(&format!("final_{cycles_face}"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
+                        rows.push((
+                            format!("final panorama, {cycles_face}² faces"),
+                            seconds,
+                            save(&format!("final_{cycles_face}"), face, &faces),
+                            ref_paths.clone(),
+                            Some(half_paths.clone()),
+                        ));
                     } else {
                         cycles_rows.push((2, 0, rows[2].1));
                     }
@@ -380,8 +334,18 @@ fn main() {
                         }
                         let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, size, face)).collect();
                         cycles_rows.push((rows.len(), samples, seconds));
-                        let tag = if tag.contains("reference") { format!("Cycles {samples} spp, no denoiser, {size}²") } else { format!("Cycles {samples} spp + OIDN, {size}² faces") };
-                        rows.push((tag.clone(), seconds, save(&tag.replace([' ', ',', '²', '+'], "_"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
+                        let tag = if tag.contains("reference") {
+                            format!("Cycles {samples} spp, no denoiser, {size}²")
+                        } else {
+                            format!("Cycles {samples} spp + OIDN, {size}² faces")
+                        };
+                        rows.push((
+                            tag.clone(),
+                            seconds,
+                            save(&tag.replace([' ', ',', '²', '+'], "_"), face, &faces),
+                            ref_paths.clone(),
+                            Some(half_paths.clone()),
+                        ));
                     }
                 }
             }
@@ -396,15 +360,8 @@ fn main() {
                     full.chain(half)
                 })
                 .collect();
-            let run = std::process::Command::new(&python)
-                .arg(&flip_script)
-                .args(&args)
-                .output()
-                .expect("python");
-            let values: Vec<f64> = String::from_utf8_lossy(&run.stdout)
-                .lines()
-                .filter_map(|l| l.trim().parse().ok())
-                .collect();
+            let run = std::process::Command::new(&python).arg(&flip_script).args(&args).output().expect("python");
+            let values: Vec<f64> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| l.trim().parse().ok()).collect();
             if values.len() != args.len() / 2 {
                 println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
             }
@@ -420,19 +377,15 @@ fn main() {
         } else {
             vec![None; rows.len()]
         };
-        println!("\n{name}: eye {eye:.2}, {} triangles, cache bake {bake:.1} s ({}), exposure {exposure:.2}", scene.triangles.len(), renderer.tracer.lighting.description);
+        println!(
+            "\n{name}: eye {eye:.2}, {} triangles, cache bake {bake:.1} s ({}), exposure {exposure:.2}",
+            scene.triangles.len(),
+            renderer.tracer.lighting.description
+        );
         for ((tag, seconds, test, refs, _), flip) in rows.iter().zip(&flips) {
-            let db: f64 = test
-                .iter()
-                .zip(refs)
-                .map(|(a, b)| {
-                    psnr(
-                        &image::open(a).unwrap().to_rgb8(),
-                        &image::open(b).unwrap().to_rgb8(),
-                    )
-                })
-                .sum::<f64>()
-                / views.len() as f64;
+            let db: f64 =
+                test.iter().zip(refs).map(|(a, b)| psnr(&image::open(a).unwrap().to_rgb8(), &image::open(b).unwrap().to_rgb8())).sum::<f64>()
+                    / views.len() as f64;
             // How much the score moves when the reference's samples double.
             let change = match flip {
                 Some((f, Some(h))) => format!("{:+.4}", f - h),
@@ -440,9 +393,7 @@ fn main() {
             };
             let flip = flip.map_or("-".to_string(), |f| format!("{:.4}", f.0));
             println!("  {tag:<38} FLIP {flip:>7} ({change:>7} on doubling the reference)   PSNR {db:>5.1} dB   {seconds:>7.2} s");
-            table.push(format!(
-                "{name:<8} {tag:<38} {flip:>7} {change:>8} {db:>5.1} {seconds:>7.2}"
-            ));
+            table.push(format!("{name:<8} {tag:<38} {flip:>7} {change:>8} {db:>5.1} {seconds:>7.2}"));
         }
         if let Some(&(ours_row, _, ours_s)) = cycles_rows.first() {
             // Seconds Cycles (with OIDN) needs to reach our panorama's FLIP, interpolated
@@ -450,7 +401,8 @@ fn main() {
             let flip_of = |row: usize| flips[row].map(|f| f.0);
             let probes = graph.probes.len().max(1);
             let ours = ours_s + bake / probes as f64;
-            let denoised: Vec<(f64, f64)> = cycles_rows[1..].iter().filter(|r| !rows[r.0].0.contains("no denoiser")).filter_map(|r| flip_of(r.0).map(|f| (r.2, f))).collect();
+            let denoised: Vec<(f64, f64)> =
+                cycles_rows[1..].iter().filter(|r| !rows[r.0].0.contains("no denoiser")).filter_map(|r| flip_of(r.0).map(|f| (r.2, f))).collect();
             if let Some(target) = flip_of(ours_row) {
                 let reach = denoised.windows(2).find_map(|w| {
                     let ((t0, f0), (t1, f1)) = (w[0], w[1]);
@@ -468,7 +420,9 @@ fn main() {
         }
     }
     println!("\nscene    method                                  FLIP  doubling  PSNR  seconds");
-    println!("(goals: panorama ≤ 0.05, video ≤ 0.08; the reference is converged for a row when doubling its samples moves the row's FLIP by < 0.005)");
+    println!(
+        "(goals: panorama ≤ 0.05, video ≤ 0.08; the reference is converged for a row when doubling its samples moves the row's FLIP by < 0.005)"
+    );
     for line in table {
         println!("{line}");
     }
@@ -500,7 +454,16 @@ fn fingerprint(scene: &exploremaps_scenes::Scene) -> u32 {
 /// 32 samples; the images at half and at all the samples are kept on disk and
 /// reused: (at half the samples, at all, seconds spent now).
 #[allow(clippy::too_many_arguments)]
-fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u32, bounces: u32, views: &[usize]) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+fn reference(
+    pure: &Tracer,
+    out: &Path,
+    name: &str,
+    eye: Vec3,
+    face: u32,
+    spp: u32,
+    bounces: u32,
+    views: &[usize],
+) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
@@ -509,7 +472,16 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     let file = |samples: u32| out.join(format!("ref-{key}-{samples}.bin"));
     let load = |samples: u32| -> Option<Vec<Vec<Vec3>>> {
         let bytes = std::fs::read(file(samples)).ok().filter(|b| b.len() == views.len() * 12 * n)?;
-        Some(bytes.chunks_exact(12 * n).map(|f| f.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect()).collect())
+        Some(
+            bytes
+                .chunks_exact(12 * n)
+                .map(|f| {
+                    f.chunks_exact(12)
+                        .map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))))
+                        .collect()
+                })
+                .collect(),
+        )
     };
     let save = |samples: u32, img: &[Vec<Vec3>]| {
         let bytes: Vec<u8> = img.iter().flatten().flat_map(|v| v.to_array()).flat_map(f32::to_le_bytes).collect();
@@ -527,7 +499,8 @@ fn reference(pure: &Tracer, out: &Path, name: &str, eye: Vec3, face: u32, spp: u
     };
     let mean = |sum: &Vec<Vec<Vec3>>, k: u32| -> Vec<Vec<Vec3>> { sum.iter().map(|f| f.iter().map(|c| *c / k as f32).collect()).collect() };
     while done < spp {
-        let params = TraceParams { samples: BATCH, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
+        let params =
+            TraceParams { samples: BATCH, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 0xF00D + done as u64 };
         for (&f, s) in views.iter().zip(sum.iter_mut()) {
             let frame = pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b)));
             s.iter_mut().zip(&frame.color).for_each(|(a, c)| *a += *c * BATCH as f32);
@@ -596,7 +569,15 @@ fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Ve
 /// `dir` in Blender's axes with the renderer's lights. Returns (tag, samples,
 /// linear faces, seconds of the six renders).
 #[allow(clippy::type_complexity)]
-fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[(String, u32, bool, u32)], bounces: u32, dir: &Path) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
+fn cycles(
+    python: &Path,
+    scene: &Scene,
+    renderer: &Renderer,
+    eye: Vec3,
+    runs: &[(String, u32, bool, u32)],
+    bounces: u32,
+    dir: &Path,
+) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
     use serde_json::json;
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     // ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
@@ -604,7 +585,10 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
     let mut mesh: Vec<u8> = Vec::new();
     mesh.extend(scene.positions.iter().flat_map(|&p| z_up(p)).flat_map(f32::to_le_bytes));
     mesh.extend(scene.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()));
-    mesh.extend((0..scene.triangles.len()).flat_map(|t| scene.triangle_material.get(t).copied().unwrap_or(u32::MAX).min(scene.materials.len() as u32).to_le_bytes()));
+    mesh.extend(
+        (0..scene.triangles.len())
+            .flat_map(|t| scene.triangle_material.get(t).copied().unwrap_or(u32::MAX).min(scene.materials.len() as u32).to_le_bytes()),
+    );
     // Blender's texture rows run bottom to top.
     mesh.extend(scene.uvs.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).flat_map(f32::to_le_bytes));
     // Shading normals, if the scene has them (the script shades flat otherwise, as
@@ -646,7 +630,15 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
     materials.push(json!({"albedo": [0.7, 0.7, 0.7], "alpha": 1.0, "texture": null, "cutoff": null, "emission": [0.0, 0.0, 0.0]}));
     let lighting = &renderer.tracer.lighting;
     let sky = lighting.sky;
-    let sky_rows: Vec<[f32; 3]> = (0..512).map(|j| { let e = ((j as f32 + 0.5) / 512.0 - 0.5) * std::f32::consts::PI; sky.radiance(Vec3::new(0.0, e.sin(), e.cos())) }.to_array()).collect();
+    let sky_rows: Vec<[f32; 3]> = (0..512)
+        .map(|j| {
+            {
+                let e = ((j as f32 + 0.5) / 512.0 - 0.5) * std::f32::consts::PI;
+                sky.radiance(Vec3::new(0.0, e.sin(), e.cos()))
+            }
+            .to_array()
+        })
+        .collect();
     let faces: Vec<serde_json::Value> = (0..6)
         .map(|f| {
             let at = |a: f32, b: f32| Vec3::from(cube_direction(f, a, b));
@@ -696,10 +688,19 @@ fn cycles(python: &Path, scene: &Scene, renderer: &Renderer, eye: Vec3, runs: &[
         let faces = (0..6)
             .map(|f| {
                 let bytes = std::fs::read(dir.join(format!("cycles-{tag}-{f}.bin"))).map_err(|e| e.to_string())?;
-                Ok(bytes.chunks_exact(12).map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))).collect())
+                Ok(bytes
+                    .chunks_exact(12)
+                    .map(|c| Vec3::from_array(std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))))
+                    .collect())
             })
             .collect::<Result<Vec<Vec<Vec3>>, String>>()?;
-        done.push((tag.to_string(), v["samples"].as_u64().unwrap_or(0) as u32, v["size"].as_u64().unwrap_or(0) as u32, faces, v["seconds"].as_f64().unwrap_or(0.0)));
+        done.push((
+            tag.to_string(),
+            v["samples"].as_u64().unwrap_or(0) as u32,
+            v["size"].as_u64().unwrap_or(0) as u32,
+            faces,
+            v["seconds"].as_f64().unwrap_or(0.0),
+        ));
     }
     Ok(done)
 }

@@ -9,9 +9,9 @@
 //! Reference limits measured on these 2-core machines when the project began:
 //! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
 
+use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_builder::seeds::cosine_direction;
 use exploremaps_builder::visibility::CubeView;
-use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::BuiltIn;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -50,10 +50,7 @@ fn main() {
         bounce.push(Ray::new(p, cosine_direction(n, glam::Vec2::new(rng.random(), rng.random()))));
         shadow.push(Ray::segment(p, light));
     }
-    println!(
-        "{:<22} {:>8} {:>8} {:>10} {:>7}   reference measured here (single / 8-wide)",
-        "Mrays/s", "single", "8-wide", "8 coherent", "best/1"
-    );
+    println!("{:<22} {:>8} {:>8} {:>10} {:>7}   reference measured here (single / 8-wide)", "Mrays/s", "single", "8-wide", "8 coherent", "best/1");
     let row = |name: &str, rays: &[Ray], reference: &str, trace: &dyn Fn(&[Ray], Packing)| {
         let per_s = |packing| rays.len() as f64 / time(|| trace(rays, packing)) / 1e6;
         let (s, p, c) = (per_s(Packing::Single), per_s(Packing::Packets8), per_s(Packing::Coherent8));

@@ -24,7 +24,12 @@ fn main() {
             ("gallery", BuiltIn::parse("gallery").unwrap().generate(1))
         }
     };
-    let planned = plan(&scene, name, &PlanParams { coverage: CoverageParams { samples: 10_000, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() }).expect("plan");
+    let planned = plan(
+        &scene,
+        name,
+        &PlanParams { coverage: CoverageParams { samples: 10_000, ..Default::default() }, synthesis: Some(Default::default()), ..Default::default() },
+    )
+    .expect("plan");
     let graph = &planned.graph;
     let frames: usize = graph.paths.iter().map(|p| p.camera.len()).sum();
     println!("{name}: {} triangles, {} probes, {} paths, {frames} video frames", scene.triangles.len(), graph.probes.len(), graph.paths.len());
@@ -75,7 +80,11 @@ fn main() {
         let lit_alone = t.elapsed().as_secs_f64() / n as f64;
         // As bundles render them: along a path, a key frame every
         // `video_keys` frames and the frames between reusing the keys' light.
-        let eyes: Vec<Vec3> = graph.paths.first().map(|p| p.camera.iter().take(2 * settings.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect()).unwrap_or_default();
+        let eyes: Vec<Vec3> = graph
+            .paths
+            .first()
+            .map(|p| p.camera.iter().take(2 * settings.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect())
+            .unwrap_or_default();
         let t = Instant::now();
         renderer.path_frames(&settings.video, &eyes, vw, 0, settings.video_keys, |_, _| std::ops::ControlFlow::Continue(()));
         let per_frame = t.elapsed().as_secs_f64() / eyes.len().max(1) as f64;
@@ -117,13 +126,20 @@ fn main() {
     let whole = 5.0 * (w * h) as f64 / t.elapsed().as_secs_f64() / 1e6;
     println!("\nrays: Embree's 8-wide coherent packets alone {limit:.1} Mrays/s on a {w}x{h} equirect's primary rays; whole preview frames (primary + sun shadow + cache) {whole:.1} M pixels/s, {:.1} Mrays/s", whole * 2.0);
 
-
     if std::env::var("BENCH_BUNDLE").is_ok_and(|v| v == "1") {
         let dir = tempfile::tempdir().unwrap();
         exploremaps_builder::bundle::write_plan(dir.path(), &planned).unwrap();
         let mut g = planned.graph.clone();
         let t = Instant::now();
-        let report = exploremaps_builder::render::render_missing(dir.path(), &scene, &mut g, &Settings::new(Quality::Final, 1), exploremaps_builder::render::Shard { index: 0, count: 1 }, |_, _| {}).unwrap();
+        let report = exploremaps_builder::render::render_missing(
+            dir.path(),
+            &scene,
+            &mut g,
+            &Settings::new(Quality::Final, 1),
+            exploremaps_builder::render::Shard { index: 0, count: 1 },
+            |_, _| {},
+        )
+        .unwrap();
         println!(
             "\nwhole bundle at final quality: {} probes, {} paths in {:.0} s ({:.1} min; goal 15 min), videos by {}",
             report.probes_rendered,
@@ -134,4 +150,3 @@ fn main() {
         );
     }
 }
-

@@ -58,7 +58,22 @@ fn main() {
     }
     println!(
         "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
-        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "crev%", "space%", "probe%", "again%", "greedy%", "eye err", "levels"
+        "scene",
+        "mode",
+        "space",
+        "probes",
+        "plan s",
+        "total s",
+        "reported",
+        "again",
+        "ceil",
+        "crev%",
+        "space%",
+        "probe%",
+        "again%",
+        "greedy%",
+        "eye err",
+        "levels"
     );
     for (name, scene) in &scenes {
         for height in [HeightMode::Fly, HeightMode::Walk] {
@@ -97,7 +112,8 @@ fn main() {
                             _ => f32::INFINITY,
                         })
                         .fold(0.0f32, f32::max);
-                    let with_probe = stats.levels.iter().filter(|(y, _)| probes.iter().any(|p| (p.y - y - w.eye).abs() < 0.3 / scene.metres_per_unit)).count();
+                    let with_probe =
+                        stats.levels.iter().filter(|(y, _)| probes.iter().any(|p| (p.y - y - w.eye).abs() < 0.3 / scene.metres_per_unit)).count();
                     (format!("{:.1} cm", 100.0 * err), format!("{with_probe}/{}", stats.levels.len()))
                 }
                 _ => ("-".into(), "-".into()),

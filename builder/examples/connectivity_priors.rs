@@ -37,7 +37,13 @@ const HEADER: &str = "\
 fn main() {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
     let mut scenes = vec![("gallery".to_string(), BuiltIn::Gallery.generate(1))];
-    for file in ["stanford_bunny/bun_zipper.ply", "sponza_dabrovic/sponza.obj", "wooden_staircase/wooden_staircase.obj", "grey_white_room/grey_white_room.obj", "dream_apartment/dream_apartment.glb"] {
+    for file in [
+        "stanford_bunny/bun_zipper.ply",
+        "sponza_dabrovic/sponza.obj",
+        "wooden_staircase/wooden_staircase.obj",
+        "grey_white_room/grey_white_room.obj",
+        "dream_apartment/dream_apartment.glb",
+    ] {
         match load(&shared.join(file), &LoadOptions::default()) {
             Ok(scene) => scenes.push((file.to_string(), scene)),
             Err(e) => {
@@ -52,7 +58,9 @@ fn main() {
     for (name, scene) in &scenes {
         let (mesh, _) = weld_scene(scene, 1e-5 * scene.bounds().diagonal());
         for ratio in [0.1, 0.01] {
-            let level = simplify(&mesh, &SimplifyParams { target_triangles: (mesh.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY }).compact();
+            let level =
+                simplify(&mesh, &SimplifyParams { target_triangles: (mesh.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY })
+                    .compact();
             let symbols = meshcode::symbol_contexts(&level.to_coded()).expect("a simplified level codes");
             let mut counts = [[0u32; K]; CONTEXTS];
             for &(c, s) in &symbols {

@@ -264,11 +264,11 @@ fn anneal(
     (best, cast)
 }
 
-use crate::visibility::{count_bits, Targets};
 use crate::explore::Candidate;
 use crate::freespace::FreeSpace;
 use crate::orient;
 use crate::raycast::RayScene;
+use crate::visibility::{count_bits, Targets};
 use exploremaps_scenes::Scene;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -316,7 +316,11 @@ pub fn similarity(overlap: &[Vec<f64>]) -> Vec<Vec<f64>> {
             (0..n)
                 .map(|j| {
                     let d = (overlap[i][i] * overlap[j][j]).sqrt();
-                    if d > 0.0 { overlap[i][j] / d } else { 0.0 }
+                    if d > 0.0 {
+                        overlap[i][j] / d
+                    } else {
+                        0.0
+                    }
                 })
                 .collect()
         })
@@ -363,9 +367,7 @@ pub fn markov_cluster(weights: &[Vec<f64>]) -> (Vec<u32>, ClusterStats) {
     }
     // Each probe joins the attractor with the largest share of its column
     // (ties: the lowest index); clusters are numbered by their smallest member.
-    let attractor: Vec<usize> = (0..n)
-        .map(|j| (0..n).max_by(|&a, &b| m[a][j].total_cmp(&m[b][j]).then(b.cmp(&a))).unwrap_or(j))
-        .collect();
+    let attractor: Vec<usize> = (0..n).map(|j| (0..n).max_by(|&a, &b| m[a][j].total_cmp(&m[b][j]).then(b.cmp(&a))).unwrap_or(j)).collect();
     let mut label_of_attractor = vec![u32::MAX; n];
     let mut labels = vec![0u32; n];
     let mut next_label = 0;
@@ -418,7 +420,12 @@ mod tests {
         assert_eq!(out.clusters, vec![(0, 2), (1, 3), (2, 1)]);
         // With half the samples to spare, of two probes seeing 4 alone each
         // the later goes too, and the last stays: never below the floor.
-        let mut out2 = Synthesized { probes: (0..3).map(|k| Vec3::splat(k as f32)).collect(), user_placed: vec![false; 3], cluster_of: vec![0, 0, 1], clusters: vec![(0, 2), (2, 1)] };
+        let mut out2 = Synthesized {
+            probes: (0..3).map(|k| Vec3::splat(k as f32)).collect(),
+            user_placed: vec![false; 3],
+            cluster_of: vec![0, 0, 1],
+            clusters: vec![(0, 2), (2, 1)],
+        };
         let mut v2 = vec![views[0].clone(), views[1].clone(), views[2].clone()];
         assert_eq!(prune(&mut out2, &mut v2, 4), 2);
         assert_eq!(out2.probes, vec![Vec3::splat(0.0)]);
@@ -490,7 +497,8 @@ mod tests {
         // between one cluster and two.
         let scene = crate::testing::rooms(2, 10.0, 3.0, 8.0, &[1]);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
+        let (space, _) =
+            free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         let probes = [
             Vec3::new(1.5, 1.5, 2.0),
             Vec3::new(2.5, 1.2, 6.0),
@@ -505,7 +513,8 @@ mod tests {
             .iter()
             .map(|&p| {
                 let mut bits = vec![0u64; samples.points.len().div_ceil(64)];
-                let segments: Vec<Ray> = (0..samples.points.len()).map(|i| Ray::segment(p, samples.points[i] + samples.normals[i] * 1e-3 * side[i] as f32)).collect();
+                let segments: Vec<Ray> =
+                    (0..samples.points.len()).map(|i| Ray::segment(p, samples.points[i] + samples.normals[i] * 1e-3 * side[i] as f32)).collect();
                 for (i, blocked) in rays.occluded_batch(&segments, Packing::Packets8).into_iter().enumerate() {
                     if side[i] != 0 && !blocked && (p - samples.points[i]).dot(samples.normals[i]) * side[i] as f32 > 0.0 {
                         bits[i / 64] |= 1 << (i % 64);

@@ -107,7 +107,8 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     let mut rng = crate::seeds::Stream::Connect.rng(params.seed);
     // Enough witnesses for each probe to share some with its neighbours however many probes there are.
     let count = params.witness_points.max(WITNESSES_PER_PROBE * probes.len());
-    let witnesses: Vec<Vec3> = if navigable.is_empty() { Vec::new() } else { (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
+    let witnesses: Vec<Vec3> =
+        if navigable.is_empty() { Vec::new() } else { (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
     let seen: Vec<Vec<bool>> = probes
         .par_iter()
         .map(|&p| {
@@ -128,7 +129,11 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
             }
             let mut shared: Vec<Vec3> = (0..witnesses.len()).filter(|&k| seen[i][k] && seen[j][k]).map(|k| witnesses[k]).collect();
             shared.sort_by(|x, y| ((*x - a).length() + (*x - b).length()).total_cmp(&((*y - a).length() + (*y - b).length())));
-            shared.into_iter().take(8).find(|&w| segment_clear(rays, space, a, w) && segment_clear(rays, space, w, b)).map(|w| RawPath { from: i, to: j, polyline: vec![a, w, b] })
+            shared.into_iter().take(8).find(|&w| segment_clear(rays, space, a, w) && segment_clear(rays, space, w, b)).map(|w| RawPath {
+                from: i,
+                to: j,
+                polyline: vec![a, w, b],
+            })
         })
         .collect();
     let mut paths = Vec::new();
@@ -154,7 +159,11 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
     // A* between parts of the navigable space that never touch would search
     // all of one part before giving up: such pairs are refused at once.
-    let (part, _) = if searches.is_empty() && components(probes.len(), &paths) == 1 { (Vec::new(), Vec::new()) } else { crate::freespace::components_26(&space.grid, &space.navigable) };
+    let (part, _) = if searches.is_empty() && components(probes.len(), &paths) == 1 {
+        (Vec::new(), Vec::new())
+    } else {
+        crate::freespace::components_26(&space.grid, &space.navigable)
+    };
     let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
     for (i, j) in searches {
         if part_of(probes[i]) != part_of(probes[j]) {
@@ -193,7 +202,8 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     // space between them, straightened.
     if !space.glide.is_empty() && components(probes.len(), &paths) > 1 {
         let (glide_part, _) = crate::freespace::components_26(&space.grid, &space.glide);
-        let parts: Vec<Option<u32>> = probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
+        let parts: Vec<Option<u32>> =
+            probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
         for (i, j, polyline) in walks_between_groups(space, &space.glide, probes, &parts, &paths) {
             stats.glided += 1;
             paths.push(RawPath { from: i, to: j, polyline: straighten(rays, space, &polyline) });
@@ -322,7 +332,13 @@ fn steps_in<'a>(space: &'a FreeSpace, mask: &'a [bool], i: usize) -> impl Iterat
 /// parts of the space (`parts`, per probe) holding probes of two groups or
 /// more are flooded: the Crytek Sponza's 22 parts took 5 s, for no join.
 /// Returns (probe, probe, polyline), the lower index first.
-fn walks_between_groups(space: &FreeSpace, mask: &[bool], probes: &[Vec3], parts: &[Option<u32>], paths: &[RawPath]) -> Vec<(usize, usize, Vec<Vec3>)> {
+fn walks_between_groups(
+    space: &FreeSpace,
+    mask: &[bool],
+    probes: &[Vec3],
+    parts: &[Option<u32>],
+    paths: &[RawPath],
+) -> Vec<(usize, usize, Vec<Vec3>)> {
     let mut groups = groups(probes.len(), paths);
     let mut first_group: HashMap<u32, usize> = HashMap::new();
     let mut contested: Vec<u32> = Vec::new();
@@ -463,7 +479,8 @@ mod tests {
 
     fn setup(scene: &exploremaps_scenes::Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
+        let (space, _) =
+            free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 
@@ -492,7 +509,9 @@ mod tests {
         let scene = rooms(2, 6.0, 3.0, 6.0, &[]);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         // Both rooms navigable: take one, then the other, by start point, and pool them.
-        let (a, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, start: Some(Vec3::new(3.0, 1.5, 3.0)), ..Default::default() }).unwrap();
+        let (a, _) =
+            free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, start: Some(Vec3::new(3.0, 1.5, 3.0)), ..Default::default() })
+                .unwrap();
         let (paths, stats) = connect(&rays, &a, &[Vec3::new(2.0, 1.5, 3.0), Vec3::new(10.0, 1.5, 3.0)], &ConnectParams::default());
         assert!(paths.is_empty());
         assert_eq!(stats.components, 2);

@@ -35,8 +35,8 @@
 
 use crate::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
-use exploremaps_scenes::Scene;
 use crate::seeds::cosine_direction;
+use exploremaps_scenes::Scene;
 use glam::{Vec2, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -86,7 +86,11 @@ pub struct CoverageReport {
 
 impl CoverageReport {
     pub fn fraction(&self) -> f64 {
-        if self.reachable_area > 0.0 { self.covered_area / self.reachable_area } else { 1.0 }
+        if self.reachable_area > 0.0 {
+            self.covered_area / self.reachable_area
+        } else {
+            1.0
+        }
     }
 
     /// (name, reachable area, covered area) per group, given each triangle's group.
@@ -267,7 +271,14 @@ pub fn coverage_like(base: &CoverageReport, rays: &RayScene, space: &FreeSpace, 
 }
 
 /// Which reachable samples the probes see, probe by probe in order.
-fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, from_open: Vec<FromOpen>, rays: &RayScene, space: &FreeSpace, probes: &[Vec3]) -> CoverageReport {
+fn seen_from(
+    samples: SurfaceSamples,
+    reached_side: Vec<i8>,
+    from_open: Vec<FromOpen>,
+    rays: &RayScene,
+    space: &FreeSpace,
+    probes: &[Vec3],
+) -> CoverageReport {
     let mut ray_count = 0;
     let eps = 1e-3 * space.bounds.diagonal().max(1e-6);
     let mut first_seen_by: Vec<Option<u32>> = vec![None; samples.points.len()];
@@ -278,11 +289,8 @@ fn seen_from(samples: SurfaceSamples, reached_side: Vec<i8>, from_open: Vec<From
     let mut covered = 0usize;
     for (k, &probe) in probes.iter().enumerate() {
         // Only samples facing the probe on the side they are reached from.
-        let facing: Vec<usize> = open
-            .iter()
-            .copied()
-            .filter(|&i| (probe - samples.points[i]).dot(samples.normals[i]) * reached_side[i] as f32 > 0.0)
-            .collect();
+        let facing: Vec<usize> =
+            open.iter().copied().filter(|&i| (probe - samples.points[i]).dot(samples.normals[i]) * reached_side[i] as f32 > 0.0).collect();
         let segments: Vec<Ray> = facing
             .iter()
             .map(|&i| {
@@ -324,7 +332,8 @@ mod tests {
 
     fn setup(scene: &Scene) -> (RayScene, FreeSpace) {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
+        let (space, _) =
+            free_space(scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 

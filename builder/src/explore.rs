@@ -37,14 +37,14 @@
 //! per depth jump, 6 relaxation steps; both: at most 256 probes. Deterministic:
 //! rays are traced in fixed order and all randomness is seeded.
 
-use crate::visibility::{CubeView, Targets};
 use crate::freespace::FreeSpace;
+use crate::raycast::{Packing, Ray, RayScene};
+use crate::visibility::{CubeView, Targets};
 use crate::walk::Standpoint;
 use exploremaps_scenes::Scene;
-use rayon::prelude::*;
-use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
 use rand::Rng;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// How probes are placed.
@@ -195,7 +195,9 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
                 .collect();
             let standing: Vec<(Vec3, Standpoint)> = drawn
                 .par_iter()
-                .filter_map(|&c| space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open })))
+                .filter_map(|&c| {
+                    space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open }))
+                })
                 .filter(|s| batch == 0 || s.1 == Standpoint::Open)
                 .collect();
             open += standing.iter().filter(|s| s.1 == Standpoint::Open).count();
@@ -261,7 +263,12 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         // as much), then anywhere one stands, but only up to [`NICHE_SLACK`]
         // short of the target: a visitor's standpoints cost that much
         // coverage at most.
-        let best_of = |worst: Standpoint| (params.user_probes.len()..positions.len()).filter(|&k| rank[k] <= worst).map(|k| (gain(&visibility[k].0), k)).max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)));
+        let best_of = |worst: Standpoint| {
+            (params.user_probes.len()..positions.len())
+                .filter(|&k| rank[k] <= worst)
+                .map(|k| (gain(&visibility[k].0), k))
+                .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)))
+        };
         let short = (covered_count as f64) < (params.coverage_target - NICHE_SLACK) * targets.len() as f64;
         let gains = |o: &(usize, usize)| o.0 > 0;
         let fallback = || {
@@ -458,7 +465,6 @@ mod tests {
         (c, s, space)
     }
 
-
     #[test]
     fn where_the_open_is_scarce_more_open_standpoints_are_drawn() {
         // The maze's corridors: one draw in thirteen stands in the open. One
@@ -540,7 +546,8 @@ mod tests {
         m.wall(true, 12.0, 10.0, 12.0, 0.0, h, t, &[]);
         let scene = m.finish();
         // The corridor's inside (the space around it in the box is open too).
-        let inside = FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, start: Some(Vec3::new(5.0, 1.5, 1.0)), ..Default::default() };
+        let inside =
+            FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, start: Some(Vec3::new(5.0, 1.5, 1.0)), ..Default::default() };
         for strategy in STRATEGIES {
             let (probes, stats, space) = plan_in(&scene, &with(strategy), inside.clone());
             let c = covered(&scene, &space, &probes);
@@ -607,13 +614,20 @@ mod tests {
     fn walk_mode_puts_every_probe_at_eye_height_above_a_floor() {
         let scene = BuiltIn::Gallery.generate(1);
         for strategy in STRATEGIES {
-            let (probes, stats, space) = plan_in(&scene, &with(strategy), FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Walk, ..Default::default() });
+            let (probes, stats, space) =
+                plan_in(&scene, &with(strategy), FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Walk, ..Default::default() });
             assert!(probes.len() >= 5, "{strategy:?}: {stats:?}");
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             for p in &probes {
                 // An independent look down: the floor is 1.6 below, within 5 cm, and faces up.
                 let hit = rays.intersect(&Ray::new(p.position, Vec3::NEG_Y)).expect("a floor below");
-                assert!((hit.t - 1.6).abs() < 0.05 && hit.normal.y > 0.75, "{strategy:?}: probe at {} stands {} above {:?}", p.position, hit.t, hit.normal);
+                assert!(
+                    (hit.t - 1.6).abs() < 0.05 && hit.normal.y > 0.75,
+                    "{strategy:?}: probe at {} stands {} above {:?}",
+                    p.position,
+                    hit.t,
+                    hit.normal
+                );
             }
             let c = covered(&scene, &space, &probes);
             assert!(c > MIN_COVERAGE[strategy as usize] - 0.05, "{strategy:?}: {c}");

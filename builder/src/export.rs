@@ -127,16 +127,19 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     let mut attributes = json!({ "POSITION": positions });
     if !scene.normals.is_empty() {
         let view = glb.view(&floats(&mut scene.normals.iter().flat_map(|n| n.to_array())), Some(ARRAY_BUFFER));
-        attributes["NORMAL"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.normals.len(), "type": "VEC3" })));
+        attributes["NORMAL"] =
+            json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.normals.len(), "type": "VEC3" })));
     }
     if !scene.uvs.is_empty() {
         let view = glb.view(&floats(&mut scene.uvs.iter().flat_map(|t| t.to_array())), Some(ARRAY_BUFFER));
-        attributes["TEXCOORD_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.uvs.len(), "type": "VEC2" })));
+        attributes["TEXCOORD_0"] =
+            json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.uvs.len(), "type": "VEC2" })));
     }
     if !scene.colours.is_empty() {
         // glTF's vertex colours are linear, as the scene keeps them.
         let view = glb.view(&floats(&mut scene.colours.iter().flat_map(|c| c.to_array())), Some(ARRAY_BUFFER));
-        attributes["COLOR_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.colours.len(), "type": "VEC3" })));
+        attributes["COLOR_0"] =
+            json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.colours.len(), "type": "VEC3" })));
     }
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
@@ -196,7 +199,9 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         let (mut node, kind, power) = match *light {
             Light::Point { position, intensity } => (json!({ "translation": position.to_array() }), "point", intensity),
             // The light shines along its node's -Z: turn +Z to the sun.
-            Light::Sun { direction, irradiance } => (json!({ "rotation": Quat::from_rotation_arc(Vec3::Z, direction.normalize()).to_array() }), "directional", irradiance),
+            Light::Sun { direction, irradiance } => {
+                (json!({ "rotation": Quat::from_rotation_arc(Vec3::Z, direction.normalize()).to_array() }), "directional", irradiance)
+            }
         };
         let peak = power.max_element().max(f32::MIN_POSITIVE);
         lights.push(json!({ "type": kind, "color": (power / peak).to_array(), "intensity": peak * crate::load::LUMENS_PER_WATT }));

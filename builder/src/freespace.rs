@@ -54,13 +54,13 @@
 //! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
 //! order.
 
-use rand::Rng;
 use crate::coverage::surface_samples;
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use crate::walk::{self, Walk, WalkStats};
 use exploremaps_scenes::{Aabb, ScaleSource, Scene};
 use glam::Vec3;
 use petgraph::unionfind::UnionFind;
+use rand::Rng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -347,7 +347,11 @@ impl FreeSpace {
 
     /// Whether paths may cross voxel `i` (gliding where walking cannot).
     pub fn glides(&self, i: usize) -> bool {
-        if self.glide.is_empty() { self.navigable[i] } else { self.glide[i] }
+        if self.glide.is_empty() {
+            self.navigable[i]
+        } else {
+            self.glide[i]
+        }
     }
 
     /// The least clearance of the voxels the segment `a`-`b` passes through
@@ -358,7 +362,11 @@ impl FreeSpace {
             least = least.min(self.clearance[i]);
             true
         });
-        if inside { least } else { 0.0 }
+        if inside {
+            least
+        } else {
+            0.0
+        }
     }
 
     /// Whether `p` lies in the open space (free, in the box, outside solids).
@@ -379,9 +387,9 @@ impl FreeSpace {
     /// a navigable voxel.
     pub fn navigable_free_run(&self, p: Vec3) -> Option<f32> {
         let c = self.grid.cell(p)?;
-        let distances = self.navigable_distance.get_or_init(|| {
-            distance_transform(&self.grid, &self.navigable).into_par_iter().map(|d2| d2.sqrt() * self.grid.voxel).collect()
-        });
+        let distances = self
+            .navigable_distance
+            .get_or_init(|| distance_transform(&self.grid, &self.navigable).into_par_iter().map(|d2| d2.sqrt() * self.grid.voxel).collect());
         Some(distances[self.grid.index(c)] - 3f32.sqrt() * self.grid.voxel)
     }
 
@@ -490,16 +498,23 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         given => (given, "given".to_string()),
     };
     if sky {
-        space_reason += &format!("; lower than a person stands ({:.2} units high), so it has open sky up to {:.2} units above its lowest point", bounds.extent().y, room.extent().y);
+        space_reason += &format!(
+            "; lower than a person stands ({:.2} units high), so it has open sky up to {:.2} units above its lowest point",
+            bounds.extent().y,
+            room.extent().y
+        );
     }
 
     // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
     // stated, or guessed with rooms of a plausible height.
     let eye = params.eye_height_m / scene.metres_per_unit;
     let water = walk::water_triangles(scene);
-    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk).then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
+    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk)
+        .then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
     let judged = match scene.scale_source {
-        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::scale::short(scene.metres_per_unit))),
+        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => {
+            Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::scale::short(scene.metres_per_unit)))
+        }
         ScaleSource::Guessed => match &floors {
             Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
             None => Err("the scale is only guessed".to_string()),
@@ -548,7 +563,8 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             return Ok((fs, stats));
         }
         if walking && finer > 1.001 * walk_voxel {
-            height_reason = format!("{height_reason}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed");
+            height_reason =
+                format!("{height_reason}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed");
         }
     }
 
@@ -730,7 +746,9 @@ pub fn kind_evidence(rays: &RayScene, bounds: &Aabb, seed: u64) -> (f32, f32) {
     let (lo, ext) = (bounds.min, bounds.extent().max(Vec3::splat(1e-6)));
     let mut dirs: Vec<Vec3> = vec![Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
     for k in 0..8 {
-        dirs.push(Vec3::new(if k & 1 == 0 { 1.0 } else { -1.0 }, if k & 2 == 0 { 1.0 } else { -1.0 }, if k & 4 == 0 { 1.0 } else { -1.0 }).normalize());
+        dirs.push(
+            Vec3::new(if k & 1 == 0 { 1.0 } else { -1.0 }, if k & 2 == 0 { 1.0 } else { -1.0 }, if k & 4 == 0 { 1.0 } else { -1.0 }).normalize(),
+        );
     }
     let points: Vec<Vec3> = (0..KIND_POINTS).map(|_| lo + ext * Vec3::new(rng.random(), rng.random(), rng.random())).collect();
     let list: Vec<Ray> = points.iter().flat_map(|&p| dirs.iter().map(move |&d| Ray::new(p, d))).collect();
@@ -753,7 +771,12 @@ pub fn kind_evidence(rays: &RayScene, bounds: &Aabb, seed: u64) -> (f32, f32) {
         })
         .collect();
     let low = lo.y + 0.5 * ext.y;
-    let ground = rays.intersect_batch(&down, Packing::Packets8).iter().zip(&down).filter(|(h, r)| h.is_some_and(|h| h.normal.y > 0.0 && r.origin.y - h.t < low)).count();
+    let ground = rays
+        .intersect_batch(&down, Packing::Packets8)
+        .iter()
+        .zip(&down)
+        .filter(|(h, r)| h.is_some_and(|h| h.normal.y > 0.0 && r.origin.y - h.t < low))
+        .count();
     (enclosed as f32 / KIND_POINTS as f32, ground as f32 / down.len() as f32)
 }
 
@@ -785,7 +808,11 @@ fn make_grid(bounds: &Aabb, max_cells: usize, voxel: Option<f32>) -> Grid {
     let mut voxel = voxel.unwrap_or(padded.max_element() / max_cells as f32);
     // Keep the total within the memory bound (flat scenes are far from cubic).
     let cells = |v: f32| (padded / v).ceil();
-    while { let c = cells(voxel); c.x * c.y * c.z } > MAX_TOTAL_CELLS as f32 {
+    while {
+        let c = cells(voxel);
+        c.x * c.y * c.z
+    } > MAX_TOTAL_CELLS as f32
+    {
         voxel *= 1.1;
     }
     // Two extra voxels of margin so the border is always free.
@@ -810,7 +837,13 @@ fn voxelize(scene: &Scene, grid: &Grid) -> Vec<bool> {
         let max_c = Vec3::new(grid.dims[0] as f32 - 1.0, grid.dims[1] as f32 - 1.0, grid.dims[2] as f32 - 1.0);
         let c1 = c1.min(max_c);
         let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-        let axis = if n.x.abs() >= n.y.abs() && n.x.abs() >= n.z.abs() { 0 } else if n.y.abs() >= n.z.abs() { 1 } else { 2 };
+        let axis = if n.x.abs() >= n.y.abs() && n.x.abs() >= n.z.abs() {
+            0
+        } else if n.y.abs() >= n.z.abs() {
+            1
+        } else {
+            2
+        };
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         for a in c0[u] as usize..=c1[u] as usize {
             for b in c0[v] as usize..=c1[v] as usize {
@@ -1039,7 +1072,14 @@ fn classify_solids(grid: &Grid, free: &[bool], clearance: &[f32], bounds: &Aabb,
         }
     }
     // Each voxel takes the verdict of its (block, pocket) pair.
-    let starts: Vec<usize> = origins.iter().scan(0, |n, o| { let s = *n; *n += o.len(); Some(s) }).collect();
+    let starts: Vec<usize> = origins
+        .iter()
+        .scan(0, |n, o| {
+            let s = *n;
+            *n += o.len();
+            Some(s)
+        })
+        .collect();
     let solid: Vec<bool> = (0..grid.len())
         .into_par_iter()
         .map(|i| {
@@ -1134,7 +1174,14 @@ fn components_by(grid: &Grid, marked: &[bool], diagonal: bool) -> (Vec<u32>, Vec
             runs
         })
         .collect();
-    let first: Vec<usize> = row_runs.iter().scan(0, |n, r| { let s = *n; *n += r.len(); Some(s) }).collect();
+    let first: Vec<usize> = row_runs
+        .iter()
+        .scan(0, |n, r| {
+            let s = *n;
+            *n += r.len();
+            Some(s)
+        })
+        .collect();
     let count = first.last().map_or(0, |&f| f + row_runs.last().map_or(0, Vec::len));
     let mut parent: UnionFind<u32> = UnionFind::new(count);
     // Rows met before this one in grid order: below, behind, and with
@@ -1423,7 +1470,8 @@ mod tests {
         assert!((space.grid.voxel - 0.4).abs() < 1e-3, "{}", space.grid.voxel);
         assert!(space.is_navigable(Vec3::new(1.0, 1.6, 1.0)), "the first cell, at eye height");
         // Flying is not retried: it needs no floor.
-        let (space, stats) = run(&scene, &FreeSpaceParams { max_cells: 64, height: HeightMode::Fly, ..Default::default() }).map_or((None, None), |(f, s)| (Some(f.grid.voxel), Some(s)));
+        let (space, stats) = run(&scene, &FreeSpaceParams { max_cells: 64, height: HeightMode::Fly, ..Default::default() })
+            .map_or((None, None), |(f, s)| (Some(f.grid.voxel), Some(s)));
         assert!(space.is_none_or(|v| v > 0.8), "{stats:?}");
     }
 

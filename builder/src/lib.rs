@@ -25,17 +25,17 @@ pub mod pipeline;
 pub mod proxy;
 pub mod raycast;
 pub mod render;
-pub mod scale;
 pub mod renderer;
 pub mod report;
+pub mod scale;
 pub mod seeds;
 pub mod smooth;
+#[cfg(test)]
+mod testing;
 pub mod tiles;
 pub mod tour;
 pub mod video;
 pub mod visibility;
 pub mod walk;
-#[cfg(test)]
-mod testing;
 
 pub use exploremaps_scenes as scenes;

@@ -23,8 +23,8 @@
 //!
 //! Defaults: α = 0.5, β = 0.5, cube faces of 24², 96 directions.
 
-use crate::visibility::CubeView;
 use crate::raycast::RayScene;
+use crate::visibility::CubeView;
 use glam::Vec3;
 
 pub const ALPHA: f32 = 0.5;
@@ -122,7 +122,8 @@ pub fn goodness(rays: &RayScene, probe: Vec3, near: f32, diagonal: f32) -> Vec<(
     let here = cone_histograms(&view, &dirs, range);
     // How far the probe sees, all round: a view is blocked when its centre is
     // much nearer than that (a pillar or a wall at arm's length).
-    let all_round = quantile(&mut (0..view.hits.len()).map(|p| view.hits[p].map_or(range, |h| h.t.min(range))).collect::<Vec<_>>(), 0.5).max(f32::MIN_POSITIVE);
+    let all_round =
+        quantile(&mut (0..view.hits.len()).map(|p| view.hits[p].map_or(range, |h| h.t.min(range))).collect::<Vec<_>>(), 0.5).max(f32::MIN_POSITIVE);
     let moved: Vec<Vec<([f32; BINS], f32, f32)>> = [Vec3::X, Vec3::NEG_X, Vec3::Z, Vec3::NEG_Z]
         .iter()
         .map(|&m| cone_histograms(&CubeView::trace(rays, probe + m * near, FACE_RES), &dirs, range))
@@ -148,10 +149,7 @@ pub fn preferred_directions(rays: &RayScene, probe: Vec3, near: f32, diagonal: f
     for &(start, _) in &scored {
         let mut d = start;
         for _ in 0..30 {
-            let (sum, weight) = scored
-                .iter()
-                .filter(|(c, _)| c.dot(d) > kernel_cos)
-                .fold((Vec3::ZERO, 0.0f32), |(s, w), &(c, g)| (s + c * g, w + g));
+            let (sum, weight) = scored.iter().filter(|(c, _)| c.dot(d) > kernel_cos).fold((Vec3::ZERO, 0.0f32), |(s, w), &(c, g)| (s + c * g, w + g));
             if weight <= 0.0 {
                 break;
             }

@@ -10,22 +10,22 @@
 
 use crate::cluster::{self, SynthesisParams, SynthesisStats, Synthesized};
 use crate::connect::{self, ConnectParams, ConnectStats};
-use crate::smooth;
 use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
 use crate::explore::{explore, Candidate, ExploreParams, ExploreStats};
 use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats, SpaceMode};
-use crate::raycast::{RayScene, RaycastError};
 use crate::order::{self, OrderStats};
 use crate::orient;
-use crate::scale::{self, ScaleGuess};
-use std::borrow::Cow;
-use rayon::prelude::*;
+use crate::raycast::{RayScene, RaycastError};
 use crate::report;
+use crate::scale::{self, ScaleGuess};
+use crate::smooth;
 use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
 use glam::Vec3;
 use image::{Rgb, RgbImage};
 use rand::Rng;
+use rayon::prelude::*;
+use std::borrow::Cow;
 use std::time::Instant;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -169,7 +169,13 @@ fn explore_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Exp
 
 /// The final probes: clustered and synthesized from the candidates, or the
 /// candidates themselves (and no clusters) when synthesis is off.
-fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[Candidate], params: Option<&SynthesisParams>) -> (Synthesized, Option<SynthesisStats>) {
+fn synthesize(
+    scene: &Scene,
+    rays: &RayScene,
+    space: &FreeSpace,
+    candidates: &[Candidate],
+    params: Option<&SynthesisParams>,
+) -> (Synthesized, Option<SynthesisStats>) {
     let Some(params) = params else {
         let probes = candidates.iter().map(|c| c.position).collect();
         let user_placed = candidates.iter().map(|c| c.user_placed).collect();
@@ -177,7 +183,15 @@ fn synthesize(scene: &Scene, rays: &RayScene, space: &FreeSpace, candidates: &[C
     };
     let _span = tracing::info_span!("cluster").entered();
     let (out, stats) = cluster::synthesize(scene, rays, space, candidates, params);
-    tracing::info!("{} candidates -> {} clusters -> {} probes ({} added back, {} dropped as seen by the rest) in {:.2} s", stats.candidates, stats.clusters, stats.final_probes, stats.added_back, stats.pruned, stats.seconds);
+    tracing::info!(
+        "{} candidates -> {} clusters -> {} probes ({} added back, {} dropped as seen by the rest) in {:.2} s",
+        stats.candidates,
+        stats.clusters,
+        stats.final_probes,
+        stats.added_back,
+        stats.pruned,
+        stats.seconds
+    );
     (out, Some(stats))
 }
 
@@ -197,7 +211,14 @@ fn orient_stage(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec
 
 /// Connects the probes, smooths and times the paths (arriving facing the
 /// destination's preferred direction).
-fn route(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], directions: &[Vec<format::ViewDirection>], seed: u64) -> (Vec<format::Path>, ConnectStats, SmoothStats) {
+fn route(
+    scene: &Scene,
+    rays: &RayScene,
+    space: &FreeSpace,
+    probes: &[Vec3],
+    directions: &[Vec<format::ViewDirection>],
+    seed: u64,
+) -> (Vec<format::Path>, ConnectStats, SmoothStats) {
     let _span = tracing::info_span!("connect").entered();
     let (raw, connect_stats) = connect::connect(rays, space, probes, &ConnectParams { seed, ..Default::default() });
     let started = Instant::now();
@@ -294,7 +315,8 @@ fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) 
         ScaleSource::Measured => "measured",
     };
     if scene.scale_source != ScaleSource::Guessed {
-        let reason = format!("{} m a unit, {}", scene.metres_per_unit, if scene.scale_source == ScaleSource::User { "given" } else { "stated by the scene" });
+        let reason =
+            format!("{} m a unit, {}", scene.metres_per_unit, if scene.scale_source == ScaleSource::User { "given" } else { "stated by the scene" });
         let stats = ScaleStats { metres_per_unit: scene.metres_per_unit, source: source(scene.scale_source), reason, measured: None, seconds: 0.0 };
         return (Cow::Borrowed(scene), stats);
     }
@@ -308,7 +330,16 @@ fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) 
     };
     if object {
         let reason = format!("{} m a unit, guessed from the size alone: an object, whose heights are not a building's", scene.metres_per_unit);
-        return (Cow::Borrowed(scene), ScaleStats { metres_per_unit: scene.metres_per_unit, source: "guessed", reason, measured: None, seconds: started.elapsed().as_secs_f64() });
+        return (
+            Cow::Borrowed(scene),
+            ScaleStats {
+                metres_per_unit: scene.metres_per_unit,
+                source: "guessed",
+                reason,
+                measured: None,
+                seconds: started.elapsed().as_secs_f64(),
+            },
+        );
     }
     let measured = scale::guess(scene, rays);
     let (m, scale_source, reason) = match &measured {
@@ -316,11 +347,20 @@ fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) 
         // Unsure, the evidence is believed only where it lands on a unit
         // people model in; else the size's guess stands.
         Some(g) if g.unit.is_some() => (g.metres_per_unit, ScaleSource::Guessed, format!("not sure: {}; pass --metres-per-unit", g.describe())),
-        Some(g) => (scene.metres_per_unit, ScaleSource::Guessed, format!("not sure: {}; kept {} m a unit from the size; pass --metres-per-unit", g.describe(), scene.metres_per_unit)),
-        None => (scene.metres_per_unit, ScaleSource::Guessed, format!("{} m a unit, guessed from the size alone: no floors under ceilings to measure", scene.metres_per_unit)),
+        Some(g) => (
+            scene.metres_per_unit,
+            ScaleSource::Guessed,
+            format!("not sure: {}; kept {} m a unit from the size; pass --metres-per-unit", g.describe(), scene.metres_per_unit),
+        ),
+        None => (
+            scene.metres_per_unit,
+            ScaleSource::Guessed,
+            format!("{} m a unit, guessed from the size alone: no floors under ceilings to measure", scene.metres_per_unit),
+        ),
     };
     tracing::info!("scale: {reason}");
-    let stats = ScaleStats { metres_per_unit: m, source: source(scale_source), reason, measured: measured.clone(), seconds: started.elapsed().as_secs_f64() };
+    let stats =
+        ScaleStats { metres_per_unit: m, source: source(scale_source), reason, measured: measured.clone(), seconds: started.elapsed().as_secs_f64() };
     if m == scene.metres_per_unit && scale_source == scene.scale_source {
         return (Cow::Borrowed(scene), stats);
     }
@@ -336,7 +376,14 @@ fn space_stage(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Resu
         free_space(scene, rays, params)?
     };
     tracing::info!("space: {} ({}); {} ({})", stats.space, stats.space_reason, stats.height, stats.height_reason);
-    tracing::info!("free space: {} navigable voxels of {:.3} units, near distance {:.3}; open space {} voxels, {} inside closed solids", stats.navigable, stats.voxel, stats.near, stats.open, stats.solid);
+    tracing::info!(
+        "free space: {} navigable voxels of {:.3} units, near distance {:.3}; open space {} voxels, {} inside closed solids",
+        stats.navigable,
+        stats.voxel,
+        stats.near,
+        stats.open,
+        stats.solid
+    );
     Ok((space, stats))
 }
 
@@ -363,14 +410,28 @@ impl Measured {
             reachable_area: report.reachable_area,
             covered_area: report.covered_area,
             ceiling: Some(report.ceiling()),
-            per_group: self.per_material.iter().map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c }).collect(),
+            per_group: self
+                .per_material
+                .iter()
+                .map(|(name, r, c)| format::GroupCoverage { name: name.clone(), reachable_area: *r, covered_area: *c })
+                .collect(),
             curve: report.curve.clone(),
         }
     }
 
     fn into_plan(self, graph: format::Graph, stats: PlanStats, started: Instant) -> Plan {
         let Measured { report, baselines, images, per_material, per_object, seconds } = self;
-        Plan { graph, stats, coverage: report, baselines, images, per_material, per_object, seconds: started.elapsed().as_secs_f64(), report_seconds: seconds }
+        Plan {
+            graph,
+            stats,
+            coverage: report,
+            baselines,
+            images,
+            per_material,
+            per_object,
+            seconds: started.elapsed().as_secs_f64(),
+            report_seconds: seconds,
+        }
     }
 }
 
@@ -382,9 +443,8 @@ fn measure(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], p
         coverage(scene, rays, space, probes, &params.coverage)
     };
     let baselines = baselines(rays, space, probes.len(), params.explore.seed, &report);
-    let floor = ([&report].into_iter().chain(baselines.iter().map(|b| &b.report)))
-        .filter_map(|r| r.curve.first().map(|c| c.1))
-        .fold(1.0f64, f64::min);
+    let floor =
+        ([&report].into_iter().chain(baselines.iter().map(|b| &b.report))).filter_map(|r| r.curve.first().map(|c| c.1)).fold(1.0f64, f64::min);
     let mut curves: Vec<report::Curve> = vec![(&report.curve, EXPLORED)];
     for b in &baselines {
         curves.push((&b.report.curve, if b.name == "random" { RANDOM } else { GRID }));
@@ -479,7 +539,12 @@ fn assemble(
             assets: format::ProbeAssets::default(),
         })
         .collect();
-    graph.clusters = probes.clusters.iter().enumerate().map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 }).collect();
+    graph.clusters = probes
+        .clusters
+        .iter()
+        .enumerate()
+        .map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 })
+        .collect();
     graph.paths = paths;
     graph.bar_order = bar_order;
     graph.coverage = Some(measured.entry());
@@ -499,7 +564,11 @@ mod tests {
 
     fn planned(name: &str) -> (Scene, f32, Plan) {
         let (scene, truth) = awkward(name).unwrap();
-        let params = PlanParams { synthesis: Some(Default::default()), coverage: CoverageParams { samples: 4000, ..Default::default() }, ..Default::default() };
+        let params = PlanParams {
+            synthesis: Some(Default::default()),
+            coverage: CoverageParams { samples: 4000, ..Default::default() },
+            ..Default::default()
+        };
         let plan = plan(&scene, name, &params).unwrap_or_else(|e| panic!("{name}: {e}"));
         (scene, truth, plan)
     }

@@ -92,7 +92,11 @@ struct QueryArgs<T> {
 }
 
 fn query_flags(coherent: bool) -> sys::RTCRayQueryFlags {
-    if coherent { sys::RTCRayQueryFlags::COHERENT } else { sys::RTCRayQueryFlags::INCOHERENT }
+    if coherent {
+        sys::RTCRayQueryFlags::COHERENT
+    } else {
+        sys::RTCRayQueryFlags::INCOHERENT
+    }
 }
 
 fn intersect_args(coherent: bool) -> QueryArgs<sys::RTCIntersectArguments> {
@@ -243,8 +247,10 @@ impl RayScene {
             }
             let scene = sys::rtcNewScene(device);
             let geometry = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
-            let vertex_ptr = sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::VERTEX, 0, sys::RTCFormat::FLOAT3, 12, positions.len()) as *mut f32;
-            let index_ptr = sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::INDEX, 0, sys::RTCFormat::UINT3, 12, triangles.len()) as *mut u32;
+            let vertex_ptr =
+                sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::VERTEX, 0, sys::RTCFormat::FLOAT3, 12, positions.len()) as *mut f32;
+            let index_ptr =
+                sys::rtcSetNewGeometryBuffer(geometry, sys::RTCBufferType::INDEX, 0, sys::RTCFormat::UINT3, 12, triangles.len()) as *mut u32;
             let built = !vertex_ptr.is_null() && !index_ptr.is_null();
             if built {
                 let vertices = std::slice::from_raw_parts_mut(vertex_ptr, positions.len() * 3);
@@ -368,13 +374,7 @@ impl RayScene {
 
 /// Spreads rays over rayon's threads in chunks of [`BATCH`], each answered one
 /// ray at a time or in packets of 8, with denormals flushed while tracing.
-fn batched<O: Send>(
-    rays: &[Ray],
-    out: &mut [O],
-    packing: Packing,
-    one: impl Fn(&Ray) -> O + Sync,
-    eight: impl Fn(&[Ray], &mut [O]) + Sync,
-) {
+fn batched<O: Send>(rays: &[Ray], out: &mut [O], packing: Packing, one: impl Fn(&Ray) -> O + Sync, eight: impl Fn(&[Ray], &mut [O]) + Sync) {
     assert_eq!(rays.len(), out.len());
     out.par_chunks_mut(BATCH).zip(rays.par_chunks(BATCH)).for_each(|(o, r)| {
         let _mode = FlushDenormals::new();
@@ -486,7 +486,8 @@ mod tests {
         }
         let scene = square();
         let ray = Ray::new(Vec3::new(0.3, 0.2, 1.0), -Vec3::Z);
-        let mut one = Guarded { value: RayHit1 { inner: sys::RTCRayHit { ray: ray1(&ray), hit: empty_hit1() }, abi_tail: [0; 8] }, canary: [CANARY; 128] };
+        let mut one =
+            Guarded { value: RayHit1 { inner: sys::RTCRayHit { ray: ray1(&ray), hit: empty_hit1() }, abi_tail: [0; 8] }, canary: [CANARY; 128] };
         scene.intersect1_raw(&mut one.value);
         assert_eq!(one.value.inner.hit.primID, 0, "the guarded ray must really hit");
         assert!(one.canary.iter().all(|&b| b == CANARY), "Embree wrote past RayHit1");

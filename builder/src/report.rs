@@ -74,7 +74,15 @@ fn shade(ray_dir: Vec3, normal: Vec3, seen: Seen) -> Rgb<u8> {
 /// `ray_at` gives each pixel's ray and what its column holds: hits under
 /// navigable space are judged by the probes, others drawn dimmed, or amber
 /// where the column holds only free space the navigable space leaves out.
-fn render(rays: &RayScene, reachable: &[bool], probes: &[Vec3], width: u32, height: u32, background: Rgb<u8>, ray_at: impl Fn(f32, f32) -> (Ray, Column)) -> RgbImage {
+fn render(
+    rays: &RayScene,
+    reachable: &[bool],
+    probes: &[Vec3],
+    width: u32,
+    height: u32,
+    background: Rgb<u8>,
+    ray_at: impl Fn(f32, f32) -> (Ray, Column),
+) -> RgbImage {
     let (primary, column): (Vec<Ray>, Vec<Column>) =
         (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| ray_at(x as f32 + 0.5, y as f32 + 0.5)).unzip();
     let hits = rays.intersect_batch(&primary, Packing::Packets8);

@@ -111,7 +111,17 @@ pub enum Work {
 
 impl Work {
     /// Every kind (the test below keeps their streams apart).
-    pub const ALL: [Work; 9] = [Work::Pixels, Work::Gather, Work::NearGather, Work::CacheSun, Work::CacheGather, Work::Bake, Work::LightPilot, Work::LightCells, Work::LightExits];
+    pub const ALL: [Work; 9] = [
+        Work::Pixels,
+        Work::Gather,
+        Work::NearGather,
+        Work::CacheSun,
+        Work::CacheGather,
+        Work::Bake,
+        Work::LightPilot,
+        Work::LightCells,
+        Work::LightExits,
+    ];
 }
 
 /// Which image a render is drawing: the top byte says what kind, the next

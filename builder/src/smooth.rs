@@ -26,8 +26,8 @@
 //! easing from the direction of travel at departure to the arrival direction.
 
 use crate::connect::{polyline_length, segment_clear};
-use crate::orient::yaw_pitch;
 use crate::freespace::FreeSpace;
+use crate::orient::yaw_pitch;
 use crate::raycast::{Ray, RayScene};
 use exploremaps_format::timing::{ease, ArcLength};
 use glam::Vec3;
@@ -111,7 +111,9 @@ pub fn smooth(rays: &RayScene, space: &FreeSpace, raw: &[Vec3]) -> (Vec<Vec3>, S
             // cannot (see `connect`): they may not come to cross geometry.
             let clear = |x: Vec3, y: Vec3| segment_clear(rays, space, x, y);
             let glides = |x: Vec3, y: Vec3| space.segment_glides(x, y) && !rays.occluded(&Ray::segment(x, y));
-            let keeps = |old: (Vec3, Vec3), new: (Vec3, Vec3)| clear(new.0, new.1) || (!clear(old.0, old.1) && (!glides(old.0, old.1) || glides(new.0, new.1)));
+            let keeps = |old: (Vec3, Vec3), new: (Vec3, Vec3)| {
+                clear(new.0, new.1) || (!clear(old.0, old.1) && (!glides(old.0, old.1) || glides(new.0, new.1)))
+            };
             if !keeps((p[i - 1], p[i]), (p[i - 1], next)) || !keeps((p[i], p[i + 1]), (next, p[i + 1])) {
                 continue;
             }
@@ -162,7 +164,8 @@ mod tests {
     fn pillar_room() -> (RayScene, FreeSpace) {
         let scene = crate::testing::pillar_room(1.0);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let (space, _) = free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
+        let (space, _) =
+            free_space(&scene, &rays, &FreeSpaceParams { space: SpaceMode::Inside, height: HeightMode::Fly, ..Default::default() }).unwrap();
         (rays, space)
     }
 

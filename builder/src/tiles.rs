@@ -11,7 +11,11 @@ use image::{imageops, RgbImage};
 /// order) turned to the tour orientation: side faces mirrored left to
 /// right, top and bottom upside down ([`Tiles::face_coordinates`]).
 pub fn tour_face(face: usize, image: &RgbImage) -> RgbImage {
-    if face == 2 || face == 3 { imageops::flip_vertical(image) } else { imageops::flip_horizontal(image) }
+    if face == 2 || face == 3 {
+        imageops::flip_vertical(image)
+    } else {
+        imageops::flip_horizontal(image)
+    }
 }
 
 /// Writes the pyramid through `emit(file, tile)`, smallest level first.
@@ -23,7 +27,11 @@ pub fn cut<E>(tiles: &Tiles, levels: &[(u32, Vec<RgbImage>)], mut emit: impl FnM
     let Some((largest, _)) = source(tiles.size) else { return Ok(()) };
     debug_assert_eq!(*largest, tiles.size, "the largest level is the pyramid's");
     let resized = |face: &RgbImage, size: u32| {
-        if face.width() == size { face.clone() } else { imageops::resize(face, size, size, imageops::FilterType::Triangle) }
+        if face.width() == size {
+            face.clone()
+        } else {
+            imageops::resize(face, size, size, imageops::FilterType::Triangle)
+        }
     };
     for level in 1..=tiles.levels {
         let size = tiles.level_size(level);

@@ -227,7 +227,21 @@ fn start_ffmpeg(program: &PathBuf, (w, h): (u32, u32), fps: f32) -> Result<Ffmpe
     let key = key_frame_interval(fps).to_string();
     let dir = tempfile::tempdir().map_err(|e| VideoError::Ffmpeg(e.to_string()))?;
     let mut child = Command::new(program)
-        .args(["-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", &format!("{w}x{h}"), "-r", &fps.to_string(), "-i", "-"])
+        .args([
+            "-hide_banner",
+            "-loglevel",
+            "error",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+            "-s",
+            &format!("{w}x{h}"),
+            "-r",
+            &fps.to_string(),
+            "-i",
+            "-",
+        ])
         .args(["-c:v", "libx264", "-preset", X264_PRESET, "-crf", "20", "-bf", "0", "-pix_fmt", "yuv420p"])
         .args(["-g", &key, "-keyint_min", &key, "-sc_threshold", "0"])
         .args(["-colorspace", "smpte170m", "-color_primaries", "smpte170m", "-color_trc", "smpte170m", "-color_range", "tv"])
@@ -262,7 +276,10 @@ mod tests {
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let eyes: Vec<Vec3> = (0..count).map(|i| Vec3::new(1.5 + 0.1 * i as f32, 1.5, 2.0)).collect();
         let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Preview, 1));
-        eyes.iter().enumerate().map(|(i, &e)| renderer.to_image(256, 128, &renderer.equirect(&renderer.settings.video, e, 256, i as u64).color)).collect()
+        eyes.iter()
+            .enumerate()
+            .map(|(i, &e)| renderer.to_image(256, 128, &renderer.equirect(&renderer.settings.video, e, 256, i as u64).color))
+            .collect()
     }
 
     fn round_trip(encoder: Encoder) {
@@ -273,7 +290,8 @@ mod tests {
         let moov = mp4.windows(4).position(|w| w == b"moov").unwrap();
         let mdat = mp4.windows(4).position(|w| w == b"mdat").unwrap();
         assert!(moov < mdat, "{}: moov at {moov}, mdat at {mdat}", encoder.name());
-        let decoded: Vec<RgbImage> = decode_mp4(mp4.clone()).unwrap().into_iter().map(|f| RgbImage::from_raw(f.width, f.height, f.rgb).unwrap()).collect();
+        let decoded: Vec<RgbImage> =
+            decode_mp4(mp4.clone()).unwrap().into_iter().map(|f| RgbImage::from_raw(f.width, f.height, f.rgb).unwrap()).collect();
         assert_eq!(decoded.len(), frames.len(), "{}: every frame comes back", encoder.name());
         let mut worst = f64::INFINITY;
         for (i, (a, b)) in frames.iter().zip(&decoded).enumerate() {

@@ -180,7 +180,12 @@ impl Walk {
                 Ray::new(q, Vec3::NEG_Y)
             })
             .collect();
-        let falls = rays.intersect_batch(&list, Packing::Single).iter().zip(&list).filter(|(h, r)| h.is_none_or(|h| r.at(h.t).y < floor - 2.0 * self.half_step)).count();
+        let falls = rays
+            .intersect_batch(&list, Packing::Single)
+            .iter()
+            .zip(&list)
+            .filter(|(h, r)| h.is_none_or(|h| r.at(h.t).y < floor - 2.0 * self.half_step))
+            .count();
         falls >= 2
     }
 
@@ -314,10 +319,14 @@ pub struct Floors {
 /// Whether each triangle is water (its material named so): never walked on.
 pub fn water_triangles(scene: &exploremaps_scenes::Scene) -> Vec<bool> {
     const WORDS: [&str; 7] = ["water", "sea", "ocean", "lake", "river", "pond", "pool"];
-    let water: Vec<bool> = scene.materials.iter().map(|m| {
-        let name = m.name.to_lowercase();
-        WORDS.iter().any(|w| name.split(|c: char| !c.is_alphanumeric()).any(|part| part == *w))
-    }).collect();
+    let water: Vec<bool> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let name = m.name.to_lowercase();
+            WORDS.iter().any(|w| name.split(|c: char| !c.is_alphanumeric()).any(|part| part == *w))
+        })
+        .collect();
     scene.triangle_material.iter().map(|&m| water.get(m as usize).copied().unwrap_or(false)).collect()
 }
 
@@ -335,7 +344,8 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
         .collect();
     let drop = 2.0 * grid.voxel + STEP_M / metres_per_unit;
     let down_from = |p: Vec3| Ray { t_max: drop, ..Ray::new(p, Vec3::NEG_Y) };
-    let floor_at = |r: &Ray, h: &Option<crate::raycast::Hit>| h.filter(|h| h.normal.y.abs() >= SLOPE_COS && !water[h.triangle as usize]).map(|h| r.at(h.t));
+    let floor_at =
+        |r: &Ray, h: &Option<crate::raycast::Hit>| h.filter(|h| h.normal.y.abs() >= SLOPE_COS && !water[h.triangle as usize]).map(|h| r.at(h.t));
     let down: Vec<Ray> = starts.iter().map(|&c| down_from(grid.center(c))).collect();
     let hits = rays.intersect_batch(&down, Packing::Single);
     let mut found: Vec<Option<Vec3>> = down.iter().zip(&hits).map(|(r, h)| floor_at(r, h)).collect();
@@ -361,7 +371,11 @@ pub fn floor_cells(grid: &Grid, occupied: &[bool], open: &[bool], rays: &RayScen
         .iter()
         .zip(&above)
         // Under water (the first thing above is water) there is no head room.
-        .map(|(&(column, p), h)| FloorCell { column, floor_y: p.y, headroom: h.map_or(f32::INFINITY, |h| if water[h.triangle as usize] { 0.0 } else { h.t }) })
+        .map(|(&(column, p), h)| FloorCell {
+            column,
+            floor_y: p.y,
+            headroom: h.map_or(f32::INFINITY, |h| if water[h.triangle as usize] { 0.0 } else { h.t }),
+        })
         .collect();
     Floors { cells, rays: down.len() + again.len() + up.len() }
 }
@@ -379,7 +393,10 @@ pub fn judge_scale(floors: &Floors, metres_per_unit: f32) -> Result<String, Stri
     if (2.0..=8.0).contains(&median) {
         Ok(format!("rooms {median:.1} m high"))
     } else {
-        Err(format!("its rooms would be {median:.1} m high (if they are about 3.5 m, the scale is about {:.3} m a unit)", 3.5 / median * metres_per_unit))
+        Err(format!(
+            "its rooms would be {median:.1} m high (if they are about 3.5 m, the scale is about {:.3} m a unit)",
+            3.5 / median * metres_per_unit
+        ))
     }
 }
 
@@ -394,7 +411,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         grid.cell(Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + eye, grid.origin.z + (z as f32 + 0.5) * grid.voxel))
     };
     // Step 2: cells a person can stand on.
-    let standing: Vec<FloorCell> = floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
+    let standing: Vec<FloorCell> =
+        floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
     // Cells by column, for neighbour look-ups.
     let mut by_column: Vec<Vec<u32>> = vec![Vec::new(); grid.dims[0] * grid.dims[2]];
     for (k, c) in standing.iter().enumerate() {
@@ -431,7 +449,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
                 }
             }
         }
-        let hips: Vec<Ray> = pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
+        let hips: Vec<Ray> =
+            pairs.iter().map(|&(a, b)| Ray::segment(centre(&standing[a as usize], 0.5 * eye), centre(&standing[b as usize], 0.5 * eye))).collect();
         hip_rays += hips.len();
         let blocked = rays.occluded_batch(&hips, Packing::Single);
         // A rise of more than a step is two steps (a stair's treads are
@@ -527,7 +546,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         at += n;
     }
     let candidates: Vec<bool> = (0..sizes.len()).map(|g| !kept[g] && !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
-    let wide = wide_regions(grid, &standing, &by_column, &region_of, &candidates, (TERRACE_WIDTH_M / (2.0 * grid.voxel * metres_per_unit)).ceil() as isize);
+    let wide =
+        wide_regions(grid, &standing, &by_column, &region_of, &candidates, (TERRACE_WIDTH_M / (2.0 * grid.voxel * metres_per_unit)).ceil() as isize);
     keep_terraces(&mut kept, &ledges, |g| candidates[g] && wide[g]);
     // Step 5: the band.
     let mut band = vec![false; grid.len()];
@@ -558,7 +578,8 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             true
         });
     }
-    let mut kept_floors: Vec<(usize, f32)> = standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| (c.column, c.floor_y)).collect();
+    let mut kept_floors: Vec<(usize, f32)> =
+        standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| (c.column, c.floor_y)).collect();
     kept_floors.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let kept_heights: Vec<f32> = kept_floors.iter().map(|f| f.1).collect();
     let levels = levels(&kept_heights, 0.25 / metres_per_unit);
@@ -576,7 +597,15 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
         levels,
         rays: floors.rays + hip_rays + level_rays.len(),
     };
-    let walk = Walk { eye, head, reach: eye + half_band + 2.0 * grid.voxel, floors: kept_floors, grid: grid.clone(), half_step: 0.5 * step, metre: 1.0 / metres_per_unit };
+    let walk = Walk {
+        eye,
+        head,
+        reach: eye + half_band + 2.0 * grid.voxel,
+        floors: kept_floors,
+        grid: grid.clone(),
+        half_step: 0.5 * step,
+        metre: 1.0 / metres_per_unit,
+    };
     (walk, band, stats)
 }
 
@@ -590,7 +619,16 @@ struct Ledge {
 
 /// The ledges between regions, keyed (higher region, lower region).
 #[allow(clippy::too_many_arguments)] // the walking grid's parts, as walk_space holds them
-fn ledges(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], step: f32, metre: f32, eye: f32, rays: &RayScene) -> BTreeMap<(u32, u32), Ledge> {
+fn ledges(
+    grid: &Grid,
+    standing: &[FloorCell],
+    by_column: &[Vec<u32>],
+    region_of: &[u32],
+    step: f32,
+    metre: f32,
+    eye: f32,
+    rays: &RayScene,
+) -> BTreeMap<(u32, u32), Ledge> {
     /// Column pairs tried a ledge for openness.
     const TRIED: usize = 8;
     let mut samples: BTreeMap<(u32, u32), Vec<(usize, usize)>> = BTreeMap::new();
@@ -664,7 +702,9 @@ const TERRACE_WIDTH_M: f32 = 1.0;
 fn wide_regions(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], candidates: &[bool], radius: isize) -> Vec<bool> {
     let mut wide = vec![false; candidates.len()];
     let theirs = |x: isize, z: isize, g: u32| {
-        (0..grid.dims[0] as isize).contains(&x) && (0..grid.dims[2] as isize).contains(&z) && by_column[x as usize + grid.dims[0] * z as usize].iter().any(|&b| region_of[b as usize] == g)
+        (0..grid.dims[0] as isize).contains(&x)
+            && (0..grid.dims[2] as isize).contains(&z)
+            && by_column[x as usize + grid.dims[0] * z as usize].iter().any(|&b| region_of[b as usize] == g)
     };
     for (k, c) in standing.iter().enumerate() {
         let g = region_of[k];

@@ -135,12 +135,20 @@ fn corrupt<T>(message: impl Into<String>) -> Result<T, CodingError> {
 
 #[inline]
 fn next(c: u32) -> u32 {
-    if c % 3 == 2 { c - 2 } else { c + 1 }
+    if c % 3 == 2 {
+        c - 2
+    } else {
+        c + 1
+    }
 }
 
 #[inline]
 fn prev(c: u32) -> u32 {
-    if c.is_multiple_of(3) { c + 2 } else { c - 1 }
+    if c.is_multiple_of(3) {
+        c + 2
+    } else {
+        c - 1
+    }
 }
 
 /// The input made closed and manifold, as a corner table: corner `c` is
@@ -305,7 +313,14 @@ impl Loops {
         let n = self.nodes.len() as u32;
         let k = v.len() as u32;
         for i in 0..k {
-            self.nodes.push(Node { vertex: v[i as usize], prev: n + (i + k - 1) % k, next: n + (i + 1) % k, facing: facing[i as usize], loop_id, same: NONE });
+            self.nodes.push(Node {
+                vertex: v[i as usize],
+                prev: n + (i + k - 1) % k,
+                next: n + (i + 1) % k,
+                facing: facing[i as usize],
+                loop_id,
+                same: NONE,
+            });
         }
         n
     }
@@ -744,7 +759,12 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>
         return corrupt(format!("{loops_in} components start at a loop, of {}", ends.len()));
     }
     if symbols.len() + ends.len() - loops_in != code.triangle_count as usize {
-        return corrupt(format!("{} symbols and {} components, {loops_in} of them from a loop, for {} triangles", symbols.len(), ends.len(), code.triangle_count));
+        return corrupt(format!(
+            "{} symbols and {} components, {loops_in} of them from a loop, for {} triangles",
+            symbols.len(),
+            ends.len(),
+            code.triangle_count
+        ));
     }
     let vertices = new_vertices as u64 + 3 * (ends.len() - loops_in) as u64 + loop_vertices;
     if vertices != code.vertex_count as u64 {
@@ -817,7 +837,8 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>
         return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
     }
     // Forwards: rebuild, popping the right loops' lengths.
-    let mut listed = Listed { code, at: 0, component: 0, right_lens, merges: 0, met: record.then(|| Vec::with_capacity(symbols.len())), starting: false };
+    let mut listed =
+        Listed { code, at: 0, component: 0, right_lens, merges: 0, met: record.then(|| Vec::with_capacity(symbols.len())), starting: false };
     let (mut out, mut dummies) = rebuild(&mut listed, symbols.len(), code.triangle_count, code.vertex_count, code.dummy_starts)?;
     // A dummy in two lists is refused as a repeat.
     dummies.extend_from_slice(&code.dummies);
@@ -893,11 +914,22 @@ impl Walk for Listed<'_> {
 /// loop it acts on, so that a walk read as it goes (not checked before)
 /// gives an error, never a broken loop. Returns the mesh (its `keep` left
 /// empty) and the dummies met, ascending.
-pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32, vertex_count: u32, dummy_starts: u32) -> Result<(Decoded, Vec<u32>), CodingError> {
+pub(crate) fn rebuild(
+    walk: &mut impl Walk,
+    symbols: usize,
+    triangle_count: u32,
+    vertex_count: u32,
+    dummy_starts: u32,
+) -> Result<(Decoded, Vec<u32>), CodingError> {
     if triangle_count > MAX_TRIANGLES || vertex_count > triangle_count.saturating_mul(3) || symbols > triangle_count as usize {
         return corrupt(format!("{triangle_count} triangles, {vertex_count} vertices, {symbols} symbols"));
     }
-    let mut out = Decoded { triangles: Vec::with_capacity(triangle_count as usize), predictors: Vec::with_capacity(vertex_count as usize), keep: Vec::new(), kept_vertices: 0 };
+    let mut out = Decoded {
+        triangles: Vec::with_capacity(triangle_count as usize),
+        predictors: Vec::with_capacity(vertex_count as usize),
+        keep: Vec::new(),
+        kept_vertices: 0,
+    };
     let mut dummies = Vec::new();
     let mut loops = Loops::default();
     // A node a vertex, and one more for each S's and M's tip.
@@ -1001,7 +1033,9 @@ pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32,
                 }
                 S => {
                     let l1 = split;
-                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2 && l1 >= 2) else { return corrupt(format!("S at symbol {} splits a loop of {len} at {l1}", read - 1)) };
+                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2 && l1 >= 2) else {
+                        return corrupt(format!("S at symbol {} splits a loop of {len} at {l1}", read - 1));
+                    };
                     let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
                     loops.splice(a, nw, vb, va);
                     waiting.push((a, l2));
@@ -1010,7 +1044,9 @@ pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32,
                     loops.vertex(nw)
                 }
                 M => {
-                    let Some(at) = (waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else { return corrupt(format!("merge with loop {} of {} waiting", m.depth, waiting.len())) };
+                    let Some(at) = (waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else {
+                        return corrupt(format!("merge with loop {} of {} waiting", m.depth, waiting.len()));
+                    };
                     let (g, length) = waiting.remove(at as usize);
                     if length != m.length || m.offset >= length {
                         return corrupt(format!("a merge names a loop of {} at {} that has {length}", m.length, m.offset));
@@ -1027,7 +1063,11 @@ pub(crate) fn rebuild(walk: &mut impl Walk, symbols: usize, triangle_count: u32,
         }
     }
     if out.triangles.len() as u32 != triangle_count || out.predictors.len() as u32 != vertex_count {
-        return corrupt(format!("{} triangles and {} vertices decoded, {triangle_count} and {vertex_count} declared", out.triangles.len(), out.predictors.len()));
+        return corrupt(format!(
+            "{} triangles and {} vertices decoded, {triangle_count} and {vertex_count} declared",
+            out.triangles.len(),
+            out.predictors.len()
+        ));
     }
     Ok((out, dummies))
 }
@@ -1216,7 +1256,17 @@ pub(crate) mod tests {
                     let hole = tris.swap_remove(rand(tris.len() as u32) as usize);
                     let mut other = torus(n, m);
                     let [p, q, r] = other.swap_remove(rand(other.len() as u32) as usize);
-                    let glue = |v: u32| if v == p { hole[1] } else if v == q { hole[0] } else if v == r { hole[2] } else { v + vertices };
+                    let glue = |v: u32| {
+                        if v == p {
+                            hole[1]
+                        } else if v == q {
+                            hole[0]
+                        } else if v == r {
+                            hole[2]
+                        } else {
+                            v + vertices
+                        }
+                    };
                     tris.extend(other.iter().map(|t| t.map(glue)));
                     vertices += n * m;
                 }
@@ -1242,7 +1292,13 @@ pub(crate) mod tests {
                 }
                 if rand(2) == 0 {
                     let (from, to) = (rand(n * m), rand(n * m));
-                    tris.iter_mut().for_each(|t| t.iter_mut().for_each(|v| if *v == from { *v = to }));
+                    tris.iter_mut().for_each(|t| {
+                        t.iter_mut().for_each(|v| {
+                            if *v == from {
+                                *v = to
+                            }
+                        })
+                    });
                     tris.retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
                 }
                 (n * m, tris)

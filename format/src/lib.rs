@@ -125,7 +125,9 @@ impl ProxyPacket {
     /// The packet's bytes in its file's, or an error to show.
     pub fn slice<'a>(&self, file: &'a [u8]) -> Result<&'a [u8], String> {
         let end = self.offset.checked_add(self.bytes).filter(|&e| e <= file.len() as u64);
-        end.map(|e| &file[self.offset as usize..e as usize]).ok_or_else(|| format!("is {} bytes, shorter than graph.json says (a packet at {}..{})", file.len(), self.offset, self.offset.saturating_add(self.bytes)))
+        end.map(|e| &file[self.offset as usize..e as usize]).ok_or_else(|| {
+            format!("is {} bytes, shorter than graph.json says (a packet at {}..{})", file.len(), self.offset, self.offset.saturating_add(self.bytes))
+        })
     }
 }
 
@@ -331,7 +333,11 @@ impl Tiles {
     /// in [0, 1], lies at (s', t') of tour face `TILE_FACES[face]`: the side
     /// faces are mirrored left to right, top and bottom upside down.
     pub fn face_coordinates(face: usize, s: f32, t: f32) -> (f32, f32) {
-        if face == 2 || face == 3 { (s, 1.0 - t) } else { (1.0 - s, t) }
+        if face == 2 || face == 3 {
+            (s, 1.0 - t)
+        } else {
+            (1.0 - s, t)
+        }
     }
 }
 
@@ -521,7 +527,12 @@ impl Graph {
             if let Some(t) = &a.tiles {
                 // Tiles of at least 64 pixels (or the whole face) bound the
                 // count a hostile graph can make readers walk.
-                if !(16..=16384).contains(&t.size) || !(64.min(t.size)..=4096).contains(&t.tile) || !(1..=15).contains(&t.levels) || t.size.div_ceil(1 << (t.levels - 1)) > t.tile || t.preview_size > 4096 {
+                if !(16..=16384).contains(&t.size)
+                    || !(64.min(t.size)..=4096).contains(&t.tile)
+                    || !(1..=15).contains(&t.levels)
+                    || t.size.div_ceil(1 << (t.levels - 1)) > t.tile
+                    || t.preview_size > 4096
+                {
                     return bad(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
                 }
             }
@@ -625,11 +636,23 @@ pub fn cube_face_of(d: [f32; 3]) -> (usize, f32, f32) {
     let [x, y, z] = d;
     let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
     let (face, a, b, m) = if ax >= ay && ax >= az && ax > 0.0 {
-        if x > 0.0 { (0, -z, -y, ax) } else { (1, z, -y, ax) }
+        if x > 0.0 {
+            (0, -z, -y, ax)
+        } else {
+            (1, z, -y, ax)
+        }
     } else if ay >= az && ay > 0.0 {
-        if y > 0.0 { (2, x, z, ay) } else { (3, x, -z, ay) }
+        if y > 0.0 {
+            (2, x, z, ay)
+        } else {
+            (3, x, -z, ay)
+        }
     } else if az > 0.0 {
-        if z > 0.0 { (4, x, -y, az) } else { (5, -x, -y, az) }
+        if z > 0.0 {
+            (4, x, -y, az)
+        } else {
+            (5, -x, -y, az)
+        }
     } else {
         (5, 0.0, 0.0, 1.0)
     };
@@ -721,7 +744,11 @@ mod tests {
         assert_eq!(t.files().len(), 6 * (1 + 4 + 16 + 64));
         assert_eq!(t.file(2, 'u', 1, 0), "probes/0/tiles/2/u/0/1.jpg");
         let even = Tiles::new("t".into(), 1000, 512, 64);
-        assert_eq!((even.levels, even.tile, even.level_size(1), even.level_size(2), even.across(2)), (2, 500, 500, 1000, 2), "whole tiles when halving is exact");
+        assert_eq!(
+            (even.levels, even.tile, even.level_size(1), even.level_size(2), even.across(2)),
+            (2, 500, 500, 1000, 2),
+            "whole tiles when halving is exact"
+        );
         let odd = Tiles::new("t".into(), 999, 512, 64);
         assert_eq!((odd.levels, odd.tile, odd.level_size(1), odd.across(2)), (2, 512, 500, 2), "cut-short edge tiles otherwise");
         assert_eq!(Tiles::new("t".into(), 300, 512, 64).levels, 1);
@@ -771,7 +798,14 @@ mod tests {
             assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
         });
         g.bar_order = vec![2, 0, 1];
-        g.coverage = Some(Coverage { samples: 1000, reachable_area: 10.0, covered_area: 9.9, ceiling: None, per_group: vec![], curve: vec![(1, 0.5), (3, 0.99)] });
+        g.coverage = Some(Coverage {
+            samples: 1000,
+            reachable_area: 10.0,
+            covered_area: 9.9,
+            ceiling: None,
+            per_group: vec![],
+            curve: vec![(1, 0.5), (3, 0.99)],
+        });
         g.stats.insert("explore".into(), serde_json::json!({ "seconds": 1.5 }));
         g
     }

@@ -124,7 +124,18 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
     let mut out = Writer::default();
     out.bytes.extend_from_slice(MAGIC);
     out.bytes.push(VERSION);
-    for n in [code.triangle_count, code.vertex_count, code.symbols.len() as u32, code.merges.len() as u32, code.start_loops.len() as u32, copy_models(code.copies.len() as u32) as u32, code.copies.len() as u32, group_count, has_colours as u32, bits] {
+    for n in [
+        code.triangle_count,
+        code.vertex_count,
+        code.symbols.len() as u32,
+        code.merges.len() as u32,
+        code.start_loops.len() as u32,
+        copy_models(code.copies.len() as u32) as u32,
+        code.copies.len() as u32,
+        group_count,
+        has_colours as u32,
+        bits,
+    ] {
         out.varint(n as u64);
     }
     for x in lo.iter().chain(&hi) {
@@ -179,7 +190,14 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let starts = if version > 1 { count()? } else { 0 };
     let (dummy_starts, loop_count) = if version >= 4 { (0, starts) } else { (starts, 0) };
     let [dummy_count, copy_count, group_count, has_colours, bits] = [count()?, count()?, count()?, count()?, count()?];
-    if triangle_count > edgebreaker::MAX_TRIANGLES || symbol_count > triangle_count || [merge_count, starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count) || vertex_count > triangle_count.saturating_mul(3) || !(1..=24).contains(&bits) || has_colours > 1 || group_count == 0 {
+    if triangle_count > edgebreaker::MAX_TRIANGLES
+        || symbol_count > triangle_count
+        || [merge_count, starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count)
+        || vertex_count > triangle_count.saturating_mul(3)
+        || !(1..=24).contains(&bits)
+        || has_colours > 1
+        || group_count == 0
+    {
         return Err(corrupt("counts out of range"));
     }
     let mut lo = [0f32; 3];
@@ -214,7 +232,8 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     };
     let triangles = decoded.resolve();
     let mut source = Source::new(&mut input, 3)?;
-    let quantized = decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
+    let quantized =
+        decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
     // (In place: a grid point and a position take the same room.)
     let positions: Vec<[f32; 3]> = quantized.into_iter().map(|q| grid.dequantize(q)).collect();
 
@@ -269,7 +288,11 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
 /// third of the time: on the Dabrovic Sponza's 664-triangle level, 341
 /// copies under adaptive models took 11 µs of its 38.
 fn copy_models(copies: u32) -> usize {
-    if copies < 64 { 0 } else { 3 }
+    if copies < 64 {
+        0
+    } else {
+        3
+    }
 }
 
 /// The connectivity section of versions 5 and 6 (see [`read_connectivity`]).
@@ -321,21 +344,32 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
 /// their originals), under adaptive models but for 64 copies or more (see
 /// [`copy_models`]).
 #[allow(clippy::too_many_arguments)]
-fn read_connectivity(input: &mut Reader, version: u8, symbol_count: u32, triangle_count: u32, vertex_count: u32, loop_count: u32, merge_count: u32, copy_count: u32) -> Result<Decoded, CodingError> {
+fn read_connectivity(
+    input: &mut Reader,
+    version: u8,
+    symbol_count: u32,
+    triangle_count: u32,
+    vertex_count: u32,
+    loop_count: u32,
+    merge_count: u32,
+    copy_count: u32,
+) -> Result<Decoded, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let fixed = copy_models(copy_count);
     let source = Source::new(input, fixed)?;
     let models = ConnectivityModels::new(version);
     // (A rebuild for each version: a version test at each symbol cost 2-4 %.)
     let counts = (symbol_count, triangle_count, vertex_count, loop_count, merge_count);
-    let ((mut decoded, dummies), mut source, mut models) = if version >= 6 { rebuild_stream::<6>(source, models, counts)? } else { rebuild_stream::<5>(source, models, counts)? };
+    let ((mut decoded, dummies), mut source, mut models) =
+        if version >= 6 { rebuild_stream::<6>(source, models, counts)? } else { rebuild_stream::<5>(source, models, counts)? };
     let mut copies = Vec::with_capacity((copy_count as usize).min(input.bytes.len()));
     let (mut last, mut distance) = (0u32, 0u32);
     for _ in 0..copy_count {
         let gap = if fixed == 0 { source.adaptive_value(&mut models.copy_gap)? } else { source.value(0)? };
         last = last.checked_add(gap).ok_or_else(|| corrupt("copy index"))?;
         let run = gap == 1;
-        let coded = if fixed == 0 { source.adaptive_value(&mut models.copy_distance[usize::from(run)])? } else { source.value(1 + usize::from(run))? };
+        let coded =
+            if fixed == 0 { source.adaptive_value(&mut models.copy_distance[usize::from(run)])? } else { source.value(1 + usize::from(run))? };
         let d = if run { u32::try_from(distance as i64 + unzigzag(coded)).ok() } else { Some(coded) };
         distance = d.ok_or_else(|| corrupt("copy distance"))?;
         let original = last.checked_sub(distance).ok_or_else(|| corrupt("copy original"))?;
@@ -351,7 +385,11 @@ type Rebuilt<'a> = ((Decoded, Vec<u32>), Source<'a>, ConnectivityModels);
 
 /// Rebuilds from a version 5 or 6 stream of `counts` (symbols, triangles,
 /// vertices, start loops, merge records).
-fn rebuild_stream<const VERSION: u8>(source: Source<'_>, models: ConnectivityModels, counts: (u32, u32, u32, u32, u32)) -> Result<Rebuilt<'_>, CodingError> {
+fn rebuild_stream<const VERSION: u8>(
+    source: Source<'_>,
+    models: ConnectivityModels,
+    counts: (u32, u32, u32, u32, u32),
+) -> Result<Rebuilt<'_>, CodingError> {
     let (symbol_count, triangle_count, vertex_count, loop_count, merge_count) = counts;
     let mut stream = Stream::<VERSION> { source, models, previous: None, loops: loop_count, merges: merge_count };
     let rebuilt = edgebreaker::rebuild(&mut stream, symbol_count as usize, triangle_count, vertex_count, 0)?;
@@ -410,7 +448,16 @@ impl<const VERSION: u8> edgebreaker::Walk for Stream<'_, VERSION> {
 /// The connectivity section of versions 1 to 4: the symbols under static
 /// models, one per previous symbol, then the records' numbers under one more.
 #[allow(clippy::too_many_arguments)]
-fn read_static_connectivity(input: &mut Reader, code: &mut Connectivity, version: u8, symbol_count: u32, loop_count: u32, merge_count: u32, dummy_count: u32, copy_count: u32) -> Result<(), CodingError> {
+fn read_static_connectivity(
+    input: &mut Reader,
+    code: &mut Connectivity,
+    version: u8,
+    symbol_count: u32,
+    loop_count: u32,
+    merge_count: u32,
+    dummy_count: u32,
+    copy_count: u32,
+) -> Result<(), CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     // Versions before 4 have no D, so a model fewer.
     let symbols = if version >= 4 { edgebreaker::SYMBOLS } else { edgebreaker::D as usize };
@@ -579,14 +626,23 @@ fn encode_predicted(sink: &mut Sink, decoded: &Decoded, values: &[[u32; 3]], max
 
 /// The inverse of `encode_predicted`: a triple per kept vertex;
 /// `value(predicted, coded)` is None when out of range.
-fn decode_predicted(source: &mut Source, decoded: &Decoded, max: u32, first: [u32; 3], value: impl Fn(u32, u32) -> Option<u32>) -> Result<Vec<[u32; 3]>, CodingError> {
+fn decode_predicted(
+    source: &mut Source,
+    decoded: &Decoded,
+    max: u32,
+    first: [u32; 3],
+    value: impl Fn(u32, u32) -> Option<u32>,
+) -> Result<Vec<[u32; 3]>, CodingError> {
     let mut values = vec![[0u32; 3]; decoded.kept_vertices as usize];
     let mut previous = first;
     for (v, k) in coded_vertices(&decoded.keep) {
         let predicted = predict(&decoded.predictors[v], &decoded.keep, &values, previous, max);
         let mut decoded = [0; 3];
         for i in 0..3 {
-            decoded[i] = source.try_value(i).and_then(|r| value(predicted[i], r)).ok_or_else(|| CodingError::Corrupt("value out of range, over 32 bits or past the raw bits".into()))?;
+            decoded[i] = source
+                .try_value(i)
+                .and_then(|r| value(predicted[i], r))
+                .ok_or_else(|| CodingError::Corrupt("value out of range, over 32 bits or past the raw bits".into()))?;
         }
         values[k as usize] = decoded;
         previous = decoded;
@@ -679,7 +735,10 @@ impl Writer {
                 self.varint(p as u64);
             }
         }
-        let models: Vec<_> = tables.iter().map(|t| SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(t, false).expect("probabilities sum to one")).collect();
+        let models: Vec<_> = tables
+            .iter()
+            .map(|t| SmallContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(t, false).expect("probabilities sum to one"))
+            .collect();
         // ANS is a stack: symbols go in backwards so they come out forwards.
         let mut coder = DefaultAnsCoder::new();
         for &coded in sink.symbols.iter().rev() {
@@ -898,7 +957,8 @@ pub(crate) fn framed<'a>(bytes: &'a [u8], magic: &[u8; 4], versions: RangeInclus
         return corrupt(format!("not a {what} (no {} header)", String::from_utf8_lossy(magic)));
     }
     if !versions.contains(&bytes[4]) {
-        let known = if versions.start() == versions.end() { format!("{}", versions.start()) } else { format!("{} to {}", versions.start(), versions.end()) };
+        let known =
+            if versions.start() == versions.end() { format!("{}", versions.start()) } else { format!("{} to {}", versions.start(), versions.end()) };
         return corrupt(format!("{what} version {} (this reader knows {known})", bytes[4]));
     }
     let (body, crc) = bytes.split_at(bytes.len() - 4);
@@ -1074,7 +1134,8 @@ impl<'a> Source<'a> {
             n += self.bits(5).ok_or_else(|| CodingError::Corrupt("raw bits run out".into()))?;
         }
         let below = n.saturating_sub(1);
-        let low = (n <= 32).then(|| self.bits(below)).flatten().ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))?;
+        let low =
+            (n <= 32).then(|| self.bits(below)).flatten().ok_or_else(|| CodingError::Corrupt("value over 32 bits or raw bits run out".into()))?;
         Ok(if n == 0 { 0 } else { 1 << below | low })
     }
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CodingError> {
@@ -1146,7 +1207,10 @@ mod tests {
         let back = decode(&encoded.bytes).unwrap();
         let order = &encoded.order;
         assert_eq!(back.positions.len(), order.vertices.len());
-        let (lo, hi) = mesh.positions.iter().fold(([f32::MAX; 3], [f32::MIN; 3]), |(l, h), p| (std::array::from_fn(|i| l[i].min(p[i])), std::array::from_fn(|i| h[i].max(p[i]))));
+        let (lo, hi) = mesh
+            .positions
+            .iter()
+            .fold(([f32::MAX; 3], [f32::MIN; 3]), |(l, h), p| (std::array::from_fn(|i| l[i].min(p[i])), std::array::from_fn(|i| h[i].max(p[i]))));
         for (k, &v) in order.vertices.iter().enumerate() {
             for i in 0..3 {
                 let step = (hi[i] - lo[i]) / ((1u32 << bits) - 1) as f32;
@@ -1181,7 +1245,8 @@ mod tests {
     #[test]
     fn parallelograms_predict_a_regular_grid_exactly() {
         let n = 43;
-        let positions: Vec<[f32; 3]> = (0..(n + 1) * (n + 1)).map(|i| [(i % (n + 1)) as f32, 0.5 * (i / (n + 1)) as f32, 0.25 * (i % (n + 1)) as f32]).collect();
+        let positions: Vec<[f32; 3]> =
+            (0..(n + 1) * (n + 1)).map(|i| [(i % (n + 1)) as f32, 0.5 * (i / (n + 1)) as f32, 0.25 * (i % (n + 1)) as f32]).collect();
         let mesh = MeshData { positions, triangles: grid(n), ..MeshData::default() };
         check_round_trip(&mesh, 14);
         let (code, order) = edgebreaker::encode(&mesh.triangles, mesh.positions.len() as u32).unwrap();
@@ -1206,7 +1271,12 @@ mod tests {
             [(2.0 + b.cos()) * a.cos(), b.sin(), (2.0 + b.cos()) * a.sin()]
         });
         check_round_trip(&MeshData { positions: positions.collect(), triangles: tris, ..MeshData::default() }, 14);
-        let soup = MeshData { positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0; 3], [5.0, 6.0, 5.0], [6.0, 5.0, 5.0]], triangles: vec![[0, 1, 2], [3, 4, 5], [0, 2, 1]], groups: vec![0, 7, 2], colours: Vec::new() };
+        let soup = MeshData {
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0; 3], [5.0, 6.0, 5.0], [6.0, 5.0, 5.0]],
+            triangles: vec![[0, 1, 2], [3, 4, 5], [0, 2, 1]],
+            groups: vec![0, 7, 2],
+            colours: Vec::new(),
+        };
         check_round_trip(&soup, 14);
         let empty = MeshData::default();
         assert_eq!(decode(&encode(&empty, 14).unwrap().bytes).unwrap(), empty);
@@ -1336,11 +1406,16 @@ mod tests {
             // The same triangles (by their corners' positions, each rotated
             // to start at its least corner) with their groups, in any order.
             let set = |m: &MeshData| {
-                let mut out: Vec<([[u32; 3]; 3], u32)> = m.triangles.iter().zip(&m.groups).map(|(t, &g)| {
-                    let c = t.map(|v| m.positions[v as usize].map(f32::to_bits));
-                    let r = (0..3).min_by_key(|&i| c[i]).unwrap();
-                    ([c[r], c[(r + 1) % 3], c[(r + 2) % 3]], g)
-                }).collect();
+                let mut out: Vec<([[u32; 3]; 3], u32)> = m
+                    .triangles
+                    .iter()
+                    .zip(&m.groups)
+                    .map(|(t, &g)| {
+                        let c = t.map(|v| m.positions[v as usize].map(f32::to_bits));
+                        let r = (0..3).min_by_key(|&i| c[i]).unwrap();
+                        ([c[r], c[(r + 1) % 3], c[(r + 2) % 3]], g)
+                    })
+                    .collect();
                 out.sort_unstable();
                 out
             };
@@ -1355,7 +1430,10 @@ mod tests {
         // version 6 files mean (the priors applied, the contexts as laid
         // out); a change to either needs a new version.
         let four = decode(include_bytes!("../../fuzz/seeds/proxy/3.emmc")).unwrap();
-        assert!(encode(&four, 14).unwrap().bytes == include_bytes!("../../fuzz/seeds/proxy/6.emmc"), "version {VERSION} no longer writes what it wrote");
+        assert!(
+            encode(&four, 14).unwrap().bytes == include_bytes!("../../fuzz/seeds/proxy/6.emmc"),
+            "version {VERSION} no longer writes what it wrote"
+        );
     }
 
     /// Files that pass the checksum but lie: every field rewritten, the CRC
@@ -1403,4 +1481,3 @@ mod tests {
         }
     }
 }
-

@@ -69,7 +69,16 @@ pub enum Refinement {
     /// appears at `new_position`; in the triangles `moved`, the corners that
     /// are `vertex` become the new vertex (`moved` ascending); the triangles `added` (one group
     /// each in `groups`, a number per triangle) appear.
-    Split { vertex: u32, position: [f32; 3], new_position: [f32; 3], colour: [u8; 3], new_colour: [u8; 3], moved: Vec<u32>, added: Vec<[u32; 3]>, groups: Vec<u32> },
+    Split {
+        vertex: u32,
+        position: [f32; 3],
+        new_position: [f32; 3],
+        colour: [u8; 3],
+        new_colour: [u8; 3],
+        moved: Vec<u32>,
+        added: Vec<[u32; 3]>,
+        groups: Vec<u32>,
+    },
     /// A separate piece: vertices (with colours when the mesh has them) and
     /// triangles appended.
     Part { positions: Vec<[f32; 3]>, colours: Vec<[u8; 3]>, triangles: Vec<[u32; 3]>, groups: Vec<u32> },
@@ -120,7 +129,8 @@ impl Refiner {
         match r {
             Refinement::Split { vertex, position, new_position, colour, new_colour, moved, added, groups } => {
                 let v = *vertex as usize;
-                if *vertex >= n || !finite(position) || !finite(new_position) || groups.len() != added.len() || added.iter().flatten().any(|&c| c > n) {
+                if *vertex >= n || !finite(position) || !finite(new_position) || groups.len() != added.len() || added.iter().flatten().any(|&c| c > n)
+                {
                     return corrupt(format!("split {} does not fit the mesh", self.applied));
                 }
                 if moved.windows(2).any(|w| w[0] >= w[1]) || moved.iter().any(|t| self.incident[v].binary_search(t).is_err()) {
@@ -145,7 +155,12 @@ impl Refiner {
             }
             Refinement::Part { positions, colours, triangles, groups } => {
                 let total = n as usize + positions.len();
-                if positions.is_empty() || !positions.iter().all(finite) || (self.colours && colours.len() != positions.len()) || groups.len() != triangles.len() || triangles.iter().flatten().any(|&c| c as usize >= total) {
+                if positions.is_empty()
+                    || !positions.iter().all(finite)
+                    || (self.colours && colours.len() != positions.len())
+                    || groups.len() != triangles.len()
+                    || triangles.iter().flatten().any(|&c| c as usize >= total)
+                {
                     return corrupt(format!("part {} does not fit the mesh", self.applied));
                 }
                 self.mesh.positions.extend(positions);
@@ -183,7 +198,16 @@ impl Refiner {
         if first != self.applied || vertices_before != n || triangles_before != t {
             return corrupt(format!("vertex-split packet starts at refinement {first} ({vertices_before} vertices), but the mesh has {} refinements ({n} vertices): packets out of order", self.applied));
         }
-        if vertices_after > MAX_VERTICES || triangles_after > MAX_TRIANGLES as u64 || vertices_after < n || triangles_after < t || count > vertices_after - n || !(1..=24).contains(&bits) || group_count == 0 || group_count > 1 << 24 || has_colours != self.colours as u64 {
+        if vertices_after > MAX_VERTICES
+            || triangles_after > MAX_TRIANGLES as u64
+            || vertices_after < n
+            || triangles_after < t
+            || count > vertices_after - n
+            || !(1..=24).contains(&bits)
+            || group_count == 0
+            || group_count > 1 << 24
+            || has_colours != self.colours as u64
+        {
             return corrupt("vertex-split packet counts out of range");
         }
         let mut box_ = [0f32; 6];
@@ -207,7 +231,15 @@ impl Refiner {
     }
 
     /// Reads one refinement from the section (the inverse of `write`).
-    fn read(&self, src: &mut Source, grid: &Grid, group_count: u32, group_bits: u32, max_vertices: u64, max_triangles: u64) -> Result<Refinement, CodingError> {
+    fn read(
+        &self,
+        src: &mut Source,
+        grid: &Grid,
+        group_count: u32,
+        group_bits: u32,
+        max_vertices: u64,
+        max_triangles: u64,
+    ) -> Result<Refinement, CodingError> {
         let n = self.mesh.positions.len() as u32;
         let max = grid.max as i64;
         let axis = |x: i64| if (0..=max).contains(&x) { Ok(x as u32) } else { corrupt("position off the grid") };
@@ -606,13 +638,28 @@ pub fn encode(base: &MeshData, refinements: &[Refinement], bits: u32, packet_tri
             let r = match &rest[taken] {
                 Refinement::Split { vertex, position, new_position, colour, new_colour, moved, added, groups } => {
                     // Returning triangles turned to start at the vertex (the same triangles).
-                    let added = added.iter().map(|&t| t.iter().position(|&c| c == *vertex).map_or(t, |i| [t[i], t[(i + 1) % 3], t[(i + 2) % 3]])).collect();
+                    let added =
+                        added.iter().map(|&t| t.iter().position(|&c| c == *vertex).map_or(t, |i| [t[i], t[(i + 1) % 3], t[(i + 2) % 3]])).collect();
                     // Moved triangles ascending, as the decoder finds them.
                     let mut moved = moved.clone();
                     moved.sort_unstable();
-                    Refinement::Split { vertex: *vertex, position: on_grid(*position), new_position: on_grid(*new_position), colour: *colour, new_colour: *new_colour, moved, added, groups: groups.clone() }
+                    Refinement::Split {
+                        vertex: *vertex,
+                        position: on_grid(*position),
+                        new_position: on_grid(*new_position),
+                        colour: *colour,
+                        new_colour: *new_colour,
+                        moved,
+                        added,
+                        groups: groups.clone(),
+                    }
                 }
-                Refinement::Part { positions, colours, triangles, groups } => Refinement::Part { positions: positions.iter().map(|&p| on_grid(p)).collect(), colours: colours.clone(), triangles: triangles.clone(), groups: groups.clone() },
+                Refinement::Part { positions, colours, triangles, groups } => Refinement::Part {
+                    positions: positions.iter().map(|&p| on_grid(p)).collect(),
+                    colours: colours.clone(),
+                    triangles: triangles.clone(),
+                    groups: groups.clone(),
+                },
             };
             state.write(&mut sink, &r, &grid, group_count, group_bits)?;
             state.apply(&r).map_err(|e| CodingError::Input(e.to_string()))?;

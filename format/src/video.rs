@@ -265,7 +265,10 @@ mod tests {
             boxed(b"moov", 16, &boxed(b"free", 0, &[])),
             boxed(b"moov", 8, &[]).into_iter().chain(boxed(b"free", 4, &[])).collect(),
             boxed(b"ftyp", 0, b"isom"),
-            boxed(b"moov", 40, &boxed(b"trak", 32, &boxed(b"mdia", 24, &boxed(b"minf", 16, &boxed(b"stbl", 8, &[]))))).into_iter().chain(boxed(b"mdat", 99, &[])).collect(),
+            boxed(b"moov", 40, &boxed(b"trak", 32, &boxed(b"mdia", 24, &boxed(b"minf", 16, &boxed(b"stbl", 8, &[])))))
+                .into_iter()
+                .chain(boxed(b"mdat", 99, &[]))
+                .collect(),
         ];
         for (i, bytes) in files.into_iter().enumerate() {
             match Mp4Decoder::new(bytes) {

@@ -306,7 +306,13 @@ fn suite() -> Scene {
 /// a naive exporter writes them.
 fn block_city() -> Scene {
     let (mut m, mat) = start("block_city");
-    let lot_level = |lx: i32, lz: i32| -> i32 { if lz <= 1 && lx >= 2 { lx - 1 + lz } else { 0 } };
+    let lot_level = |lx: i32, lz: i32| -> i32 {
+        if lz <= 1 && lx >= 2 {
+            lx - 1 + lz
+        } else {
+            0
+        }
+    };
     m.begin_object("ground");
     m.set_material(mat[1]);
     for x in 0..64 {

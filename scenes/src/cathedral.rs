@@ -103,7 +103,11 @@ pub fn cathedral(seed: u64) -> Scene {
         let rect = |x0: f32, x1: f32, z0: f32, z1: f32| [x0, z0, x1, z1];
         if side > 0.0 {
             let well = (-12.0, -4.4, STAIR_Z.0, STAIR_Z.1 + 0.1);
-            m.slabs(&[rect(-inner_x, well.0, za, zb), rect(well.1, inner_x, za, zb), rect(well.0, well.1, za, well.2), rect(well.0, well.1, well.3, zb)], AISLE_TOP, GALLERY);
+            m.slabs(
+                &[rect(-inner_x, well.0, za, zb), rect(well.1, inner_x, za, zb), rect(well.0, well.1, za, well.2), rect(well.0, well.1, well.3, zb)],
+                AISLE_TOP,
+                GALLERY,
+            );
             // Railing round the well's open sides.
             m.cuboid(Vec3::new(well.0, GALLERY, well.2 - 0.06), Vec3::new(well.1, GALLERY + 1.0, well.2));
             m.cuboid(Vec3::new(well.0 - 0.06, GALLERY, well.2), Vec3::new(well.0, GALLERY + 1.0, well.3));
@@ -160,7 +164,8 @@ pub fn cathedral(seed: u64) -> Scene {
     // Hanging lamps down the nave and in the aisles; the sun from the south-west.
     m.begin_object("lamps");
     m.set_material(lamp);
-    for (x, y, z) in [(-10.0, 12.0, 0.0), (0.0, 12.0, 0.0), (10.0, 12.0, 0.0), (-5.0, 7.5, 7.6), (5.0, 7.5, 7.6), (-5.0, 7.5, -7.6), (5.0, 7.5, -7.6)] {
+    for (x, y, z) in [(-10.0, 12.0, 0.0), (0.0, 12.0, 0.0), (10.0, 12.0, 0.0), (-5.0, 7.5, 7.6), (5.0, 7.5, 7.6), (-5.0, 7.5, -7.6), (5.0, 7.5, -7.6)]
+    {
         m.cuboid(Vec3::new(x - 0.3, y, z - 0.3), Vec3::new(x + 0.3, y + 0.2, z + 0.3));
         m.add_light(Light::Point { position: Vec3::new(x, y - 0.3, z), intensity: Vec3::splat(if y > 10.0 { 400.0 } else { 120.0 }) });
     }

@@ -61,10 +61,7 @@ impl GalleryMaterials {
         let tex_bricks = m.add_texture(textures::bricks(seed as u32));
         let tex_wood = m.add_texture(textures::planks(seed as u32));
         let tex_plaster = m.add_texture(textures::plaster([0.92, 0.88, 0.8], seed as u32));
-        let textured = |name: &str, texture: usize, tint: [f32; 3]| Material {
-            base_color_texture: Some(texture),
-            ..Material::diffuse(name, tint)
-        };
+        let textured = |name: &str, texture: usize, tint: [f32; 3]| Material { base_color_texture: Some(texture), ..Material::diffuse(name, tint) };
         GalleryMaterials {
             floor: m.add_material(textured("floor_marble", tex_floor, [1.0; 3])),
             wall: m.add_material(textured("wall_plaster", tex_plaster, [1.0; 3])),
@@ -187,7 +184,5 @@ pub(crate) fn statue(m: &mut MeshBuilder, rng: &mut Pcg64Mcg, centre: Vec3) {
             (d.normalize_or(Vec3::Y), rng.random_range(0.1..0.45))
         })
         .collect();
-    m.blob(centre, Vec3::new(0.35, 0.9, 0.35), STATUE_LEVELS, |d| {
-        1.0 + lobes.iter().map(|&(c, a)| a * d.dot(c).max(0.0).powi(6)).sum::<f32>()
-    });
+    m.blob(centre, Vec3::new(0.35, 0.9, 0.35), STATUE_LEVELS, |d| 1.0 + lobes.iter().map(|&(c, a)| a * d.dot(c).max(0.0).powi(6)).sum::<f32>());
 }

@@ -43,7 +43,11 @@ pub fn island(seed: u64) -> Scene {
     let hills: Vec<(f32, f32, f32, f32)> = (0..6)
         .map(|_| (rng.random_range(-45.0..45.0), rng.random_range(-45.0..45.0), rng.random_range(8.0..17.0), rng.random_range(10.0..16.0)))
         .collect();
-    let sites: Vec<(f32, f32, f32)> = HOUSES.iter().map(|&(x, z)| (x, z, 9.0)).chain([(TUNNEL.0, TUNNEL.1, 12.0), (RIVER_X - 7.0, BRIDGE_Z, 4.0), (RIVER_X + 7.0, BRIDGE_Z, 4.0)]).collect();
+    let sites: Vec<(f32, f32, f32)> = HOUSES
+        .iter()
+        .map(|&(x, z)| (x, z, 9.0))
+        .chain([(TUNNEL.0, TUNNEL.1, 12.0), (RIVER_X - 7.0, BRIDGE_Z, 4.0), (RIVER_X + 7.0, BRIDGE_Z, 4.0)])
+        .collect();
     let natural = |x: f32, z: f32| {
         let r = (x * x + z * z).sqrt();
         let shore = 2.0 - 5.0 * smoothstep(RADIUS - 12.0, RADIUS + 4.0, r);

@@ -25,10 +25,18 @@ pub fn maze(seed: u64, cells: usize) -> Scene {
     visited[0][0] = true;
     while let Some(&(i, j)) = stack.last() {
         let mut next = Vec::new();
-        if i > 0 && !visited[i - 1][j] { next.push((i - 1, j)); }
-        if i + 1 < n && !visited[i + 1][j] { next.push((i + 1, j)); }
-        if j > 0 && !visited[i][j - 1] { next.push((i, j - 1)); }
-        if j + 1 < n && !visited[i][j + 1] { next.push((i, j + 1)); }
+        if i > 0 && !visited[i - 1][j] {
+            next.push((i - 1, j));
+        }
+        if i + 1 < n && !visited[i + 1][j] {
+            next.push((i + 1, j));
+        }
+        if j > 0 && !visited[i][j - 1] {
+            next.push((i, j - 1));
+        }
+        if j + 1 < n && !visited[i][j + 1] {
+            next.push((i, j + 1));
+        }
         if next.is_empty() {
             stack.pop();
             continue;

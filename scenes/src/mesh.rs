@@ -25,12 +25,7 @@ pub struct MeshBuilder {
 
 impl MeshBuilder {
     pub fn new(name: &str) -> MeshBuilder {
-        MeshBuilder {
-            scene: Scene::empty(name),
-            material: 0,
-            object: 0,
-            tile_m: 2.0,
-        }
+        MeshBuilder { scene: Scene::empty(name), material: 0, object: 0, tile_m: 2.0 }
     }
 
     pub fn add_texture(&mut self, texture: Texture) -> usize {
@@ -78,7 +73,13 @@ impl MeshBuilder {
         let [a, b, c, d] = corners;
         let normal = (b - a).cross(c - a).normalize_or_zero();
         // Planar mapping on the two axes the normal is least aligned with.
-        let (u_axis, v_axis) = if normal.y.abs() > 0.5 { (Vec3::X, Vec3::Z) } else if normal.x.abs() > 0.5 { (Vec3::Z, Vec3::Y) } else { (Vec3::X, Vec3::Y) };
+        let (u_axis, v_axis) = if normal.y.abs() > 0.5 {
+            (Vec3::X, Vec3::Z)
+        } else if normal.x.abs() > 0.5 {
+            (Vec3::Z, Vec3::Y)
+        } else {
+            (Vec3::X, Vec3::Y)
+        };
         let uv = |p: Vec3| Vec2::new(p.dot(u_axis), p.dot(v_axis)) / self.tile_m;
         let (ua, ub, uc, ud) = (uv(a), uv(b), uv(c), uv(d));
         let i = [self.vertex(a, normal, ua), self.vertex(b, normal, ub), self.vertex(c, normal, uc), self.vertex(d, normal, ud)];
@@ -156,7 +157,11 @@ impl MeshBuilder {
             }
             for k in 1..profile.len() as u32 - 1 {
                 // Counter-clockwise seen from +axis for that cap, reversed for the other.
-                if t == t1 { self.triangle([first, first + k, first + k + 1]) } else { self.triangle([first, first + k + 1, first + k]) }
+                if t == t1 {
+                    self.triangle([first, first + k, first + k + 1])
+                } else {
+                    self.triangle([first, first + k + 1, first + k])
+                }
             }
         }
     }

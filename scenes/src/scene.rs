@@ -41,7 +41,9 @@ impl Aabb {
 pub enum AlphaMode {
     Opaque,
     /// Cut-out: texels with alpha below the cutoff are holes (foliage, fences).
-    Mask { cutoff: f32 },
+    Mask {
+        cutoff: f32,
+    },
     /// Partly transparent.
     Blend,
 }

@@ -24,35 +24,14 @@ pub fn sunroom() -> Scene {
     m.set_material(white);
     m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
     m.wall(true, 0.0, 0.0, w, 0.0, h, t, &[]);
-    m.wall_with_openings(
-        true,
-        d,
-        0.0,
-        w,
-        0.0,
-        h,
-        t,
-        &[Opening {
-            centre: 0.5 * w,
-            width: 1.6,
-            sill: 0.9,
-            head: 2.3,
-        }],
-    );
+    m.wall_with_openings(true, d, 0.0, w, 0.0, h, t, &[Opening { centre: 0.5 * w, width: 1.6, sill: 0.9, head: 2.3 }]);
     m.wall(false, 0.0, 0.0, d, 0.0, h, t, &[]);
     m.wall(false, w, 0.0, d, 0.0, h, t, &[]);
     m.begin_object("block");
     m.cuboid(Vec3::new(2.2, 0.0, 1.4), Vec3::new(3.0, 0.8, 2.2));
     // From the south-south-east, 40° up: through the window onto the floor.
     let (elevation, azimuth) = (40f32.to_radians(), 20f32.to_radians());
-    let direction = Vec3::new(
-        azimuth.sin() * elevation.cos(),
-        elevation.sin(),
-        azimuth.cos() * elevation.cos(),
-    );
-    m.add_light(Light::Sun {
-        direction,
-        irradiance: Vec3::new(3.4, 3.2, 2.9),
-    });
+    let direction = Vec3::new(azimuth.sin() * elevation.cos(), elevation.sin(), azimuth.cos() * elevation.cos());
+    m.add_light(Light::Sun { direction, irradiance: Vec3::new(3.4, 3.2, 2.9) });
     m.finish()
 }

@@ -6,10 +6,10 @@
 
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
 use crate::navigation::{direction, Navigator, State};
-use exploremaps_format::timing::ease;
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
+use exploremaps_format::timing::ease;
 use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
@@ -28,7 +28,12 @@ impl Gpu {
     /// texture sizes, and an sRGB view of whatever format the surface offers
     /// (WebGPU canvases offer only non-sRGB ones). Returns the configuration
     /// (its view format is the `Gpu`'s), or what failed.
-    pub async fn open(adapter: &wgpu::Adapter, surface: &wgpu::Surface<'_>, width: u32, height: u32) -> Result<(Gpu, wgpu::SurfaceConfiguration), String> {
+    pub async fn open(
+        adapter: &wgpu::Adapter,
+        surface: &wgpu::Surface<'_>,
+        width: u32,
+        height: u32,
+    ) -> Result<(Gpu, wgpu::SurfaceConfiguration), String> {
         let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
         let desc = wgpu::DeviceDescriptor { label: Some("viewer"), required_limits: limits, ..Default::default() };
         let (device, queue) = adapter.request_device(&desc).await.map_err(|e| format!("no GPU device: {e}"))?;
@@ -75,22 +80,50 @@ impl Pano {
 
 /// What a platform hands back from loading.
 pub enum Loaded {
-    Pano { probe: u32, pano: Pano },
+    Pano {
+        probe: u32,
+        pano: Pano,
+    },
     /// A tile of the level of face `size` of a probe's tile pyramid, for
     /// cube slot `slot` ([`TILE_SLOTS`]) at (x, y).
-    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, pixels: TilePixels },
+    Tile {
+        probe: u32,
+        size: u32,
+        slot: usize,
+        x: u32,
+        y: u32,
+        pixels: TilePixels,
+    },
     /// The thumbnail is in the overlay's layer `probe`.
-    Thumbnail { probe: u32 },
+    Thumbnail {
+        probe: u32,
+    },
     /// A part (chunk) of a proxy level decoded, with its point-to-go table
     /// (empty without one).
-    Proxy { level: usize, part: usize, mesh: MeshData, seen: Vec<u32> },
+    Proxy {
+        level: usize,
+        part: usize,
+        mesh: MeshData,
+        seen: Vec<u32>,
+    },
     /// The proxy as refined by the vertex splits so far: `level` is the
     /// stream's coarse level until its last packet, then its fine one.
-    Refined { level: usize, mesh: MeshData, seen: Vec<u32> },
+    Refined {
+        level: usize,
+        mesh: MeshData,
+        seen: Vec<u32>,
+    },
     /// A probe's point-to-go depth cube.
-    DepthMap { probe: u32, map: DepthMap },
+    DepthMap {
+        probe: u32,
+        map: DepthMap,
+    },
     /// `what` names the asset (its file), `error` what went wrong.
-    Failed { what: String, error: String, probe: Option<u32> },
+    Failed {
+        what: String,
+        error: String,
+        probe: Option<u32>,
+    },
 }
 
 /// Loading and playback, done by the platform (files and threads natively,
@@ -130,9 +163,21 @@ pub trait Platform {
 /// Input, in physical pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Input {
-    PointerDown { id: u64, x: f32, y: f32 },
-    PointerMove { id: u64, x: f32, y: f32 },
-    PointerUp { id: u64, x: f32, y: f32 },
+    PointerDown {
+        id: u64,
+        x: f32,
+        y: f32,
+    },
+    PointerMove {
+        id: u64,
+        x: f32,
+        y: f32,
+    },
+    PointerUp {
+        id: u64,
+        x: f32,
+        y: f32,
+    },
     /// Wheel steps, positive away from the user (zoom in).
     Wheel(f32),
     Key(Key),
@@ -208,7 +253,10 @@ enum Gesture {
     /// One finger moved by (dx, dy) pixels.
     Drag(f32, f32),
     /// Two fingers: their spread's ratio (before / after) and the pan of their midpoint.
-    Pinch { spread: f32, pan: (f32, f32) },
+    Pinch {
+        spread: f32,
+        pan: (f32, f32),
+    },
     Tap(f32, f32),
     /// The end of a drag or pinch.
     Release,
@@ -453,7 +501,8 @@ impl App {
     /// `max_face`, else the smallest the device can take (better a large
     /// texture than no panorama).
     fn levels(&self, probe: u32) -> Vec<u32> {
-        let mut sizes: Vec<u32> = self.nav.graph().probes[probe as usize].assets.cube_levels.iter().map(|l| l.size).filter(|&s| s <= self.device_face).collect();
+        let mut sizes: Vec<u32> =
+            self.nav.graph().probes[probe as usize].assets.cube_levels.iter().map(|l| l.size).filter(|&s| s <= self.device_face).collect();
         sizes.sort_unstable();
         let fitting = sizes.iter().take_while(|&&s| s <= self.max_face).count();
         sizes.truncate(fitting.max(1));
@@ -835,7 +884,11 @@ impl App {
 
     /// The camera the panorama view is seen from.
     fn panorama_camera(&self) -> Camera {
-        Camera { eye: Vec3::from(self.nav.camera_position()), forward: Vec3::from(direction(self.nav.view.yaw, self.nav.view.pitch)), fov_y: self.nav.view.fov_y }
+        Camera {
+            eye: Vec3::from(self.nav.camera_position()),
+            forward: Vec3::from(direction(self.nav.view.yaw, self.nav.view.pitch)),
+            fov_y: self.nav.view.fov_y,
+        }
     }
 
     /// Into the dollhouse, rising out of the probe; or, from it, down into
@@ -1187,7 +1240,13 @@ impl App {
                     .probes
                     .iter()
                     .filter(|p| p.position[1] - 0.5 * self.floors.eye <= cut)
-                    .filter_map(|p| Some((p.id, c.project(Vec3::from(p.position), self.width, self.height)?, self.hidden.get(p.id as usize).copied().unwrap_or(false))))
+                    .filter_map(|p| {
+                        Some((
+                            p.id,
+                            c.project(Vec3::from(p.position), self.width, self.height)?,
+                            self.hidden.get(p.id as usize).copied().unwrap_or(false),
+                        ))
+                    })
                     .collect(),
             },
             floors: self.floors.heights.len(),
@@ -1258,7 +1317,11 @@ impl App {
             },
             (State::Travelling { .. }, None) => {
                 let there = self.nav.destination().and_then(source_of);
-                if progress >= 0.5 { there.or(here) } else { here }
+                if progress >= 0.5 {
+                    there.or(here)
+                } else {
+                    here
+                }
             }
             (State::AtProbe { .. }, _) => here,
         };
@@ -1272,7 +1335,12 @@ impl App {
             let load = if camera.is_some() { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }) };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load, store: wgpu::StoreOp::Store } })],
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+                })],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -1284,12 +1352,29 @@ impl App {
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
             let rect = [frame.x0, frame.y0, frame.size];
-            self.dollhouse.draw_plan(&gpu.device, &gpu.queue, &mut encoder, target, self.width as u32, self.height as u32, rect, frame.centre, frame.scale, self.plan_cut(), mesh.lo.y);
+            self.dollhouse.draw_plan(
+                &gpu.device,
+                &gpu.queue,
+                &mut encoder,
+                target,
+                self.width as u32,
+                self.height as u32,
+                rect,
+                frame.centre,
+                frame.scale,
+                self.plan_cut(),
+                mesh.lo.y,
+            );
         }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("interface"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store } })],
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -1307,7 +1392,13 @@ impl App {
     /// Whether anything moves or loads, so the platform keeps drawing frames.
     pub fn animating(&self) -> bool {
         let loading_proxy = self.mode == Mode::Dollhouse && self.proxy.is_none() && !self.proxy_failed;
-        !matches!(self.nav.state, State::AtProbe { .. }) || self.touring || self.message_s > 0.0 || !self.panos.contains_key(&self.nav.probe()) || self.flight.is_some() || self.fade_in_s > 0.0 || loading_proxy
+        !matches!(self.nav.state, State::AtProbe { .. })
+            || self.touring
+            || self.message_s > 0.0
+            || !self.panos.contains_key(&self.nav.probe())
+            || self.flight.is_some()
+            || self.fade_in_s > 0.0
+            || loading_proxy
     }
 }
 

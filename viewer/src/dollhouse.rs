@@ -28,7 +28,8 @@ impl ProxyMesh {
     /// triangles one after the other. A part without colours is grey; one
     /// without a table has no probe for its triangles.
     pub fn from_parts(level: usize, parts: Vec<(MeshData, Vec<u32>)>) -> ProxyMesh {
-        let mut mesh = ProxyMesh { level, positions: Vec::new(), triangles: Vec::new(), colours: Vec::new(), seen: Vec::new(), lo: Vec3::ZERO, hi: Vec3::ZERO };
+        let mut mesh =
+            ProxyMesh { level, positions: Vec::new(), triangles: Vec::new(), colours: Vec::new(), seen: Vec::new(), lo: Vec3::ZERO, hi: Vec3::ZERO };
         for (data, seen) in parts {
             let base = mesh.positions.len() as u32;
             let n = data.positions.len();
@@ -116,7 +117,9 @@ impl ProxyMesh {
             (!hidden).then(|| (normal.dot(d).abs() / dist).max(0.05) / (dist * dist))
         };
         let seen = graph.probes.iter().filter_map(|p| Some((p.id, score(Vec3::from(p.position))?))).max_by(|x, y| x.1.total_cmp(&y.1));
-        seen.map(|(id, _)| id).or_else(|| graph.probes.iter().min_by(|x, y| Vec3::from(x.position).distance(point).total_cmp(&Vec3::from(y.position).distance(point))).map(|p| p.id))
+        seen.map(|(id, _)| id).or_else(|| {
+            graph.probes.iter().min_by(|x, y| Vec3::from(x.position).distance(point).total_cmp(&Vec3::from(y.position).distance(point))).map(|p| p.id)
+        })
     }
 }
 
@@ -125,7 +128,9 @@ impl ProxyMesh {
 pub fn decode_level(mesh_file: &str, mesh: &[u8], seen_file: Option<(&str, &[u8])>, probes: u32) -> Result<(MeshData, Vec<u32>), (String, String)> {
     let data = exploremaps_format::meshcode::decode(mesh).map_err(|e| (mesh_file.to_string(), e.to_string()))?;
     let seen = match seen_file {
-        Some((file, bytes)) => exploremaps_format::seen::decode(bytes, data.triangles.len(), probes).map_err(|e| (file.to_string(), e.to_string()))?,
+        Some((file, bytes)) => {
+            exploremaps_format::seen::decode(bytes, data.triangles.len(), probes).map_err(|e| (file.to_string(), e.to_string()))?
+        }
         None => Vec::new(),
     };
     Ok((data, seen))
@@ -182,10 +187,20 @@ impl Camera {
     pub fn view_proj(&self, aspect: f32, near: f32, far: f32) -> Mat4 {
         let (r, u) = self.basis();
         let b = -self.forward;
-        let view = Mat4::from_cols(Vec4::new(r.x, u.x, b.x, 0.0), Vec4::new(r.y, u.y, b.y, 0.0), Vec4::new(r.z, u.z, b.z, 0.0), Vec4::new(-r.dot(self.eye), -u.dot(self.eye), -b.dot(self.eye), 1.0));
+        let view = Mat4::from_cols(
+            Vec4::new(r.x, u.x, b.x, 0.0),
+            Vec4::new(r.y, u.y, b.y, 0.0),
+            Vec4::new(r.z, u.z, b.z, 0.0),
+            Vec4::new(-r.dot(self.eye), -u.dot(self.eye), -b.dot(self.eye), 1.0),
+        );
         let f = 1.0 / (0.5 * self.fov_y).tan();
         let depth = far / (near - far);
-        let proj = Mat4::from_cols(Vec4::new(f / aspect, 0.0, 0.0, 0.0), Vec4::new(0.0, f, 0.0, 0.0), Vec4::new(0.0, 0.0, depth, -1.0), Vec4::new(0.0, 0.0, near * depth, 0.0));
+        let proj = Mat4::from_cols(
+            Vec4::new(f / aspect, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, f, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, depth, -1.0),
+            Vec4::new(0.0, 0.0, near * depth, 0.0),
+        );
         proj * view
     }
 
@@ -242,7 +257,9 @@ impl Orbit {
         let tan_h = tan_v * aspect.max(0.1);
         orbit.distance = (0..8)
             .map(|i| {
-                let corner = Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }) - target;
+                let corner =
+                    Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z })
+                        - target;
                 let (x, y, z) = (corner.dot(right), corner.dot(up), corner.dot(forward));
                 (x.abs() / tan_h).max(y.abs() / tan_v) - z
             })
@@ -388,7 +405,8 @@ pub struct DollhousePass {
 
 impl DollhousePass {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> DollhousePass {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("dollhouse"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let shader =
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("dollhouse"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dollhouse"),
             entries: &[wgpu::BindGroupLayoutEntry {
@@ -398,7 +416,11 @@ impl DollhousePass {
                 count: None,
             }],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("dollhouse"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("dollhouse"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
         let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Unorm8x4];
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("dollhouse"),
@@ -433,7 +455,13 @@ impl DollhousePass {
             layout: Some(&pipeline_layout),
             vertex: wgpu::VertexState { module: &shader, entry_point: Some("vs_fill"), compilation_options: Default::default(), buffers: &[] },
             primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState { format: DEPTH, depth_write_enabled: Some(false), depth_compare: Some(wgpu::CompareFunction::Always), stencil: Default::default(), bias: Default::default() }),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &shader,
@@ -444,8 +472,21 @@ impl DollhousePass {
             multiview_mask: None,
             cache: None,
         });
-        let buffer = |label| device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: 96, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
-        let bind_group = |buffer: &wgpu::Buffer| device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("dollhouse"), layout: &layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }] });
+        let buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 96,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let bind_group = |buffer: &wgpu::Buffer| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("dollhouse"),
+                layout: &layout,
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() }],
+            })
+        };
         let (uniforms, plan_uniforms) = (buffer("dollhouse view"), buffer("floor plan view"));
         let (bind, plan_bind) = (bind_group(&uniforms), bind_group(&plan_uniforms));
         DollhousePass { pipeline, fill, uniforms, bind, plan_uniforms, plan_bind, mesh: None, depth: None }
@@ -492,7 +533,20 @@ impl DollhousePass {
     /// background: world (`centre`.x, `centre`.y as z) at the square's
     /// centre, `scale` pixels a scene unit, +X right and −Z up.
     #[allow(clippy::too_many_arguments)]
-    pub fn draw_plan(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, width: u32, height: u32, rect: [f32; 3], centre: [f32; 2], scale: f32, cut: f32, lo_y: f32) {
+    pub fn draw_plan(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        width: u32,
+        height: u32,
+        rect: [f32; 3],
+        centre: [f32; 2],
+        scale: f32,
+        cut: f32,
+        lo_y: f32,
+    ) {
         let [x, y, size] = rect;
         let (x0, y0) = (x.max(0.0).floor() as u32, y.max(0.0).floor() as u32);
         let (x1, y1) = (((x + size).ceil() as u32).min(width), ((y + size).ceil() as u32).min(height));
@@ -509,8 +563,17 @@ impl DollhousePass {
         let depth = self.depth_view(device, width, height);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("floor plan"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store } })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }), stencil_ops: None }),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
@@ -538,25 +601,63 @@ impl DollhousePass {
             return;
         }
         let buffer = |label, usage: wgpu::BufferUsages, bytes: &[u8]| {
-            let b = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: bytes.len() as u64, usage: usage | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+            let b = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.len() as u64,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
             queue.write_buffer(&b, 0, bytes);
             b
         };
-        self.mesh = Some((buffer("proxy vertices", wgpu::BufferUsages::VERTEX, &vertices), buffer("proxy indices", wgpu::BufferUsages::INDEX, &indices), 3 * mesh.triangles.len() as u32));
+        self.mesh = Some((
+            buffer("proxy vertices", wgpu::BufferUsages::VERTEX, &vertices),
+            buffer("proxy indices", wgpu::BufferUsages::INDEX, &indices),
+            3 * mesh.triangles.len() as u32,
+        ));
     }
 
     /// Clears `target` and draws the mesh seen by `camera`, hiding what is
     /// above `cut`. `extent` bounds the depth range (the mesh's diagonal).
     #[allow(clippy::too_many_arguments)]
-    pub fn draw(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, width: u32, height: u32, camera: &Camera, cut: f32, centre: Vec3, extent: f32) {
+    pub fn draw(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        width: u32,
+        height: u32,
+        camera: &Camera,
+        cut: f32,
+        centre: Vec3,
+        extent: f32,
+    ) {
         let depth = self.depth_view(device, width, height);
         let far = camera.eye.distance(centre) + extent;
         let near = (1e-3 * extent).max(far * 1e-5);
-        Self::write_uniforms(queue, &self.uniforms, camera.view_proj(width as f32 / height.max(1) as f32, near, far), cut, 1.0, false, PLAN_BACKGROUND);
+        Self::write_uniforms(
+            queue,
+            &self.uniforms,
+            camera.view_proj(width as f32 / height.max(1) as f32, near, far),
+            cut,
+            1.0,
+            false,
+            PLAN_BACKGROUND,
+        );
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("dollhouse"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(BACKGROUND), store: wgpu::StoreOp::Store } })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment { view: &depth, depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }), stencil_ops: None }),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(BACKGROUND), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,

@@ -4,11 +4,11 @@
 
 pub mod app;
 pub mod dollhouse;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod native;
 pub mod navigation;
 pub mod overlay;
 pub mod panorama;
 pub mod ui;
-#[cfg(not(target_arch = "wasm32"))]
-pub mod native;
 #[cfg(target_arch = "wasm32")]
 pub mod web;

@@ -6,7 +6,7 @@ use crate::navigation::Navigator;
 use crate::overlay::{OverlayPass, THUMB_H, THUMB_W};
 use crate::panorama::{Cube, VideoTexture};
 use crate::ui::Link;
-use exploremaps_format::{Graph, FormatError, GRAPH_FILE};
+use exploremaps_format::{FormatError, Graph, GRAPH_FILE};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
@@ -87,7 +87,13 @@ fn cube(root: &Path, probe: u32, size: u32, files: &[String; 6]) -> Decoded {
     for f in files {
         match decode(root, f) {
             Ok(img) if img.dimensions() == (size, size) => faces.push(img.into_raw()),
-            Ok(img) => return Decoded::Failed { what: f.clone(), error: format!("is {}×{}, but graph.json says {size}×{size}", img.width(), img.height()), probe: Some(probe) },
+            Ok(img) => {
+                return Decoded::Failed {
+                    what: f.clone(),
+                    error: format!("is {}×{}, but graph.json says {size}×{size}", img.width(), img.height()),
+                    probe: Some(probe),
+                }
+            }
             Err(e) => return Decoded::Failed { what: f.clone(), error: e, probe: Some(probe) },
         }
     }
@@ -131,7 +137,9 @@ fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
             Err(e) => failed(&file, format!("cannot be read ({e})"), None),
         },
         Job::Thumbnail { probe, file } => match decode(root, &file) {
-            Ok(img) => Decoded::Thumbnail { probe, rgba: image::imageops::resize(&img, THUMB_W, THUMB_H, image::imageops::FilterType::Triangle).into_raw() },
+            Ok(img) => {
+                Decoded::Thumbnail { probe, rgba: image::imageops::resize(&img, THUMB_W, THUMB_H, image::imageops::FilterType::Triangle).into_raw() }
+            }
             Err(e) => failed(&file, e, None),
         },
     };
@@ -140,7 +148,13 @@ fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
 
 /// Refines a proxy level by its vertex splits in this worker, sending the
 /// mesh after each packet; false once the viewer has gone.
-fn refine(root: &Path, stream: &exploremaps_format::ProxyStream, base: &exploremaps_format::ProxyLevel, probes: u32, results: &Sender<Decoded>) -> bool {
+fn refine(
+    root: &Path,
+    stream: &exploremaps_format::ProxyStream,
+    base: &exploremaps_format::ProxyLevel,
+    probes: u32,
+    results: &Sender<Decoded>,
+) -> bool {
     let read = |f: &str| std::fs::read(root.join(f)).map_err(|e| (f.to_string(), format!("cannot be read ({e})")));
     let started = read(&base.file).and_then(|b| {
         let seen = base.seen.as_deref().map(|f| read(f).map(|bytes| (f, bytes))).transpose()?;
@@ -645,7 +659,8 @@ pub fn run(bundle: &Path, options: ViewOptions) -> Result<(), ViewError> {
     }
     let event_loop = EventLoop::new().map_err(|e| ViewError::Window(format!("{e}; is a display available (DISPLAY or WAYLAND_DISPLAY)?")))?;
     event_loop.set_control_flow(ControlFlow::Wait);
-    let mut runner = Runner { bundle: bundle.to_path_buf(), graph: Some(graph), options, running: None, error: None, cursor: (0.0, 0.0), bench: Bench::default() };
+    let mut runner =
+        Runner { bundle: bundle.to_path_buf(), graph: Some(graph), options, running: None, error: None, cursor: (0.0, 0.0), bench: Bench::default() };
     event_loop.run_app(&mut runner).map_err(|e| ViewError::Window(e.to_string()))?;
     match runner.error {
         Some(e) => Err(e),

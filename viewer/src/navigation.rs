@@ -25,8 +25,8 @@ pub struct View {
     pub fov_y: f32,
 }
 
-pub use exploremaps_format::{direction, yaw_pitch};
 use exploremaps_format::timing::{ease, ArcLength};
+pub use exploremaps_format::{direction, yaw_pitch};
 
 /// Angle between two view directions, radians.
 fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
@@ -37,7 +37,11 @@ fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
 /// Wraps an angle into (−π, π].
 fn wrap(a: f32) -> f32 {
     let w = (a + PI).rem_euclid(TAU) - PI;
-    if w <= -PI { w + TAU } else { w }
+    if w <= -PI {
+        w + TAU
+    } else {
+        w
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,7 +88,8 @@ impl Navigator {
         if probe as usize >= graph.probes.len() {
             return Err(NavError::NoSuchProbe(probe));
         }
-        let mut nav = Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1, facing: None };
+        let mut nav =
+            Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1, facing: None };
         (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
         Ok(nav)
     }
@@ -104,7 +109,11 @@ impl Navigator {
 
     fn endpoints(&self, path: u32, reversed: bool) -> (u32, u32) {
         let p = &self.graph.paths[path as usize];
-        if reversed { (p.to, p.from) } else { (p.from, p.to) }
+        if reversed {
+            (p.to, p.from)
+        } else {
+            (p.from, p.to)
+        }
     }
 
     /// The direction to face on arriving at `probe`: its best preferred direction,
@@ -144,7 +153,12 @@ impl Navigator {
             .map(|p| {
                 let reversed = p.to == here;
                 let departure = p.travel_direction(reversed, false);
-                PathChoice { path: p.id, to: if reversed { p.from } else { p.to }, reversed, angle: angle_between((self.view.yaw, self.view.pitch), departure) }
+                PathChoice {
+                    path: p.id,
+                    to: if reversed { p.from } else { p.to },
+                    reversed,
+                    angle: angle_between((self.view.yaw, self.view.pitch), departure),
+                }
             })
             .collect();
         choices.sort_by(|a, b| a.angle.total_cmp(&b.angle).then(a.path.cmp(&b.path)));
@@ -312,7 +326,14 @@ pub(crate) mod tests {
         let positions = [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 0.0, -4.0], [2.0, 0.0, 4.0], [9.0, 0.0, 9.0]];
         for (i, p) in positions.iter().enumerate() {
             let preferred = if i == 2 { vec![ViewDirection { yaw: PI / 2.0, pitch: 0.0, goodness: 1.0 }] } else { vec![] };
-            g.probes.push(Probe { id: i as u32, position: *p, cluster: None, preferred_directions: preferred, user_placed: false, assets: Default::default() });
+            g.probes.push(Probe {
+                id: i as u32,
+                position: *p,
+                cluster: None,
+                preferred_directions: preferred,
+                user_placed: false,
+                assets: Default::default(),
+            });
         }
         let mut add = |from: u32, to: u32, polyline: Vec<[f32; 3]>| {
             let length = polyline.windows(2).map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt()).sum();

@@ -192,7 +192,12 @@ impl Tiled {
         let i = self.index(slot, x, y);
         self.arrived[i] = true;
         queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &self.mask, mip_level: 0, origin: wgpu::Origin3d { x, y, z: slot as u32 }, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.mask,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x, y, z: slot as u32 },
+                aspect: wgpu::TextureAspect::All,
+            },
             &[255],
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(1), rows_per_image: Some(1) },
             wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
@@ -202,7 +207,12 @@ impl Tiled {
     /// Writes RGBA8 pixels of a tile, `width` × `height`, at its place.
     pub fn write_tile(&mut self, queue: &wgpu::Queue, slot: usize, (x, y): (u32, u32), (width, height): (u32, u32), rgba: &[u8]) {
         queue.write_texture(
-            wgpu::TexelCopyTextureInfo { texture: &self.cube.texture, mip_level: 0, origin: wgpu::Origin3d { x: x * self.tile, y: y * self.tile, z: slot as u32 }, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.cube.texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: x * self.tile, y: y * self.tile, z: slot as u32 },
+                aspect: wgpu::TextureAspect::All,
+            },
             rgba,
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4 * width), rows_per_image: Some(height) },
             wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -231,7 +241,11 @@ impl Tiled {
                     return Err(format!("is {}×{}, but the tile pyramid says {}×{}", image.width(), image.height(), want.0, want.1));
                 }
                 gpu.queue.copy_external_image_to_texture(
-                    &wgpu::CopyExternalImageSourceInfo { source: wgpu::ExternalImageSource::ImageBitmap(image), origin: wgpu::Origin2d::ZERO, flip_y: false },
+                    &wgpu::CopyExternalImageSourceInfo {
+                        source: wgpu::ExternalImageSource::ImageBitmap(image),
+                        origin: wgpu::Origin2d::ZERO,
+                        flip_y: false,
+                    },
                     wgpu::CopyExternalImageDestInfo {
                         texture: &self.cube.texture,
                         mip_level: 0,
@@ -251,7 +265,11 @@ impl Tiled {
 
 /// A tile as a platform decoded it.
 pub enum TilePixels {
-    Rgba { width: u32, height: u32, rgba: Vec<u8> },
+    Rgba {
+        width: u32,
+        height: u32,
+        rgba: Vec<u8>,
+    },
     /// Decoded by the browser, copied in by the GPU.
     #[cfg(target_arch = "wasm32")]
     Bitmap(web_sys::ImageBitmap),
@@ -352,9 +370,14 @@ pub struct PanoramaPass {
 
 impl PanoramaPass {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> PanoramaPass {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("panorama"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let shader =
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("panorama"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::FRAGMENT, ty, count: None };
-        let texture = |dim| wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: true }, view_dimension: dim, multisampled: false };
+        let texture = |dim| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: dim,
+            multisampled: false,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("panorama"),
             entries: &[
@@ -370,7 +393,11 @@ impl PanoramaPass {
                 entry(9, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
             ],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("panorama"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("panorama"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("panorama"),
             layout: Some(&pipeline_layout),
@@ -386,7 +413,11 @@ impl PanoramaPass {
                 targets: &[Some(wgpu::ColorTargetState {
                     format,
                     blend: Some(wgpu::BlendState {
-                        color: wgpu::BlendComponent { src_factor: wgpu::BlendFactor::Constant, dst_factor: wgpu::BlendFactor::OneMinusConstant, operation: wgpu::BlendOperation::Add },
+                        color: wgpu::BlendComponent {
+                            src_factor: wgpu::BlendFactor::Constant,
+                            dst_factor: wgpu::BlendFactor::OneMinusConstant,
+                            operation: wgpu::BlendOperation::Add,
+                        },
                         alpha: wgpu::BlendComponent::REPLACE,
                     }),
                     write_mask: wgpu::ColorWrites::ALL,
@@ -402,23 +433,49 @@ impl PanoramaPass {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        let uniforms = device.create_buffer(&wgpu::BufferDescriptor { label: Some("panorama view"), size: 64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false });
+        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("panorama view"),
+            size: 64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let nearest = device.create_sampler(&wgpu::SamplerDescriptor { label: Some("tile mask"), ..Default::default() });
-        let blank_mask = mask_texture(device, 1).create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
-        PanoramaPass { pipeline, layout, sampler, uniforms, nearest, blank_cube: Cube::new(device, 1), blank_video: VideoTexture::new(device, 1, 1), blank_mask }
+        let blank_mask = mask_texture(device, 1)
+            .create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::Cube), ..Default::default() });
+        PanoramaPass {
+            pipeline,
+            layout,
+            sampler,
+            uniforms,
+            nearest,
+            blank_cube: Cube::new(device, 1),
+            blank_video: VideoTexture::new(device, 1, 1),
+            blank_mask,
+        }
     }
 
     /// Draws `source` as seen in `view` into a pass over a target of aspect
     /// ratio `aspect`, over what is there with `opacity` (1: replaces it).
     #[allow(clippy::too_many_arguments)]
-    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, source: Source<'_>, opacity: f32) {
+    pub fn draw(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pass: &mut wgpu::RenderPass<'_>,
+        view: &View,
+        aspect: f32,
+        source: Source<'_>,
+        opacity: f32,
+    ) {
         let blank = (&self.blank_cube, None);
         let (a, b, video, fade) = match source {
             Source::Cube(c, t) => ((c, t), blank, &self.blank_video, 0.0),
             Source::Fade(a, b, t) => (a, b, &self.blank_video, t.clamp(0.0, 1.0)),
             Source::Video(v) => (blank, blank, v, 0.0),
         };
-        let views = |t: Option<&Tiled>| t.map(|t| (t.cube.view.clone(), t.mask_view.clone())).unwrap_or_else(|| (self.blank_cube.view.clone(), self.blank_mask.clone()));
+        let views = |t: Option<&Tiled>| {
+            t.map(|t| (t.cube.view.clone(), t.mask_view.clone())).unwrap_or_else(|| (self.blank_cube.view.clone(), self.blank_mask.clone()))
+        };
         let ((tiles_a, mask_a), (tiles_b, mask_b)) = (views(a.1), views(b.1));
         let (a, b) = (a.0, b.0);
         let u = uniforms(view, aspect, fade, matches!(source, Source::Video(_)));

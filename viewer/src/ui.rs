@@ -362,7 +362,13 @@ impl Link {
 
     /// The link to where the navigator is now.
     pub fn of(nav: &Navigator) -> Link {
-        Link { probe: Some(nav.probe()), yaw_deg: Some(nav.view.yaw.to_degrees()), pitch_deg: Some(nav.view.pitch.to_degrees()), fov_deg: Some(nav.view.fov_y.to_degrees()), dollhouse: false }
+        Link {
+            probe: Some(nav.probe()),
+            yaw_deg: Some(nav.view.yaw.to_degrees()),
+            pitch_deg: Some(nav.view.pitch.to_degrees()),
+            fov_deg: Some(nav.view.fov_y.to_degrees()),
+            dollhouse: false,
+        }
     }
 
     pub fn to_fragment(&self) -> String {

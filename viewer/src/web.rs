@@ -36,7 +36,8 @@ fn show(text: &str) {
 }
 
 async fn fetch(url: &str) -> Result<web_sys::Response, String> {
-    let response: web_sys::Response = JsFuture::from(window().fetch_with_str(url)).await.map_err(|e| format!("cannot be fetched ({})", js_error(e)))?.unchecked_into();
+    let response: web_sys::Response =
+        JsFuture::from(window().fetch_with_str(url)).await.map_err(|e| format!("cannot be fetched ({})", js_error(e)))?.unchecked_into();
     if !response.ok() {
         return Err(format!("HTTP {} {}", response.status(), response.status_text()));
     }
@@ -81,18 +82,58 @@ fn fetch_bytes(url: &str) -> impl std::future::Future<Output = Result<Vec<u8>, S
 
 enum Fetched {
     /// A proxy part's files, to decode.
-    ProxyBytes { level: usize, part: usize, file: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
+    ProxyBytes {
+        level: usize,
+        part: usize,
+        file: String,
+        bytes: Vec<u8>,
+        seen: Option<(String, Vec<u8>)>,
+        probes: u32,
+    },
     /// A vertex-split stream's coarse level and table, to start refining.
-    StreamStart { base: String, bytes: Vec<u8>, seen: Option<(String, Vec<u8>)>, probes: u32 },
+    StreamStart {
+        base: String,
+        bytes: Vec<u8>,
+        seen: Option<(String, Vec<u8>)>,
+        probes: u32,
+    },
     /// A packet of vertex splits (they arrive in order), and the level the
     /// mesh is at once it is applied.
-    Packet { level: usize, file: String, bytes: Vec<u8> },
-    DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
-    Cube { probe: u32, size: u32, faces: Vec<web_sys::ImageBitmap> },
-    Tile { probe: u32, size: u32, slot: usize, x: u32, y: u32, image: web_sys::ImageBitmap },
-    Equirect { probe: u32, image: web_sys::ImageBitmap },
-    Thumbnail { probe: u32, image: web_sys::ImageBitmap },
-    Failed { what: String, error: String, probe: Option<u32> },
+    Packet {
+        level: usize,
+        file: String,
+        bytes: Vec<u8>,
+    },
+    DepthMap {
+        probe: u32,
+        map: exploremaps_format::depthmap::DepthMap,
+    },
+    Cube {
+        probe: u32,
+        size: u32,
+        faces: Vec<web_sys::ImageBitmap>,
+    },
+    Tile {
+        probe: u32,
+        size: u32,
+        slot: usize,
+        x: u32,
+        y: u32,
+        image: web_sys::ImageBitmap,
+    },
+    Equirect {
+        probe: u32,
+        image: web_sys::ImageBitmap,
+    },
+    Thumbnail {
+        probe: u32,
+        image: web_sys::ImageBitmap,
+    },
+    Failed {
+        what: String,
+        error: String,
+        probe: Option<u32>,
+    },
 }
 
 fn copy_image(gpu: &Gpu, source: wgpu::ExternalImageSource, texture: &wgpu::Texture, layer: u32, width: u32, height: u32) {
@@ -154,7 +195,9 @@ impl WebPlatform {
                 }
                 Loaded::Pano { probe, pano: Pano::Cube(cube) }
             }
-            Fetched::Tile { probe, size, slot, x, y, image } => Loaded::Tile { probe, size, slot, x, y, pixels: crate::panorama::TilePixels::Bitmap(image) },
+            Fetched::Tile { probe, size, slot, x, y, image } => {
+                Loaded::Tile { probe, size, slot, x, y, pixels: crate::panorama::TilePixels::Bitmap(image) }
+            }
             Fetched::Equirect { probe, image } => {
                 let limit = gpu.device.limits().max_texture_dimension_2d;
                 let (w, h) = (image.width().min(limit), image.height().min(limit));
@@ -234,7 +277,11 @@ impl Platform for WebPlatform {
             wasm_bindgen_futures::spawn_local(async move {
                 let result = match bitmap(url, None).await {
                     Ok(b) if (b.width(), b.height()) == (size, size) => Ok(b),
-                    Ok(b) => Err(Fetched::Failed { what: file, error: format!("is {}×{}, but graph.json says {size}×{size}", b.width(), b.height()), probe: Some(probe) }),
+                    Ok(b) => Err(Fetched::Failed {
+                        what: file,
+                        error: format!("is {}×{}, but graph.json says {size}×{size}", b.width(), b.height()),
+                        probe: Some(probe),
+                    }),
                     Err(error) => Err(Fetched::Failed { what: file, error, probe: Some(probe) }),
                 };
                 let mut slots = slots.borrow_mut();
@@ -582,7 +629,11 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     let probe = link.probe.filter(|&p| (p as usize) < graph.probes.len());
 
     let document = window().document().ok_or("no document")?;
-    let canvas: web_sys::HtmlCanvasElement = document.get_element_by_id(canvas_id).ok_or_else(|| format!("no canvas #{canvas_id}"))?.dyn_into().map_err(|_| format!("#{canvas_id} is not a canvas"))?;
+    let canvas: web_sys::HtmlCanvasElement = document
+        .get_element_by_id(canvas_id)
+        .ok_or_else(|| format!("no canvas #{canvas_id}"))?
+        .dyn_into()
+        .map_err(|_| format!("#{canvas_id} is not a canvas"))?;
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
     desc.backends = wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL;
     let instance = wgpu::util::new_instance_with_webgpu_detection(desc).await;
@@ -605,15 +656,39 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     if let Some(body) = document.body() {
         let _ = body.append_child(&video);
     }
-    let mut platform = WebPlatform { base: base.to_string(), done: Rc::default(), video, video_texture: None, playing: None, message: None, faces_marked: false, video_time: -1.0, video_frames: 0, decode_ms: [0.0; 2], refining: None, refined: None };
+    let mut platform = WebPlatform {
+        base: base.to_string(),
+        done: Rc::default(),
+        video,
+        video_texture: None,
+        playing: None,
+        message: None,
+        faces_marked: false,
+        video_time: -1.0,
+        video_frames: 0,
+        decode_ms: [0.0; 2],
+        refining: None,
+        refined: None,
+    };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
     // Phones: faces up to 1024 and a smaller texture budget.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
-    let options = Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
+    let options =
+        Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
     let view_format = gpu.format;
     let app = App::new(gpu, nav, Some(&link), options, &mut platform);
     mark("app");
-    let state = Rc::new(RefCell::new(State { app, platform, surface, config, view_format, canvas: canvas.clone(), last_ms: 0.0, first_frame_logged: false, dollhouse_level: None }));
+    let state = Rc::new(RefCell::new(State {
+        app,
+        platform,
+        surface,
+        config,
+        view_format,
+        canvas: canvas.clone(),
+        last_ms: 0.0,
+        first_frame_logged: false,
+        dollhouse_level: None,
+    }));
 
     let target: &web_sys::EventTarget = canvas.as_ref();
     listen(target, "pointerdown", &state, |s, e: web_sys::PointerEvent| {

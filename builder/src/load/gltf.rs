@@ -26,8 +26,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let dir = path.parent().unwrap_or(Path::new("."));
     let (plain, read) = super::gltf_decode::transcode(path, bytes, dir, max_triangles)?.unzip();
     let bytes = plain.as_deref().unwrap_or(bytes);
-    let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes))
-        .map_err(|_| LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt"))?;
+    let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes)).map_err(|_| {
+        LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt")
+    })?;
     let gltf::Gltf { document, blob } = parsed.map_err(|e| match unsupported_required(bytes) {
         Some(names) => LoadError::malformed(
             path,
@@ -47,15 +48,21 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
                 // (Named by its URI: a transcoded file's buffers are numbered
                 // from one when a first was added for the decoded data.)
                 let what = match b.source() {
-                    gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!("buffer {uri} holds {} bytes of the {} it declares; the file beside the scene may be missing or truncated", held(&b), b.length()),
+                    gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!(
+                        "buffer {uri} holds {} bytes of the {} it declares; the file beside the scene may be missing or truncated",
+                        held(&b),
+                        b.length()
+                    ),
                     _ => format!("a buffer's data URI holds {} bytes of the {} it declares", held(&b), b.length()),
                 };
                 return Err(LoadError::malformed(path, what));
             }
-            read.into_iter().map(|mut bytes| {
-                bytes.resize(bytes.len().next_multiple_of(4), 0);
-                gltf::buffer::Data(bytes)
-            }).collect()
+            read.into_iter()
+                .map(|mut bytes| {
+                    bytes.resize(bytes.len().next_multiple_of(4), 0);
+                    gltf::buffer::Data(bytes)
+                })
+                .collect()
         }
         None => gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?,
     };
@@ -138,7 +145,12 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
             scene.objects.push(node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node {}", node.index())));
             for primitive in mesh.primitives() {
                 if primitive.mode() != gltf::mesh::Mode::Triangles {
-                    tracing::warn!("{}: skipping a {:?} primitive in mesh {}; only triangles are scenes", path.display(), primitive.mode(), mesh.index());
+                    tracing::warn!(
+                        "{}: skipping a {:?} primitive in mesh {}; only triangles are scenes",
+                        path.display(),
+                        primitive.mode(),
+                        mesh.index()
+                    );
                     continue;
                 }
                 check_attribute_types(path, &primitive)?;
@@ -250,7 +262,13 @@ impl UvMap {
 fn unsupported_required(bytes: &[u8]) -> Option<String> {
     let (json, _) = super::gltf_decode::split(bytes)?;
     let doc: serde_json::Value = serde_json::from_slice(json).ok()?;
-    let names: Vec<&str> = doc.get("extensionsRequired")?.as_array()?.iter().filter_map(|e| e.as_str()).filter(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(e)).collect();
+    let names: Vec<&str> = doc
+        .get("extensionsRequired")?
+        .as_array()?
+        .iter()
+        .filter_map(|e| e.as_str())
+        .filter(|e| !gltf::json::extensions::ENABLED_EXTENSIONS.contains(e))
+        .collect();
     (!names.is_empty()).then(|| names.join(", "))
 }
 
@@ -346,7 +364,12 @@ pub(super) fn check_file(path: &Path, file: &Path, what: &str) -> Result<(), Loa
         Ok(m) if !m.is_file() => Err(LoadError::malformed(path, format!("{what} names {}, which is not a regular file", file.display()))),
         Ok(m) if m.len() > MAX_EXTERNAL_BYTES => Err(LoadError::malformed(
             path,
-            format!("{what} names {}, of {:.1} GiB; buffers and images of at most {} GiB are read", file.display(), m.len() as f64 / (1u64 << 30) as f64, MAX_EXTERNAL_BYTES >> 30),
+            format!(
+                "{what} names {}, of {:.1} GiB; buffers and images of at most {} GiB are read",
+                file.display(),
+                m.len() as f64 / (1u64 << 30) as f64,
+                MAX_EXTERNAL_BYTES >> 30
+            ),
         )),
         _ => Ok(()),
     }
@@ -375,7 +398,10 @@ fn instanced_triangles(path: &Path, node: &gltf::Node, depth: usize, memo: &mut 
         (triangles, instances) = (triangles.saturating_add(t), instances.saturating_add(i));
     }
     if instances > MAX_NODE_INSTANCES {
-        return Err(LoadError::malformed(path, format!("its node hierarchy makes more than {MAX_NODE_INSTANCES} node instances (children named many times over)")));
+        return Err(LoadError::malformed(
+            path,
+            format!("its node hierarchy makes more than {MAX_NODE_INSTANCES} node instances (children named many times over)"),
+        ));
     }
     memo[node.index()] = Some((triangles, instances));
     Ok((triangles, instances))
@@ -405,11 +431,22 @@ fn check_attribute_types(path: &Path, primitive: &gltf::Primitive) -> Result<(),
         }
         let what = || semantic.as_ref().map_or("indices".to_string(), |s| format!("{s:?}"));
         if !allowed(semantic.as_ref(), &a) {
-            return Err(LoadError::malformed(path, format!("accessor {} ({}) holds {:?} {:?}, which glTF does not allow there", a.index(), what(), a.dimensions(), a.data_type())));
+            return Err(LoadError::malformed(
+                path,
+                format!("accessor {} ({}) holds {:?} {:?}, which glTF does not allow there", a.index(), what(), a.dimensions(), a.data_type()),
+            ));
         }
         // Elements may not overlap (gltf's reader asserts it).
         if let Some(stride) = a.view().and_then(|v| v.stride()).filter(|&s| s < a.size()) {
-            return Err(LoadError::malformed(path, format!("accessor {} ({}) has elements of {} bytes {stride} bytes apart; glTF requires at least the element's size", a.index(), what(), a.size())));
+            return Err(LoadError::malformed(
+                path,
+                format!(
+                    "accessor {} ({}) has elements of {} bytes {stride} bytes apart; glTF requires at least the element's size",
+                    a.index(),
+                    what(),
+                    a.size()
+                ),
+            ));
         }
     }
     Ok(())

@@ -48,7 +48,11 @@ pub(super) type Transcoded = (Vec<u8>, Vec<Vec<u8>>);
 pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u64) -> Result<Option<Transcoded>, LoadError> {
     let Some((json_bytes, bin)) = split(bytes) else { return Ok(None) };
     let Ok(mut doc) = serde_json::from_slice::<Value>(json_bytes) else { return Ok(None) };
-    let used = |name: &str| ["extensionsUsed", "extensionsRequired"].iter().any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)));
+    let used = |name: &str| {
+        ["extensionsUsed", "extensionsRequired"]
+            .iter()
+            .any(|list| doc.get(list).and_then(Value::as_array).is_some_and(|l| l.iter().any(|e| e == name)))
+    };
     let quantized = used(QUANTIZATION);
     if ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|e| used(e)) {
         return Ok(None);
@@ -93,7 +97,8 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             let Some(ext) = primitive.get_mut("extensions").and_then(Value::as_object_mut).and_then(|e| e.remove(EXTENSION)) else { continue };
             let at = format!("mesh {m} primitive {p}");
             let view = ext.get("bufferView").and_then(Value::as_u64).ok_or_else(|| bad(format!("{at} names no bufferView")))?;
-            let compressed = view_bytes(&doc, &buffers, view as usize).ok_or_else(|| bad(format!("{at}'s bufferView {view} lies outside its buffer")))?;
+            let compressed =
+                view_bytes(&doc, &buffers, view as usize).ok_or_else(|| bad(format!("{at}'s bufferView {view} lies outside its buffer")))?;
             let indices = primitive.get("indices").and_then(Value::as_u64);
             let declared = indices.and_then(|a| accessors.get(a as usize)).and_then(|a| a.get("count")).and_then(Value::as_u64).unwrap_or(0);
             if declared / 3 > max_triangles {
@@ -105,7 +110,8 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
             let faces = mesh.faces();
             let bytes: Vec<u8> = faces.iter().flat_map(|face| face.iter().flat_map(|corner| corner.0.to_le_bytes())).collect();
             views.push(append(&mut buffers[0], &bytes));
-            let indices_accessor = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
+            let indices_accessor =
+                json!({ "bufferView": old_views + views.len() - 1, "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
             match indices {
                 Some(a) if (a as usize) < accessors.len() => accessors[a as usize] = indices_accessor,
                 _ => {
@@ -114,7 +120,8 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                 }
             }
             // Attributes: f32, each to its accessor, with the components it declares.
-            let ids: Vec<(String, u64)> = ext.get("attributes").and_then(Value::as_object).into_iter().flatten().filter_map(|(k, v)| Some((k.clone(), v.as_u64()?))).collect();
+            let ids: Vec<(String, u64)> =
+                ext.get("attributes").and_then(Value::as_object).into_iter().flatten().filter_map(|(k, v)| Some((k.clone(), v.as_u64()?))).collect();
             for (name, id) in ids {
                 let accessor = primitive.get("attributes").and_then(|a| a.get(&name)).and_then(Value::as_u64);
                 let Some(a) = accessor.filter(|&a| (a as usize) < accessors.len()) else { continue };
@@ -126,7 +133,10 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                     "VEC4" => 4,
                     other => return Err(bad(format!("{at}'s attribute {name} is of type {other}"))),
                 };
-                let attribute = u32::try_from(id).ok().and_then(|id| mesh.attribute_by_unique_id(id)).ok_or_else(|| bad(format!("{at} has no attribute {id} for {name}")))?;
+                let attribute = u32::try_from(id)
+                    .ok()
+                    .and_then(|id| mesh.attribute_by_unique_id(id))
+                    .ok_or_else(|| bad(format!("{at} has no attribute {id} for {name}")))?;
                 let mut values = attribute.read_f32s(mesh.num_points(), components);
                 if attribute.normalized() {
                     let scale = match attribute.data_type() {
@@ -166,10 +176,13 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
                         LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
                     })?;
                     views.push(append(&mut buffers[0], &floats(&values)));
-                    let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": accessors[a]["count"], "type": kind });
+                    let mut plain =
+                        json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": accessors[a]["count"], "type": kind });
                     if name == "POSITION" {
                         // glTF requires a position accessor's bounds: those of the values.
-                        let (lo, hi) = values.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))));
+                        let (lo, hi) = values.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+                            (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
+                        });
                         (plain["min"], plain["max"]) = (json!(lo), json!(hi));
                     }
                     accessors[a] = plain;
@@ -201,21 +214,30 @@ fn decode_meshopt_views(path: &Path, doc: &mut Value, buffers: &mut [Vec<u8>], m
     for i in 0..count {
         let view = &doc["bufferViews"][i];
         let Some((name, ext)) = MESHOPT.iter().find_map(|e| Some((*e, view.get("extensions")?.get(*e)?.clone()))) else { continue };
-        let bad = |detail: &str| LoadError::malformed(path, format!("buffer view {i} {detail} (in its {name} data); the file may be truncated or corrupt"));
+        let bad =
+            |detail: &str| LoadError::malformed(path, format!("buffer view {i} {detail} (in its {name} data); the file may be truncated or corrupt"));
         let field = |key: &str| ext.get(key).and_then(Value::as_u64);
-        let (Some(buffer), Some(length), Some(stride), Some(count)) = (field("buffer"), field("byteLength"), field("byteStride"), field("count")) else {
+        let (Some(buffer), Some(length), Some(stride), Some(count)) = (field("buffer"), field("byteLength"), field("byteStride"), field("count"))
+        else {
             return Err(bad("lacks one of buffer, byteLength, byteStride and count"));
         };
         let offset = field("byteOffset").unwrap_or(0);
         let mode = ext.get("mode").and_then(Value::as_str).unwrap_or("");
         let filter = ext.get("filter").and_then(Value::as_str).unwrap_or("NONE");
-        let size = count.checked_mul(stride).filter(|&n| total + n <= MAX_DECODED_BYTES).ok_or_else(|| bad(&format!("decodes to over {} GiB", MAX_DECODED_BYTES >> 30)))?;
+        let size = count
+            .checked_mul(stride)
+            .filter(|&n| total + n <= MAX_DECODED_BYTES)
+            .ok_or_else(|| bad(&format!("decodes to over {} GiB", MAX_DECODED_BYTES >> 30)))?;
         // Indices, or vertices, past three a triangle of the most allowed.
         if count / 3 > max_triangles {
             return Err(LoadError::TooLarge { path: path.to_path_buf(), count: count / 3, limit: max_triangles });
         }
         // (Copied: the source may be the chunk the decoded data goes to.)
-        let source = buffers.get(buffer as usize).and_then(|b| b.get(offset as usize..offset.checked_add(length)? as usize)).ok_or_else(|| bad("lies outside its buffer"))?.to_vec();
+        let source = buffers
+            .get(buffer as usize)
+            .and_then(|b| b.get(offset as usize..offset.checked_add(length)? as usize))
+            .ok_or_else(|| bad("lies outside its buffer"))?
+            .to_vec();
         let decoded = meshopt_decode(&source, count as usize, stride as usize, mode, filter).map_err(|e| bad(&e))?;
         total += size;
         let plain = append(&mut buffers[0], &decoded);
@@ -228,7 +250,9 @@ fn decode_meshopt_views(path: &Path, doc: &mut Value, buffers: &mut [Vec<u8>], m
         }
     }
     for (b, buffer) in doc.get_mut("buffers").and_then(Value::as_array_mut).into_iter().flatten().enumerate().skip(1) {
-        let fallback = MESHOPT.iter().any(|e| buffer.get("extensions").and_then(|x| x.get(*e)).and_then(|x| x.get("fallback")).and_then(Value::as_bool) == Some(true));
+        let fallback = MESHOPT
+            .iter()
+            .any(|e| buffer.get("extensions").and_then(|x| x.get(*e)).and_then(|x| x.get("fallback")).and_then(Value::as_bool) == Some(true));
         if fallback && buffer.get("uri").is_none() {
             *buffer = json!({ "byteLength": 1, "uri": "data:application/octet-stream;base64,AA==" });
             if let Some(bytes) = buffers.get_mut(b) {
@@ -252,7 +276,9 @@ fn meshopt_decode(source: &[u8], count: usize, stride: usize, mode: &str, filter
     // the sizes meshoptimizer asserts on are checked in each arm.
     let status = unsafe {
         match mode {
-            "ATTRIBUTES" if stride.is_multiple_of(4) && (4..=256).contains(&stride) => ffi::meshopt_decodeVertexBuffer(dst, count, stride, src, source.len()),
+            "ATTRIBUTES" if stride.is_multiple_of(4) && (4..=256).contains(&stride) => {
+                ffi::meshopt_decodeVertexBuffer(dst, count, stride, src, source.len())
+            }
             "TRIANGLES" if index_stride && count.is_multiple_of(3) => ffi::meshopt_decodeIndexBuffer(dst, count, stride, src, source.len()),
             "INDICES" if index_stride => ffi::meshopt_decodeIndexSequence(dst, count, stride, src, source.len()),
             _ => return Err(format!("has mode {mode:?} with a stride of {stride} bytes and {count} elements, which meshoptimizer does not decode")),
@@ -306,7 +332,9 @@ fn expand_instances(path: &Path, doc: &mut Value, buffers: &[Vec<u8>]) -> Result
     let count = doc.get("nodes").and_then(Value::as_array).map_or(0, Vec::len);
     let mut added: Vec<Value> = Vec::new();
     for i in 0..count {
-        let Some(attributes) = doc["nodes"][i].get("extensions").and_then(|e| e.get(INSTANCING)).and_then(|e| e.get("attributes")).cloned() else { continue };
+        let Some(attributes) = doc["nodes"][i].get("extensions").and_then(|e| e.get(INSTANCING)).and_then(|e| e.get("attributes")).cloned() else {
+            continue;
+        };
         let bad = |detail: String| LoadError::malformed(path, format!("node {i}'s {INSTANCING} {detail}; the file may be truncated or corrupt"));
         let read = |name: &str, components: usize| -> Result<Option<Vec<f32>>, LoadError> {
             let Some(a) = attributes.get(name) else { return Ok(None) };
@@ -451,7 +479,12 @@ fn read_buffers(path: &Path, doc: &Value, bin: Option<&[u8]>, dir: &Path) -> Res
                     std::fs::read(&file).unwrap_or_default()
                 }
                 Some(Err(())) => return Err(LoadError::malformed(path, format!("buffer URI '{uri}' does not decode to a UTF-8 file name"))),
-                None => return Err(LoadError::malformed(path, format!("buffer URI '{uri}' is neither a file beside the scene nor a data URI, the only buffers read"))),
+                None => {
+                    return Err(LoadError::malformed(
+                        path,
+                        format!("buffer URI '{uri}' is neither a file beside the scene nor a data URI, the only buffers read"),
+                    ))
+                }
             },
         };
         out.push(bytes);

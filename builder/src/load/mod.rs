@@ -6,8 +6,8 @@
 //! and say what to do; a texture that cannot be read is a warning, not an error,
 //! and its material keeps its plain colour.
 
-mod gltf_decode;
 mod gltf;
+mod gltf_decode;
 pub(crate) use gltf::LUMENS_PER_WATT;
 mod obj;
 mod ply;
@@ -113,12 +113,7 @@ fn finish(path: &Path, scene: &mut Scene, options: &LoadOptions) -> Result<(), L
     scene.drop_bad_triangles();
     let stats = scene.stats;
     if stats.dropped_degenerate + stats.dropped_non_finite > 0 {
-        tracing::warn!(
-            "{}: dropped {} degenerate and {} non-finite triangles",
-            path.display(),
-            stats.dropped_degenerate,
-            stats.dropped_non_finite
-        );
+        tracing::warn!("{}: dropped {} degenerate and {} non-finite triangles", path.display(), stats.dropped_degenerate, stats.dropped_non_finite);
     }
     if scene.triangles.is_empty() {
         let dropped = stats.dropped_degenerate + stats.dropped_non_finite;
@@ -219,7 +214,9 @@ pub(crate) fn decode_image<R: std::io::BufRead + std::io::Seek>(scene_path: &Pat
         limits.max_alloc = Some(2 * (MAX_TEXTURE_SIDE as u64).pow(2) * 4);
         reader.limits(limits);
         reader.decode().map_err(|e| match e {
-            image::ImageError::Limits(_) => format!("is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes (scale the image down to use it)"),
+            image::ImageError::Limits(_) => {
+                format!("is larger than {MAX_TEXTURE_SIDE} pixels on a side, the most ExploreMaps decodes (scale the image down to use it)")
+            }
             e => format!("cannot be decoded ({e})"),
         })
     })();
@@ -234,7 +231,8 @@ const KTX2_MAGIC: &[u8; 12] = b"\xABKTX 20\xBB\r\n\x1A\n";
 /// Transcodes the first level of a KTX2 image holding Basis Universal data
 /// (ETC1S or UASTC, as glTF's `KHR_texture_basisu` requires) to RGBA8.
 fn decode_ktx2(bytes: &[u8]) -> Result<image::RgbaImage, String> {
-    let failed = |e: basisu::Error| format!("is a KTX2 image that cannot be transcoded ({e:?}; KTX2 textures must hold Basis Universal ETC1S or UASTC data)");
+    let failed =
+        |e: basisu::Error| format!("is a KTX2 image that cannot be transcoded ({e:?}; KTX2 textures must hold Basis Universal ETC1S or UASTC data)");
     check_ktx2_index(bytes).map_err(|why| format!("is a damaged KTX2 image ({why})"))?;
     let texture = basisu::Transcoder::new(bytes).map_err(failed)?;
     let (width, height) = texture.base_dimensions();
@@ -288,7 +286,9 @@ fn check_ktx2_index(bytes: &[u8]) -> Result<(), String> {
     let most = [height.div_ceil(4), 16, layers.max(1), faces.max(1)].iter().fold(width.div_ceil(4), |n, &k| n.saturating_mul(k));
     for level in 0..levels.max(1) as usize {
         let at = 80 + 24 * level;
-        let (Some(offset), Some(length), Some(inflated)) = (u64_at(at), u64_at(at + 8), u64_at(at + 16)) else { return Err("its level index is cut short".to_string()) };
+        let (Some(offset), Some(length), Some(inflated)) = (u64_at(at), u64_at(at + 8), u64_at(at + 16)) else {
+            return Err("its level index is cut short".to_string());
+        };
         if !inside(offset, length) || inflated > most {
             return Err(format!("level {level} lies outside the file or is larger than its size allows"));
         }

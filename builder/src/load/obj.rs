@@ -30,7 +30,8 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
         })
     })
     .map_err(|_| LoadError::malformed(path, "not a valid OBJ file (a face index is far out of range); it may be truncated or corrupt"))?;
-    let (models, materials) = parsed.map_err(|e| LoadError::malformed(path, format!("not a valid OBJ file ({e}); it may be truncated or corrupt")))?;
+    let (models, materials) =
+        parsed.map_err(|e| LoadError::malformed(path, format!("not a valid OBJ file ({e}); it may be truncated or corrupt")))?;
     let obj_materials = materials.unwrap_or_else(|e| {
         tracing::warn!("{}: its material library could not be read ({e}); every surface will be grey", path.display());
         Vec::new()
@@ -170,9 +171,19 @@ fn convert_materials(path: &Path, dir: &Path, obj_materials: &[tobj::Material]) 
         materials.push(Material {
             name: m.name.clone(),
             // With a texture, Kd is often the texture's mean (it is in the shared Sponza); the texture wins.
-            base_color: if texture.is_some() && colour.is_some() { [1.0, 1.0, 1.0, m.dissolve.unwrap_or(1.0)] } else { [kd[0], kd[1], kd[2], m.dissolve.unwrap_or(1.0)] },
+            base_color: if texture.is_some() && colour.is_some() {
+                [1.0, 1.0, 1.0, m.dissolve.unwrap_or(1.0)]
+            } else {
+                [kd[0], kd[1], kd[2], m.dissolve.unwrap_or(1.0)]
+            },
             base_color_texture: texture,
-            alpha_mode: if cutout.is_some() { AlphaMode::Mask { cutoff: 0.5 } } else if m.dissolve.is_some_and(|d| d < 1.0) { AlphaMode::Blend } else { AlphaMode::Opaque },
+            alpha_mode: if cutout.is_some() {
+                AlphaMode::Mask { cutoff: 0.5 }
+            } else if m.dissolve.is_some_and(|d| d < 1.0) {
+                AlphaMode::Blend
+            } else {
+                AlphaMode::Opaque
+            },
             emissive,
         });
     }

@@ -4,8 +4,8 @@
 //! elements with a `vertex_indices` (or `vertex_index`) list, fan-triangulated.
 
 use super::obj::empty_scene;
-use crate::renderer::{srgb_decode, srgb_to_linear};
 use super::{check_triangle_count, LoadError};
+use crate::renderer::{srgb_decode, srgb_to_linear};
 use exploremaps_scenes::{Material, Scene};
 use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::Parser;
@@ -60,7 +60,15 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     // takes at least a byte, and every face makes at least one triangle.
     for element in header.elements.values() {
         if element.count > bytes.len() {
-            return Err(LoadError::malformed(path, format!("its header declares {} '{}' elements in a file of {} bytes; the file is truncated or its header is wrong", element.count, element.name, bytes.len())));
+            return Err(LoadError::malformed(
+                path,
+                format!(
+                    "its header declares {} '{}' elements in a file of {} bytes; the file is truncated or its header is wrong",
+                    element.count,
+                    element.name,
+                    bytes.len()
+                ),
+            ));
         }
     }
     check_triangle_count(path, header.elements.get("face").map_or(0, |f| f.count as u64), max_triangles)?;
@@ -76,7 +84,11 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     let mut colours = Vec::new();
     // The colour properties' names, from the header: `red` or `diffuse_red`, ….
     let declared = |name: &str| header.elements.get("vertex").is_some_and(|e| e.properties.contains_key(name));
-    let names = if declared("red") { Some(["red", "green", "blue"]) } else { declared("diffuse_red").then_some(["diffuse_red", "diffuse_green", "diffuse_blue"]) };
+    let names = if declared("red") {
+        Some(["red", "green", "blue"])
+    } else {
+        declared("diffuse_red").then_some(["diffuse_red", "diffuse_green", "diffuse_blue"])
+    };
     for (i, v) in vertices.iter().enumerate() {
         let (Some(x), Some(y), Some(z)) = (get(v, "x"), get(v, "y"), get(v, "z")) else {
             return Err(LoadError::malformed(path, format!("vertex {i} lacks numeric x, y, z properties")));

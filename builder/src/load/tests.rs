@@ -3,8 +3,8 @@
 
 use super::*;
 use exploremaps_scenes::{AlphaMode, BuiltIn, Light};
-use std::fs;
 use rand::{Rng, SeedableRng};
+use std::fs;
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let path = dir.join(name);
@@ -70,7 +70,10 @@ fn obj_texture_path_case_and_cutout_and_emission() {
     mask.save(dir.path().join("mask.png")).unwrap();
     let mtl = "newmtl wall\nKd 0.5 0.5 0.5\nmap_Kd tex\\wall.PNG\nnewmtl leaf\nKd 0 1 0\nmap_d MASK.png\nnewmtl lamp\nKd 1 1 1\nKe 4 4 2\n";
     write(dir.path(), "m.mtl", mtl.as_bytes());
-    let obj = format!("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n{}usemtl wall\nf 1/1 2/2 3/3\nusemtl leaf\nf 1/1 3/3 4/4\nusemtl lamp\nf 1 2 4\n", QUAD_OBJ.replace("f 1 2 3 4\n", ""));
+    let obj = format!(
+        "mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n{}usemtl wall\nf 1/1 2/2 3/3\nusemtl leaf\nf 1/1 3/3 4/4\nusemtl lamp\nf 1 2 4\n",
+        QUAD_OBJ.replace("f 1 2 3 4\n", "")
+    );
     let scene = load_default(&write(dir.path(), "t.obj", obj.as_bytes())).unwrap();
     let by_name = |n: &str| scene.materials.iter().find(|m| m.name == n).unwrap();
     let wall = by_name("wall");
@@ -102,7 +105,11 @@ fn short_mtl_colours_are_completed_instead_of_crashing_tobj() {
     // tobj 4.0.5 panics on a colour with fewer than three numbers.
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "m.mtl", b"newmtl grey\nKa 0.1\nKd 0.5 0.25\nnewmtl lamp\nKd 0.2\nKe 3\n");
-    let path = write(dir.path(), "t.obj", format!("mtllib m.mtl\n{}usemtl grey\nf 1 2 3\nusemtl lamp\nf 1 3 4\n", QUAD_OBJ.replace("f 1 2 3 4\n", "")).as_bytes());
+    let path = write(
+        dir.path(),
+        "t.obj",
+        format!("mtllib m.mtl\n{}usemtl grey\nf 1 2 3\nusemtl lamp\nf 1 3 4\n", QUAD_OBJ.replace("f 1 2 3 4\n", "")).as_bytes(),
+    );
     let scene = load_default(&path).unwrap();
     let material = |t: usize| &scene.materials[scene.triangle_material[t] as usize];
     assert_eq!(material(0).base_color, [0.5, 0.25, 0.25, 1.0], "two numbers: the last repeated");
@@ -212,7 +219,9 @@ fn vertex_colours_load_from_ply_obj_and_gltf_and_colour_the_surface() {
 #[test]
 fn ply_ascii_and_binary_load_the_same_mesh() {
     let dir = tempfile::tempdir().unwrap();
-    let header = |format: &str| format!("ply\nformat {format} 1.0\ncomment two triangles\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    let header = |format: &str| {
+        format!("ply\nformat {format} 1.0\ncomment two triangles\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n")
+    };
     let ascii = format!("{}0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n", header("ascii"));
     let mut binary = header("binary_little_endian").into_bytes();
     for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
@@ -259,8 +268,12 @@ fn builtin_scene_round_trips_through_obj_and_glb() {
             // The lights come back (OBJ has none), in the loader's node order.
             assert_eq!(back.lights.len(), original.lights.len(), "{name}");
             let same = |a: &Light, b: &Light| match (a, b) {
-                (Light::Point { position: pa, intensity: ia }, Light::Point { position: pb, intensity: ib }) => (*pa - *pb).length() < 1e-4 && (*ia - *ib).length() < 1e-4 * ia.length(),
-                (Light::Sun { direction: da, irradiance: ea }, Light::Sun { direction: db, irradiance: eb }) => (da.normalize() - *db).length() < 1e-5 && (*ea - *eb).length() < 1e-4 * ea.length(),
+                (Light::Point { position: pa, intensity: ia }, Light::Point { position: pb, intensity: ib }) => {
+                    (*pa - *pb).length() < 1e-4 && (*ia - *ib).length() < 1e-4 * ia.length()
+                }
+                (Light::Sun { direction: da, irradiance: ea }, Light::Sun { direction: db, irradiance: eb }) => {
+                    (da.normalize() - *db).length() < 1e-5 && (*ea - *eb).length() < 1e-4 * ea.length()
+                }
                 _ => false,
             };
             for a in &original.lights {
@@ -271,11 +284,15 @@ fn builtin_scene_round_trips_through_obj_and_glb() {
         assert_eq!(back.textures[t].image, original.textures[0].image, "{name}");
         // Texture coordinates per triangle, compared independently of triangle order.
         let keyed = |s: &Scene| {
-            let mut v: Vec<([f32; 3], glam::Vec2)> = s.triangles.iter().map(|t| {
-                let c = t.iter().map(|&i| s.positions[i as usize]).sum::<Vec3>();
-                let uv = t.iter().map(|&i| s.uvs[i as usize]).sum::<glam::Vec2>();
-                (c.to_array(), uv)
-            }).collect();
+            let mut v: Vec<([f32; 3], glam::Vec2)> = s
+                .triangles
+                .iter()
+                .map(|t| {
+                    let c = t.iter().map(|&i| s.positions[i as usize]).sum::<Vec3>();
+                    let uv = t.iter().map(|&i| s.uvs[i as usize]).sum::<glam::Vec2>();
+                    (c.to_array(), uv)
+                })
+                .collect();
             v.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap().then(a.1.x.total_cmp(&b.1.x)));
             v
         };
@@ -314,7 +331,9 @@ fn gltf_specular_glossiness_diffuse_and_texture_transforms_are_read() {
     let mut data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()).collect();
     data.extend([0f32, 0., 1., 0., 0., 1.].iter().flat_map(|v| v.to_le_bytes()));
     let mut png = Vec::new();
-    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255]))
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
     let make = |rotation: f32, required: &[&str]| {
         serde_json::json!({
             "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
@@ -371,7 +390,8 @@ fn gltf_gpu_instances_become_copies_of_the_mesh_in_the_nodes_space() {
     });
     let dir = tempfile::tempdir().unwrap();
     let scene = load_default(&write(dir.path(), "instanced.gltf", gltf.to_string().as_bytes())).unwrap();
-    let want = [[[0., 0., 10.], [1., 0., 10.], [0., 1., 10.]], [[5., 0., 10.], [5., 1., 10.], [4., 0., 10.]], [[0., 5., 10.], [2., 5., 10.], [0., 7., 10.]]];
+    let want =
+        [[[0., 0., 10.], [1., 0., 10.], [0., 1., 10.]], [[5., 0., 10.], [5., 1., 10.], [4., 0., 10.]], [[0., 5., 10.], [2., 5., 10.], [0., 7., 10.]]];
     assert_eq!(scene.triangles.len(), 3);
     let corners: Vec<[Vec3; 3]> = scene.triangles.iter().map(|t| t.map(|v| scene.positions[v as usize])).collect();
     for w in want {
@@ -551,18 +571,21 @@ fn gltf_quantized_attributes_load_like_floats() {
     let mut data: Vec<u8> = [0i16, 0, 0, 0, 32767, 0, 0, 0, 0, 32767, 0, 0].iter().flat_map(|v| v.to_le_bytes()).collect();
     data.extend([0i8, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0].map(|v| v as u8));
     data.extend([0u8, 0, 0, 0, 4, 0, 0, 0, 0, 2, 0, 0]);
-    let gltf = |required: &str| serde_json::json!({
-        "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "extensionsUsed": [required], "extensionsRequired": [required],
-        "nodes": [{"mesh": 0, "scale": [2.0, 2.0, 2.0]}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}]}],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [32767, 32767, 0]},
-            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"},
-            {"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC2"}],
-        "bufferViews": [{"buffer": 0, "byteLength": 24, "byteStride": 8}, {"buffer": 0, "byteOffset": 24, "byteLength": 12, "byteStride": 4},
-                        {"buffer": 0, "byteOffset": 36, "byteLength": 12, "byteStride": 4}],
-        "buffers": [{"byteLength": 48, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
-    }).to_string();
+    let gltf = |required: &str| {
+        serde_json::json!({
+            "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "extensionsUsed": [required], "extensionsRequired": [required],
+            "nodes": [{"mesh": 0, "scale": [2.0, 2.0, 2.0]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}]}],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [32767, 32767, 0]},
+                {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"},
+                {"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC2"}],
+            "bufferViews": [{"buffer": 0, "byteLength": 24, "byteStride": 8}, {"buffer": 0, "byteOffset": 24, "byteLength": 12, "byteStride": 4},
+                            {"buffer": 0, "byteOffset": 36, "byteLength": 12, "byteStride": 4}],
+            "buffers": [{"byteLength": 48, "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&data))}]
+        })
+        .to_string()
+    };
     let scene = load_default(&write(dir.path(), "q.gltf", gltf("KHR_mesh_quantization").as_bytes())).unwrap();
     assert_eq!(scene.triangle(0), [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)]);
     assert!(scene.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", scene.normals);
@@ -582,7 +605,13 @@ fn base64_encode(bytes: &[u8]) -> String {
 /// test-only feature) when `draco`, plain otherwise. `damage` edits the
 /// compressed stream before it is written.
 fn grid_gltf(n: u32, draco: bool, damage: impl Fn(&mut Vec<u8>)) -> String {
-    use draco_core::{draco_types::DataType, encoder_buffer::EncoderBuffer, encoder_options::EncoderOptions, geometry_attribute::{GeometryAttributeType, PointAttribute}, mesh_encoder::MeshEncoder};
+    use draco_core::{
+        draco_types::DataType,
+        encoder_buffer::EncoderBuffer,
+        encoder_options::EncoderOptions,
+        geometry_attribute::{GeometryAttributeType, PointAttribute},
+        mesh_encoder::MeshEncoder,
+    };
     let side = n + 1;
     let points: Vec<([f32; 3], [f32; 2])> = (0..side * side)
         .map(|i| {
@@ -590,12 +619,16 @@ fn grid_gltf(n: u32, draco: bool, damage: impl Fn(&mut Vec<u8>)) -> String {
             ([x, (0.7 * x).sin() * (0.4 * z).cos(), z], [x / n as f32, z / n as f32])
         })
         .collect();
-    let indices: Vec<u32> = (0..n * n).flat_map(|q| {
-        let (x, z) = (q % n, q / n);
-        let a = z * side + x;
-        [a, a + side, a + 1, a + 1, a + side, a + side + 1]
-    }).collect();
-    let (lo, hi) = points.iter().fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), (p, _)| (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))));
+    let indices: Vec<u32> = (0..n * n)
+        .flat_map(|q| {
+            let (x, z) = (q % n, q / n);
+            let a = z * side + x;
+            [a, a + side, a + 1, a + 1, a + side, a + side + 1]
+        })
+        .collect();
+    let (lo, hi) = points.iter().fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), (p, _)| {
+        (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
+    });
     let count = points.len();
     let mut accessors = serde_json::json!([
         {"componentType": 5126, "count": count, "type": "VEC3", "min": lo, "max": hi},
@@ -626,7 +659,8 @@ fn grid_gltf(n: u32, draco: bool, damage: impl Fn(&mut Vec<u8>)) -> String {
         encoder.encode(&EncoderOptions::new(), &mut out).unwrap();
         let mut stream = out.data().to_vec();
         damage(&mut stream);
-        primitive["extensions"] = serde_json::json!({"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0, "TEXCOORD_0": 1}}});
+        primitive["extensions"] =
+            serde_json::json!({"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0, "TEXCOORD_0": 1}}});
         top = serde_json::json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]});
         let len = stream.len();
         (stream, serde_json::json!([{"buffer": 0, "byteLength": len}]))
@@ -640,11 +674,14 @@ fn grid_gltf(n: u32, draco: bool, damage: impl Fn(&mut Vec<u8>)) -> String {
             accessors[k]["bufferView"] = serde_json::json!(k);
         }
         let len = bytes.len();
-        (bytes, serde_json::json!([
-            {"buffer": 0, "byteOffset": 0, "byteLength": uv_at},
-            {"buffer": 0, "byteOffset": uv_at, "byteLength": index_at - uv_at},
-            {"buffer": 0, "byteOffset": index_at, "byteLength": len - index_at}
-        ]))
+        (
+            bytes,
+            serde_json::json!([
+                {"buffer": 0, "byteOffset": 0, "byteLength": uv_at},
+                {"buffer": 0, "byteOffset": uv_at, "byteLength": index_at - uv_at},
+                {"buffer": 0, "byteOffset": index_at, "byteLength": len - index_at}
+            ]),
+        )
     };
     let mut gltf = serde_json::json!({
         "asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
@@ -734,7 +771,16 @@ fn meshopt_gltf(n: u32, exp_filter: bool, edit: impl Fn(usize, &mut serde_json::
             let floats: Vec<f32> = raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
             let mut filtered = vec![[0u8; 12]; count];
             // SAFETY: `filtered` holds `count` elements of 12 bytes, `floats` 3 a vertex.
-            unsafe { meshopt::ffi::meshopt_encodeFilterExp(filtered.as_mut_ptr().cast(), count, 12, 15, floats.as_ptr(), meshopt::ffi::meshopt_EncodeExpMode_meshopt_EncodeExpSeparate) };
+            unsafe {
+                meshopt::ffi::meshopt_encodeFilterExp(
+                    filtered.as_mut_ptr().cast(),
+                    count,
+                    12,
+                    15,
+                    floats.as_ptr(),
+                    meshopt::ffi::meshopt_EncodeExpMode_meshopt_EncodeExpSeparate,
+                )
+            };
             (meshopt::encode_vertex_buffer(&filtered).unwrap(), count, "EXPONENTIAL")
         } else if stride == 12 {
             let v: Vec<[u8; 12]> = raw.chunks_exact(12).map(|c| c.try_into().unwrap()).collect();
@@ -779,7 +825,8 @@ fn meshopt_compressed_gltf_loads_like_the_plain_file() {
                 let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
                 let uri = json["buffers"][0]["uri"].as_str().unwrap().to_string();
                 let bin = write(dir.path(), "external.bin", &base64::decode(uri.split_once(";base64,").unwrap().1).unwrap());
-                json["buffers"][0]["uri"] = serde_json::json!(if name == "external.gltf" { "external.bin".to_string() } else { format!("file://{}", bin.display()) });
+                json["buffers"][0]["uri"] =
+                    serde_json::json!(if name == "external.gltf" { "external.bin".to_string() } else { format!("file://{}", bin.display()) });
                 json.to_string().into_bytes()
             } else {
                 text.into_bytes()
@@ -812,13 +859,41 @@ fn damaged_meshopt_data_is_an_error_naming_the_file_never_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     type Edit = fn(usize, &mut serde_json::Value);
     let edits: [(&str, Edit); 7] = [
-        ("does not decode", |k, e| if k == 2 { e["byteLength"] = serde_json::json!(e["byteLength"].as_u64().unwrap() / 2) }),
-        ("does not decode", |k, e| if k == 0 { e["byteLength"] = serde_json::json!(5) }),
-        ("stride of 6 bytes", |k, e| if k == 0 { e["byteStride"] = serde_json::json!(6) }),
-        ("mode \"STRIPS\"", |k, e| if k == 2 { e["mode"] = serde_json::json!("STRIPS") }),
-        ("filter \"QUATERNION\"", |k, e| if k == 0 { e["filter"] = serde_json::json!("QUATERNION") }),
-        ("lies outside its buffer", |k, e| if k == 1 { e["byteOffset"] = serde_json::json!(1u64 << 40) }),
-        ("over 4 GiB", |k, e| if k == 0 { e["count"] = serde_json::json!(1u64 << 40) }),
+        ("does not decode", |k, e| {
+            if k == 2 {
+                e["byteLength"] = serde_json::json!(e["byteLength"].as_u64().unwrap() / 2)
+            }
+        }),
+        ("does not decode", |k, e| {
+            if k == 0 {
+                e["byteLength"] = serde_json::json!(5)
+            }
+        }),
+        ("stride of 6 bytes", |k, e| {
+            if k == 0 {
+                e["byteStride"] = serde_json::json!(6)
+            }
+        }),
+        ("mode \"STRIPS\"", |k, e| {
+            if k == 2 {
+                e["mode"] = serde_json::json!("STRIPS")
+            }
+        }),
+        ("filter \"QUATERNION\"", |k, e| {
+            if k == 0 {
+                e["filter"] = serde_json::json!("QUATERNION")
+            }
+        }),
+        ("lies outside its buffer", |k, e| {
+            if k == 1 {
+                e["byteOffset"] = serde_json::json!(1u64 << 40)
+            }
+        }),
+        ("over 4 GiB", |k, e| {
+            if k == 0 {
+                e["count"] = serde_json::json!(1u64 << 40)
+            }
+        }),
     ];
     for (i, (expected, edit)) in edits.iter().enumerate() {
         let path = write(dir.path(), &format!("m{i}.gltf"), meshopt_gltf(6, false, edit).as_bytes());
@@ -965,7 +1040,9 @@ fn files_over_the_triangle_limit_or_claiming_absurd_counts_fail_before_reading()
     let message = load(&quad, &limit(1)).unwrap_err().to_string();
     assert!(message.contains("holds 2 triangles") && message.contains("--max-triangles 2"), "{message}");
     // A PLY header may claim anything; its counts are checked before the payload.
-    let header = |vertices: u64, faces: u64| format!("ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n");
+    let header = |vertices: u64, faces: u64| {
+        format!("ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n")
+    };
     let huge = write(dir.path(), "huge.ply", header(1 << 31, 1).as_bytes());
     assert!(error_text(&huge).contains("declares 2147483648 'vertex' elements"), "{}", error_text(&huge));
     let mut many = header(3, 40).into_bytes();

@@ -15,8 +15,6 @@ use crate::renderer::Renderer;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Random streams of the bake, apart from every image's.
-
 /// Area-weighted vertex normals (zero for a vertex no triangle uses).
 pub fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; mesh.positions.len()];
@@ -55,7 +53,14 @@ pub fn bake(renderer: &Renderer, mesh: &Mesh, error: f32, samples: u32, level: u
                 return None;
             }
             let radius = 0.5 * edge_sum[v] / edge_count[v] as f32;
-            renderer.surface_radiance(mesh.positions[v], normals[v], radius, margin + radius, samples, crate::seeds::image::bake(level as u32, v as u32))
+            renderer.surface_radiance(
+                mesh.positions[v],
+                normals[v],
+                radius,
+                margin + radius,
+                samples,
+                crate::seeds::image::bake(level as u32, v as u32),
+            )
         })
         .collect();
     let filled = fill(&radiance, &neighbours);

@@ -71,7 +71,11 @@ pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
     let weight = COLOUR_WEIGHT * scene.bounds().diagonal();
     let whole = Level { mesh: welded, error: 0.0, refines: None };
     let detail = if whole.mesh.triangles.len() > params.detail_triangles {
-        let s = simplify_with_colours(&whole.mesh, Some(Colours { values: &colours, weight }), &SimplifyParams { target_triangles: params.detail_triangles, max_error: f32::INFINITY });
+        let s = simplify_with_colours(
+            &whole.mesh,
+            Some(Colours { values: &colours, weight }),
+            &SimplifyParams { target_triangles: params.detail_triangles, max_error: f32::INFINITY },
+        );
         let (mesh, detail_colours) = s.compact_with_colours();
         colours = detail_colours;
         Level { mesh, error: s.error, refines: None }
@@ -80,7 +84,11 @@ pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
     };
     let mut out = Vec::new();
     if detail.mesh.triangles.len() > 2 * params.base_triangles {
-        let s = simplify_with_colours(&detail.mesh, Some(Colours { values: &colours, weight }), &SimplifyParams { target_triangles: params.base_triangles, max_error: f32::INFINITY });
+        let s = simplify_with_colours(
+            &detail.mesh,
+            Some(Colours { values: &colours, weight }),
+            &SimplifyParams { target_triangles: params.base_triangles, max_error: f32::INFINITY },
+        );
         let stream = progressive::Progressive::new(&detail.mesh, &s);
         let base = Level { mesh: stream.base.clone(), error: detail.error + s.error, refines: Some(stream) };
         out.push(detail);
@@ -150,7 +158,12 @@ impl Mesh {
     /// Diagonal of the bounding box (0 for an empty mesh).
     /// The mesh as the coder takes it.
     pub fn to_coded(&self) -> exploremaps_format::meshcode::MeshData {
-        exploremaps_format::meshcode::MeshData { positions: self.positions.iter().map(|p| p.to_array()).collect(), triangles: self.triangles.clone(), groups: self.groups.clone(), colours: Vec::new() }
+        exploremaps_format::meshcode::MeshData {
+            positions: self.positions.iter().map(|p| p.to_array()).collect(),
+            triangles: self.triangles.clone(),
+            groups: self.groups.clone(),
+            colours: Vec::new(),
+        }
     }
 
     /// The triangles `triangles` as a mesh of their own, and per new vertex
@@ -248,7 +261,15 @@ mod tests {
     #[ignore]
     fn every_shared_scene_codes_and_decodes() {
         // Slow: the shared third-party scenes (`cargo test -- --ignored`).
-        for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj", "cornell_box/CornellBox-Original.obj", "wooden_staircase/wooden_staircase.obj", "dream_apartment/dream_apartment.glb"] {
+        for file in [
+            "stanford_bunny/bun_zipper.ply",
+            "sponza_crytek/sponza_crytek.obj",
+            "sponza_dabrovic/sponza.obj",
+            "grey_white_room/grey_white_room.obj",
+            "cornell_box/CornellBox-Original.obj",
+            "wooden_staircase/wooden_staircase.obj",
+            "dream_apartment/dream_apartment.glb",
+        ] {
             let Some(path) = crate::testing::shared_scene(file) else { continue };
             let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
             let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());

@@ -116,7 +116,8 @@ mod tests {
             quad([v(x0, 0.0, 0.0), v(x1, 0.0, 0.0), v(x1, y1, 0.0), v(x0, y1, 0.0)], room); // back
             quad([v(x0, 0.0, z1), v(x0, y1, z1), v(x1, y1, z1), v(x1, 0.0, z1)], room); // front
             quad([v(x0, 0.0, 0.0), v(x0, y1, 0.0), v(x0, y1, z1), v(x0, 0.0, z1)], room); // left
-            quad([v(x1, 0.0, 0.0), v(x1, 0.0, z1), v(x1, y1, z1), v(x1, y1, 0.0)], room); // right
+            quad([v(x1, 0.0, 0.0), v(x1, 0.0, z1), v(x1, y1, z1), v(x1, y1, 0.0)], room);
+            // right
         }
         m
     }

@@ -47,11 +47,11 @@
 //! recorded ([`Collapse`]) so [`super::progressive`] can undo them in order.
 
 use super::Mesh;
-use glam::{DMat3, DVec3, Vec3, Vec4};
-use std::cmp::Reverse;
 use dary_heap::OctonaryHeap as BinaryHeap;
+use glam::{DMat3, DVec3, Vec3, Vec4};
 use rayon::prelude::*;
 use smallvec::SmallVec;
+use std::cmp::Reverse;
 
 /// A vertex's neighbours or triangles: a handful, kept off the allocator on
 /// the hot path.
@@ -160,7 +160,12 @@ struct Quadric {
 impl Quadric {
     /// The plane n·p + d = 0 (n unit), weighted.
     fn plane(n: DVec3, d: f64, w: f64) -> Quadric {
-        Quadric { a: [n.x * n.x * w, n.x * n.y * w, n.x * n.z * w, n.y * n.y * w, n.y * n.z * w, n.z * n.z * w], b: n * d * w, c: d * d * w, weight: w }
+        Quadric {
+            a: [n.x * n.x * w, n.x * n.y * w, n.x * n.z * w, n.y * n.y * w, n.y * n.z * w, n.z * n.z * w],
+            b: n * d * w,
+            c: d * d * w,
+            weight: w,
+        }
     }
 
     fn add(&mut self, o: &Quadric) {
@@ -195,7 +200,11 @@ impl Quadric {
         if scale <= 0.0 || det.abs() <= 1e-9 * scale * scale * scale {
             return None;
         }
-        let adjugate = DMat3::from_cols(c, DVec3::new(c.y, a[0] * a[5] - a[2] * a[2], a[1] * a[2] - a[0] * a[4]), DVec3::new(c.z, a[1] * a[2] - a[0] * a[4], a[0] * a[3] - a[1] * a[1]));
+        let adjugate = DMat3::from_cols(
+            c,
+            DVec3::new(c.y, a[0] * a[5] - a[2] * a[2], a[1] * a[2] - a[0] * a[4]),
+            DVec3::new(c.z, a[1] * a[2] - a[0] * a[4], a[0] * a[3] - a[1] * a[1]),
+        );
         let p = adjugate * -self.b / det;
         p.is_finite().then_some(p)
     }
@@ -341,7 +350,11 @@ impl Entry {
     }
     fn job(&self) -> Job {
         let (a, b, c) = ((self.0 >> 64) as u32, (self.0 >> 32) as u32, self.0 as u32);
-        if b == u32::MAX { Job::Part(a) } else { Job::Edge(a, b, c) }
+        if b == u32::MAX {
+            Job::Part(a)
+        } else {
+            Job::Edge(a, b, c)
+        }
     }
 }
 
@@ -465,7 +478,13 @@ fn simplify_halves_above(mesh: &Mesh, colours: Option<Colours>, params: &Simplif
         }
     }
     let colours = colours.map(|c| s.colours.iter().map(|v| (*v / c.weight as f64).as_vec3()).collect()).unwrap_or_default();
-    Simplified { mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() }, alive: s.alive, steps: done.steps, error: done.error, colours }
+    Simplified {
+        mesh: Mesh { positions: s.positions, triangles: s.triangles, groups: mesh.groups.clone() },
+        alive: s.alive,
+        steps: done.steps,
+        error: done.error,
+        colours,
+    }
 }
 
 /// What the collapses so far did: live triangles, the steps and the
@@ -508,7 +527,12 @@ impl Greedy<'_> {
         // Removing a part moves its surface by up to half its diagonal.
         let parts = self.parts.iter().enumerate().filter(|(_, (_, tris))| tris.iter().all(|&t| s.triangles[t as usize].iter().all(free)));
         let mut entries: Vec<Reverse<Entry>> = parts.map(|(i, (diagonal, _))| Entry::new(0.5 * diagonal, Job::Part(i as u32))).collect();
-        entries.par_extend(s.edges().par_iter().filter(|(a, b)| free(a) && free(b)).filter_map(|&(a, b)| Some(Entry::new(s.cost(a, b)?, Job::Edge(a, b, s.stamps(a, b))))));
+        entries.par_extend(
+            s.edges()
+                .par_iter()
+                .filter(|(a, b)| free(a) && free(b))
+                .filter_map(|&(a, b)| Some(Entry::new(s.cost(a, b)?, Job::Edge(a, b, s.stamps(a, b))))),
+        );
         entries
     }
 
@@ -601,7 +625,8 @@ const THRESHOLD_GROWTH: f32 = 1.1;
 /// 10 % with colour: 0.43-0.47 s against 0.66-0.73 s in one loop.
 fn halves<'a>(s: State<'a>, greedy: &Greedy, params: &SimplifyParams, done: &mut Done) -> State<'a> {
     let used: Vec<u32> = (0..s.positions.len() as u32).filter(|&v| !s.around[v as usize].is_empty()).collect();
-    let (lo, hi) = used.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(s.positions[v as usize]), hi.max(s.positions[v as usize])));
+    let (lo, hi) =
+        used.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| (lo.min(s.positions[v as usize]), hi.max(s.positions[v as usize])));
     let axis = (hi - lo).max_position();
     let mut along: Vec<f32> = used.iter().map(|&v| s.positions[v as usize][axis]).collect();
     let middle = along.len() / 2;
@@ -708,26 +733,33 @@ impl<'a> State<'a> {
         // triangle's quadrics found anew at each of its corners: on every
         // core, and without a list of every triangle's quadrics (300 bytes
         // each; faulting in its pages cost more than the sums).
-        let quadrics = around.par_iter().map(|ts: &SmallVec<[u32; 8]>| {
-            let mut q = Quadric::default();
-            for (p, u, w) in ts.iter().filter_map(|&t| plane(t)) {
-                q.add(&Quadric::plane(u, -u.dot(p[0].as_dvec3()), w));
-            }
-            q
-        }).collect();
+        let quadrics = around
+            .par_iter()
+            .map(|ts: &SmallVec<[u32; 8]>| {
+                let mut q = Quadric::default();
+                for (p, u, w) in ts.iter().filter_map(|&t| plane(t)) {
+                    q.add(&Quadric::plane(u, -u.dot(p[0].as_dvec3()), w));
+                }
+                q
+            })
+            .collect();
         let colour_quadrics = if colours.is_empty() {
             Vec::new()
         } else {
-            around.par_iter().map(|ts: &SmallVec<[u32; 8]>| {
-                let mut q = ColourQuadric::default();
-                for &t in ts {
-                    let Some((p, u, w)) = plane(t) else { continue };
-                    if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), mesh.triangles[t as usize].map(|v| colours[v as usize]), u, w) {
-                        q.add(&c);
+            around
+                .par_iter()
+                .map(|ts: &SmallVec<[u32; 8]>| {
+                    let mut q = ColourQuadric::default();
+                    for &t in ts {
+                        let Some((p, u, w)) = plane(t) else { continue };
+                        if let Some(c) = ColourQuadric::triangle(p.map(Vec3::as_dvec3), mesh.triangles[t as usize].map(|v| colours[v as usize]), u, w)
+                        {
+                            q.add(&c);
+                        }
                     }
-                }
-                q
-            }).collect()
+                    q
+                })
+                .collect()
         };
         let mut s = State {
             positions: mesh.positions.clone(),
@@ -768,7 +800,10 @@ impl State<'_> {
     /// Every edge of a live triangle, once, as (low, high), in order: per
     /// vertex from its own triangles (no sort of the whole mesh's edges).
     fn edges(&self) -> Vec<(u32, u32)> {
-        (0..self.positions.len() as u32).into_par_iter().flat_map_iter(|v| self.neighbours(v).into_iter().filter(move |&w| w > v).map(move |w| (v, w))).collect()
+        (0..self.positions.len() as u32)
+            .into_par_iter()
+            .flat_map_iter(|v| self.neighbours(v).into_iter().filter(move |&w| w > v).map(move |w| (v, w)))
+            .collect()
     }
 
     fn neighbours(&self, v: u32) -> Few {
@@ -783,13 +818,20 @@ impl State<'_> {
     fn add_border_planes(&mut self) {
         // Per triangle, a bit per edge glued to exactly one other triangle of
         // its group (found among the triangles around the edge's first end).
-        let interior: Vec<u8> = self.triangles.par_iter().enumerate().map(|(t, tri)| {
-            (0..3).filter(|&k| {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                let mut others = self.around[a as usize].iter().filter(|&&u| u as usize != t && self.triangles[u as usize].contains(&b));
-                matches!((others.next(), others.next()), (Some(&u), None) if self.groups[u as usize] == self.groups[t])
-            }).fold(0u8, |bits, k| bits | 1 << k)
-        }).collect();
+        let interior: Vec<u8> = self
+            .triangles
+            .par_iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                (0..3)
+                    .filter(|&k| {
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        let mut others = self.around[a as usize].iter().filter(|&&u| u as usize != t && self.triangles[u as usize].contains(&b));
+                        matches!((others.next(), others.next()), (Some(&u), None) if self.groups[u as usize] == self.groups[t])
+                    })
+                    .fold(0u8, |bits, k| bits | 1 << k)
+            })
+            .collect();
         for (t, tri) in self.triangles.iter().enumerate() {
             if interior[t] == 0b111 {
                 continue;
@@ -915,7 +957,12 @@ impl State<'_> {
             let third = |w: u32| w != removed && shared_triangles.iter().any(|&t| self.triangles[t as usize].contains(&w) && w != kept);
             for t in self.live_around(removed) {
                 let tri = self.triangles[t as usize];
-                if !shared_triangles.contains(&t) && tri.iter().all(|&w| w == removed || third(w)) && self.live_around(kept).any(|u| !shared_triangles.contains(&u) && tri.iter().all(|&w| w == removed || self.triangles[u as usize].contains(&w))) {
+                if !shared_triangles.contains(&t)
+                    && tri.iter().all(|&w| w == removed || third(w))
+                    && self
+                        .live_around(kept)
+                        .any(|u| !shared_triangles.contains(&u) && tri.iter().all(|&w| w == removed || self.triangles[u as usize].contains(&w)))
+                {
                     return false;
                 }
             }
@@ -953,7 +1000,8 @@ impl State<'_> {
     }
 
     fn collapse(&mut self, kept: u32, removed: u32, target: DVec3) -> Collapse {
-        let mut c = Collapse { kept, removed, kept_was: self.positions[kept as usize], kept_now: target.as_vec3(), moved: Vec::new(), deleted: Vec::new() };
+        let mut c =
+            Collapse { kept, removed, kept_was: self.positions[kept as usize], kept_now: target.as_vec3(), moved: Vec::new(), deleted: Vec::new() };
         let tris: Few = self.live_around(removed).collect();
         for t in tris {
             let tri = &mut self.triangles[t as usize];
@@ -1125,17 +1173,28 @@ pub(crate) mod tests {
         let scene = exploremaps_scenes::BuiltIn::Gallery.generate(1);
         let (m, _) = super::super::weld::weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
         let out = simplify(&m, &SimplifyParams { target_triangles: m.triangles.len() / 50, max_error: f32::INFINITY }).compact();
-        let triangles: Vec<([Vec3; 3], Vec3, f32)> = out.triangles.iter().map(|t| {
-            let p = t.map(|v| out.positions[v as usize]);
-            let centre = (p[0] + p[1] + p[2]) / 3.0;
-            (p, centre, p.iter().map(|q| q.distance(centre)).fold(0.0, f32::max))
-        }).collect();
+        let triangles: Vec<([Vec3; 3], Vec3, f32)> = out
+            .triangles
+            .iter()
+            .map(|t| {
+                let p = t.map(|v| out.positions[v as usize]);
+                let centre = (p[0] + p[1] + p[2]) / 3.0;
+                (p, centre, p.iter().map(|q| q.distance(centre)).fold(0.0, f32::max))
+            })
+            .collect();
         // Every input vertex's distance to the simplified surface (a
         // triangle is skipped when its bounding sphere is farther than the
         // nearest found so far).
-        let farthest = m.positions.iter().map(|&p| {
-            triangles.iter().fold(f32::INFINITY, |best, &(t, centre, radius)| if p.distance(centre) - radius >= best { best } else { best.min(to_triangle(p, t)) })
-        }).fold(0.0, f32::max);
+        let farthest = m
+            .positions
+            .iter()
+            .map(|&p| {
+                triangles.iter().fold(
+                    f32::INFINITY,
+                    |best, &(t, centre, radius)| if p.distance(centre) - radius >= best { best } else { best.min(to_triangle(p, t)) },
+                )
+            })
+            .fold(0.0, f32::max);
         assert!(farthest < 0.1, "an input vertex {farthest} units from the 2 % level");
     }
 
@@ -1151,7 +1210,13 @@ pub(crate) mod tests {
         m.triangles.push([base, base + 1, base + 2]);
         m.groups.push(0);
         let s = simplify(&m, &SimplifyParams { target_triangles: 10, max_error: 0.05 });
-        assert!(!s.alive[m.triangles.len() - 1], "the loose triangle is pruned: {} left, error {}, {} steps", s.triangles().len(), s.error, s.steps.len());
+        assert!(
+            !s.alive[m.triangles.len() - 1],
+            "the loose triangle is pruned: {} left, error {}, {} steps",
+            s.triangles().len(),
+            s.error,
+            s.steps.len()
+        );
         assert_eq!(s.steps.iter().filter(|s| matches!(s, Step::Prune(_))).count(), 1);
     }
 
@@ -1170,7 +1235,8 @@ pub(crate) mod tests {
                     let [a, b, d] = t.map(|v| out.positions[v as usize].truncate());
                     let area = (b - a).perp_dot(d - a);
                     let (u, v) = ((p.truncate() - a).perp_dot(d - a) / area, (b - a).perp_dot(p.truncate() - a) / area);
-                    (u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4).then(|| c[t[0] as usize] * (1.0 - u - v) + c[t[1] as usize] * u + c[t[2] as usize] * v)
+                    (u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4)
+                        .then(|| c[t[0] as usize] * (1.0 - u - v) + c[t[1] as usize] * u + c[t[2] as usize] * v)
                 });
                 sum += (found.expect("the plane still covers every input vertex") - *want).length_squared();
             }
@@ -1218,10 +1284,12 @@ pub(crate) mod tests {
             let out = Vec3::new(0.0, angle.sin(), angle.cos());
             let mut row = axis.clone();
             for r in 1..=4 {
-                let next: Vec<u32> = (0..=8).map(|x| {
-                    m.positions.push(Vec3::new(x as f32, 0.0, 0.0) + out * r as f32);
-                    m.positions.len() as u32 - 1
-                }).collect();
+                let next: Vec<u32> = (0..=8)
+                    .map(|x| {
+                        m.positions.push(Vec3::new(x as f32, 0.0, 0.0) + out * r as f32);
+                        m.positions.len() as u32 - 1
+                    })
+                    .collect();
                 for x in 0..8 {
                     m.triangles.push([row[x], row[x + 1], next[x + 1]]);
                     m.triangles.push([row[x], next[x + 1], next[x]]);
@@ -1294,7 +1362,9 @@ pub(crate) mod tests {
     #[ignore]
     fn no_triangle_of_a_shared_scene_flips() {
         // Slow: the shared third-party scenes (`cargo test -- --ignored`).
-        for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj"] {
+        for file in
+            ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj"]
+        {
             let Some(path) = crate::testing::shared_scene(file) else { continue };
             let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
             let (m, _) = super::super::weld::weld_scene(&scene, 1e-5 * scene.bounds().diagonal());

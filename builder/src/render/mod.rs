@@ -81,7 +81,14 @@ pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], shard: Shard) -> (Vec<Num
 
 /// Renders what the bundle is missing, for this shard (steps above), calling
 /// `progress(done, total)` before each job and at the end.
-pub fn render_missing(dir: &Path, scene: &Scene, graph: &mut Graph, settings: &Settings, shard: Shard, mut progress: impl FnMut(usize, usize)) -> Result<RenderReport, BundleError> {
+pub fn render_missing(
+    dir: &Path,
+    scene: &Scene,
+    graph: &mut Graph,
+    settings: &Settings,
+    shard: Shard,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<RenderReport, BundleError> {
     let started = Instant::now();
     let abandoned = crate::files::remove_abandoned(dir);
     if abandoned > 0 {
@@ -206,10 +213,26 @@ mod tests {
         };
         let mut g = Graph::new(scene);
         g.probes = (0..probes)
-            .map(|i| f::Probe { id: i as u32, position: [0.0; 3], cluster: None, preferred_directions: Vec::new(), user_placed: false, assets: f::ProbeAssets::default() })
+            .map(|i| f::Probe {
+                id: i as u32,
+                position: [0.0; 3],
+                cluster: None,
+                preferred_directions: Vec::new(),
+                user_placed: false,
+                assets: f::ProbeAssets::default(),
+            })
             .collect();
         g.paths = (0..paths)
-            .map(|i| f::Path { id: i as u32, from: 0, to: 1, polyline: Vec::new(), length: 0.0, duration_s: 0.0, camera: Vec::new(), assets: f::PathAssets::default() })
+            .map(|i| f::Path {
+                id: i as u32,
+                from: 0,
+                to: 1,
+                polyline: Vec::new(),
+                length: 0.0,
+                duration_s: 0.0,
+                camera: Vec::new(),
+                assets: f::PathAssets::default(),
+            })
             .collect();
         g
     }

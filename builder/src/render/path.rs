@@ -18,7 +18,14 @@ pub(super) fn files(id: usize) -> (String, String) {
 
 /// Renders path `id`, encodes and writes its files. A path without camera
 /// keys has nothing to show: false, and no files.
-pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encoder: &Encoder, path: &PathInfo, id: usize) -> Result<bool, BundleError> {
+pub(super) fn render(
+    dir: &Path,
+    renderer: &Renderer,
+    settings: &Settings,
+    encoder: &Encoder,
+    path: &PathInfo,
+    id: usize,
+) -> Result<bool, BundleError> {
     let (video, poster) = files(id);
     let w = settings.video_width;
     let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
@@ -30,7 +37,11 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, encod
         failed = stream.push(&image).err();
         first.get_or_insert(image);
         // No more frames once the encoder has failed: the path errs anyway.
-        if failed.is_some() { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+        if failed.is_some() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     });
     let Some(first) = first else { return Ok(false) };
     let video_error = |e| BundleError::Video { path: dir.join(&video).display().to_string(), source: e };

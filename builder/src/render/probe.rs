@@ -58,7 +58,11 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
         }
         Ok(f.color)
     };
-    let mut faces: Vec<Vec<Vec3>> = renderer.cube(&settings.panorama, eye, settings.face, crate::seeds::image::cube(id as u32)).into_iter().map(denoised).collect::<Result<_, _>>()?;
+    let mut faces: Vec<Vec<Vec3>> = renderer
+        .cube(&settings.panorama, eye, settings.face, crate::seeds::image::cube(id as u32))
+        .into_iter()
+        .map(denoised)
+        .collect::<Result<_, _>>()?;
     let full = faces.clone();
     // Levels from the largest down, each box-filtered from the one above.
     let mut images = Vec::with_capacity(cube.len());
@@ -67,7 +71,8 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
             faces = faces.iter().map(|f| downsample(level.size * 2, f)).collect();
         }
         let level_images: Vec<image::RgbImage> = faces.iter().map(|face| renderer.to_image(level.size, level.size, face)).collect();
-        let missing: Vec<(&str, &image::RgbImage)> = level.faces.iter().zip(&level_images).filter(|(name, _)| !exists(name)).map(|(name, image)| (name.as_str(), image)).collect();
+        let missing: Vec<(&str, &image::RgbImage)> =
+            level.faces.iter().zip(&level_images).filter(|(name, _)| !exists(name)).map(|(name, image)| (name.as_str(), image)).collect();
         write_jpegs(dir, &missing)?;
         images.push((level.size, level_images));
     }

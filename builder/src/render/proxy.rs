@@ -56,7 +56,13 @@ fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
 /// lighting, coded into `proxy/<level>.emmc` with its point-to-go table in
 /// `proxy/<level>.seen`, the finest also as a GLB, then listed in
 /// `proxy/proxy.json`.
-pub(super) fn render(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &exploremaps_format::Graph, renderer: &crate::renderer::Renderer, params: &crate::proxy::ProxyParams) -> Result<(), BundleError> {
+pub(super) fn render(
+    dir: &Path,
+    scene: &exploremaps_scenes::Scene,
+    graph: &exploremaps_format::Graph,
+    renderer: &crate::renderer::Renderer,
+    params: &crate::proxy::ProxyParams,
+) -> Result<(), BundleError> {
     use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel, ProxyStream};
     let started = std::time::Instant::now();
     let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new(), stream: None };
@@ -89,7 +95,8 @@ pub(super) fn render(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &expl
             let mut data = mesh.to_coded();
             data.colours = was.iter().map(|&v| colours[v as usize]).collect();
             let file = format!("{name}.emmc");
-            let coded = meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), source: e })?;
+            let coded =
+                meshcode::encode(&data, params.bits).map_err(|e| BundleError::Proxy { path: dir.join(&file).display().to_string(), source: e })?;
             write(dir, &file, &coded.bytes)?;
             let seen_file = format!("{name}.seen");
             write(dir, &seen_file, &seen::encode(&coded.order.triangles.iter().map(|&t| best[triangles[t as usize]]).collect::<Vec<u32>>()))?;
@@ -97,7 +104,11 @@ pub(super) fn render(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &expl
             if parts.len() == 1 {
                 // Decoded vertex and triangle k are the level's `vertices[k]` and `triangles[k]`.
                 let vertices = coded.order.vertices.iter().map(|&v| was[v as usize]).collect();
-                whole = Some(CodedWhole { bytes: coded.bytes, vertices, triangles: coded.order.triangles.iter().map(|&t| triangles[t as usize] as u32).collect() });
+                whole = Some(CodedWhole {
+                    bytes: coded.bytes,
+                    vertices,
+                    triangles: coded.order.triangles.iter().map(|&t| triangles[t as usize] as u32).collect(),
+                });
             }
         }
         if i == 0 {
@@ -117,7 +128,12 @@ pub(super) fn render(dir: &Path, scene: &exploremaps_scenes::Scene, graph: &expl
         proxy.levels.push(ProxyLevel { file, triangles, vertices, error: level.error, bytes, seen, chunks });
     }
     let sizes: Vec<String> = proxy.levels.iter().map(|l| format!("{} triangles in {} bytes", l.triangles, l.bytes)).collect();
-    tracing::info!("proxy: {}; depth maps {} bytes a probe ({:.2} s)", sizes.join(", "), depth_bytes / probes.len().max(1), started.elapsed().as_secs_f64());
+    tracing::info!(
+        "proxy: {}; depth maps {} bytes a probe ({:.2} s)",
+        sizes.join(", "),
+        depth_bytes / probes.len().max(1),
+        started.elapsed().as_secs_f64()
+    );
     write(dir, PROXY_LIST, serde_json::to_string_pretty(&proxy).expect("JSON of plain values").as_bytes())
 }
 
@@ -136,10 +152,18 @@ struct CodedWhole {
 /// back a chunk's worth. Triangle groups carry the point-to-go entries
 /// (the probe count for none): the coarse level's, then `finer`'s (colours
 /// per vertex and table per triangle of the finer level).
-fn write_splits(dir: &Path, coarse: (&str, CodedWhole, &[u32]), mut stream: crate::proxy::progressive::Progressive, finer: (&[[u8; 3]], &[u32]), probes: u32, bits: u32) -> Result<Vec<exploremaps_format::ProxyPacket>, BundleError> {
+fn write_splits(
+    dir: &Path,
+    coarse: (&str, CodedWhole, &[u32]),
+    mut stream: crate::proxy::progressive::Progressive,
+    finer: (&[[u8; 3]], &[u32]),
+    probes: u32,
+    bits: u32,
+) -> Result<Vec<exploremaps_format::ProxyPacket>, BundleError> {
     use exploremaps_format::{meshcode, splits, ProxyPacket};
     let (file, CodedWhole { bytes, vertices, triangles }, best) = coarse;
-    let fail = |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), source: e };
+    let fail =
+        |file: &str, e: exploremaps_format::edgebreaker::CodingError| BundleError::Proxy { path: dir.join(file).display().to_string(), source: e };
     // The coder predicts from the coarse level exactly as a viewer decodes it.
     let mut base = meshcode::decode(&bytes).map_err(|e| fail(file, e))?;
     base.groups = triangles.iter().map(|&t| best[t as usize].min(probes)).collect();
@@ -150,7 +174,12 @@ fn write_splits(dir: &Path, coarse: (&str, CodedWhole, &[u32]), mut stream: crat
     let (mut listed, mut file_bytes, mut files, mut first) = (Vec::new(), Vec::new(), 0, base.triangles.len() as u64);
     for (k, packet) in packets.iter().enumerate() {
         let file = format!("proxy/splits-{files}.emvs");
-        listed.push(ProxyPacket { file: file.clone(), offset: file_bytes.len() as u64, bytes: packet.bytes.len() as u64, triangles: packet.triangles });
+        listed.push(ProxyPacket {
+            file: file.clone(),
+            offset: file_bytes.len() as u64,
+            bytes: packet.bytes.len() as u64,
+            triangles: packet.triangles,
+        });
         file_bytes.extend_from_slice(&packet.bytes);
         if packet.triangles - first >= CHUNK_TRIANGLES as u64 || k + 1 == packets.len() {
             write(dir, &file, &std::mem::take(&mut file_bytes))?;

@@ -37,7 +37,9 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
         let path = entry.path();
         if path.extension().is_some_and(|e| e == "json") {
             let parsed = std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
-            manifests.push(parsed.ok_or_else(|| incomplete(vec![format!("{}: not a shard manifest; delete it and run its shard again", path.display())]))?);
+            manifests.push(
+                parsed.ok_or_else(|| incomplete(vec![format!("{}: not a shard manifest; delete it and run its shard again", path.display())]))?,
+            );
         }
     }
     let Some(first) = manifests.first() else {
@@ -47,7 +49,10 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     let (render, levels) = (first["render"].clone(), first["levels"].clone());
     let mut problems = Vec::new();
     if let Some(odd) = manifests.iter().find(|m| m["count"] != first["count"] || m["render"] != render || m["levels"] != levels) {
-        problems.push(format!("shard {}/{} rendered with other settings or another shard count than shard {}/{count}; render every shard with the same options", odd["shard"], odd["count"], first["shard"]));
+        problems.push(format!(
+            "shard {}/{} rendered with other settings or another shard count than shard {}/{count}; render every shard with the same options",
+            odd["shard"], odd["count"], first["shard"]
+        ));
     }
     let levels: Vec<u32> = serde_json::from_value(levels).unwrap_or_default();
     let finished: std::collections::BTreeSet<u64> = manifests.iter().filter_map(|m| m["shard"].as_u64()).collect();

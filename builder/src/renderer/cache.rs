@@ -194,7 +194,18 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache { cell: params.cell, index: HashMap::default(), corners: Default::default(), irradiance: Vec::new(), points: Vec::new(), lamps: Vec::new(), lamp_words: 0, total: Vec::new(), mean: Vec3::ZERO, stats: CacheStats::default() };
+        let mut cache = RadianceCache {
+            cell: params.cell,
+            index: HashMap::default(),
+            corners: Default::default(),
+            irradiance: Vec::new(),
+            points: Vec::new(),
+            lamps: Vec::new(),
+            lamp_words: 0,
+            total: Vec::new(),
+            mean: Vec3::ZERO,
+            stats: CacheStats::default(),
+        };
         let mut cells: Vec<Cell> = Vec::new();
         let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
             let k = key(cache.cell_of(p), normal_bin(n));
@@ -325,7 +336,8 @@ impl RadianceCache {
                 .enumerate()
                 .map(|(c, cell)| {
                     let mut rng = sampler(params.seed, Work::CacheSun, image::NONE, c as u64);
-                    cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>() / cell.points.len() as f32
+                    cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>()
+                        / cell.points.len() as f32
                 })
                 .collect()
         };

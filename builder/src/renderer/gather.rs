@@ -257,10 +257,7 @@ impl Tracer<'_> {
         let (mut near, mut far, mut escaped, mut inverse) = (Vec3::ZERO, Vec3::ZERO, 0u32, 0.0f32);
         let from = s.lifted();
         for j in 0..side * side {
-            let u = Vec2::new(
-                ((j % side) as f32 + rng.random::<f32>()) / side as f32,
-                ((j / side) as f32 + rng.random::<f32>()) / side as f32,
-            );
+            let u = Vec2::new(((j % side) as f32 + rng.random::<f32>()) / side as f32, ((j / side) as f32 + rng.random::<f32>()) / side as f32);
             let d = cosine_direction(s.normal, u);
             if d.dot(s.geometric) <= 0.0 {
                 // Below the surface: no light, and nothing near either.
@@ -417,7 +414,10 @@ impl Grid {
                         let Some(q) = points[(yy * gw + xx) as usize] else {
                             continue;
                         };
-                        let mut w = tx * ty * geometric_weight(p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER) * ward((p.position - q.position).length(), p.harmonic.min(q.harmonic), self.spread, tolerance);
+                        let mut w = tx
+                            * ty
+                            * geometric_weight(p.position, p.normal, q.position, q.normal, tolerance, FILTER_NORMAL_POWER)
+                            * ward((p.position - q.position).length(), p.harmonic.min(q.harmonic), self.spread, tolerance);
                         if !near_field {
                             // A far field seen through few rays counts for little.
                             w *= q.open;
@@ -468,7 +468,10 @@ impl Grid {
                 if wx * wy == 0.0 {
                     continue;
                 }
-                let w = wx * wy * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER) * ward((s.position - q.position).length(), q.harmonic, self.spread, tolerance);
+                let w = wx
+                    * wy
+                    * geometric_weight(s.position, s.normal, q.position, q.normal, tolerance, NORMAL_POWER)
+                    * ward((s.position - q.position).length(), q.harmonic, self.spread, tolerance);
                 sum.near += q.near * w;
                 sum.far += q.far * w;
                 sum.open += q.open * w;
@@ -496,9 +499,23 @@ mod tests {
             for x in 0..n {
                 let on_ledge = ledge.contains(&x);
                 // The wall's light alternates 0.9 / 1.1 (noise around 1.0).
-                let light = if on_ledge { 0.2 } else if (x + y) % 2 == 0 { 0.9 } else { 1.1 };
+                let light = if on_ledge {
+                    0.2
+                } else if (x + y) % 2 == 0 {
+                    0.9
+                } else {
+                    1.1
+                };
                 let z = if on_ledge { 0.15 } else { 0.0 };
-                field.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic: f32::INFINITY }));
+                field.points.push(Some(Point {
+                    position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, z),
+                    normal: Vec3::Z,
+                    depth: 10.0,
+                    near: Vec3::ZERO,
+                    far: Vec3::splat(light),
+                    open: 1.0,
+                    harmonic: f32::INFINITY,
+                }));
             }
         }
         for pass in 0..3 {
@@ -529,7 +546,15 @@ mod tests {
                 for x in 0..n {
                     let under = (11..21).contains(&x);
                     let (light, harmonic) = if under { (0.2, 0.4) } else { (1.0, f32::INFINITY) };
-                    grid.points.push(Some(Point { position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, 0.0), normal: Vec3::Z, depth: 10.0, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic }));
+                    grid.points.push(Some(Point {
+                        position: Vec3::new(x as f32 * 0.05, y as f32 * 0.05, 0.0),
+                        normal: Vec3::Z,
+                        depth: 10.0,
+                        near: Vec3::ZERO,
+                        far: Vec3::splat(light),
+                        open: 1.0,
+                        harmonic,
+                    }));
                 }
             }
             for pass in 0..3 {
@@ -556,7 +581,15 @@ mod tests {
             for y in 0..n {
                 for x in 0..n {
                     let light = 1.0 + 0.2 * (rng.random::<f32>() - 0.5);
-                    grid.points.push(Some(Point { position: Vec3::new(x as f32 * spacing, y as f32 * spacing, 0.0), normal: Vec3::Z, depth, near: Vec3::ZERO, far: Vec3::splat(light), open: 1.0, harmonic: 1.0 }));
+                    grid.points.push(Some(Point {
+                        position: Vec3::new(x as f32 * spacing, y as f32 * spacing, 0.0),
+                        normal: Vec3::Z,
+                        depth,
+                        near: Vec3::ZERO,
+                        far: Vec3::splat(light),
+                        open: 1.0,
+                        harmonic: 1.0,
+                    }));
                 }
             }
             for pass in 0..3 {
@@ -564,7 +597,8 @@ mod tests {
             }
             grid.widen(3, (widen, 0.05));
             // The spread of the light over the middle (away from the borders).
-            let middle: Vec<f32> = (24..72).flat_map(|y| (24..72).map(move |x| (x, y))).map(|(x, y)| grid.points[(y * n + x) as usize].unwrap().far.x).collect();
+            let middle: Vec<f32> =
+                (24..72).flat_map(|y| (24..72).map(move |x| (x, y))).map(|(x, y)| grid.points[(y * n + x) as usize].unwrap().far.x).collect();
             let mean = middle.iter().sum::<f32>() / middle.len() as f32;
             (middle.iter().map(|v| (v - mean) * (v - mean)).sum::<f32>() / middle.len() as f32).sqrt()
         };

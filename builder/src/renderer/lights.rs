@@ -22,9 +22,9 @@
 //! rays from those surfaces leave through (the windows). A fifth of every
 //! choice stays uniform, so no cell that carries light is ever left out.
 
+use super::luminance;
 use super::surface::{cosine_direction, fibonacci_sphere, Lighting, Surface};
 use super::trace::{image, sampler, Tracer, Work};
-use super::luminance;
 use crate::raycast::Ray;
 use exploremaps_scenes::Scene;
 use glam::{Vec2, Vec3};

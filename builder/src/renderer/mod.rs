@@ -39,8 +39,8 @@ mod trace;
 
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
-pub use surface::{linear_to_srgb, srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 pub use gather::GatherParams;
+pub use surface::{linear_to_srgb, srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 pub use trace::{Frame, TraceParams, Tracer};
 
 use crate::raycast::RayScene;
@@ -142,8 +142,24 @@ impl Settings {
             Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
-                panorama: TraceParams { samples: 1, bounces: 0, baked_points: false, gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, widen: (2, 0.1), history_rays: 0 }), antialias: true, sun_rays: SUN_RAYS, seed },
-                video: TraceParams { samples: 1, bounces: 0, baked_points: true, gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, widen: (2, 0.1), history_rays: 9 }), antialias: false, sun_rays: SUN_RAYS, seed },
+                panorama: TraceParams {
+                    samples: 1,
+                    bounces: 0,
+                    baked_points: false,
+                    gather: Some(GatherParams { rays: 32, step: 6, passes: 3, near: 8, spread: 0.25, widen: (2, 0.1), history_rays: 0 }),
+                    antialias: true,
+                    sun_rays: SUN_RAYS,
+                    seed,
+                },
+                video: TraceParams {
+                    samples: 1,
+                    bounces: 0,
+                    baked_points: true,
+                    gather: Some(GatherParams { rays: 16, step: 1, passes: 2, near: 0, spread: 0.0, widen: (2, 0.1), history_rays: 9 }),
+                    antialias: false,
+                    sun_rays: SUN_RAYS,
+                    seed,
+                },
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
@@ -188,7 +204,14 @@ impl<'a> Renderer<'a> {
         let area = 2.0 * scene.total_area() as f32;
         let cell = (settings.cell_m * metre).max((area / settings.max_cells as f32).sqrt());
         let seeds = spread(viewpoints, 256);
-        let params = CacheParams { cell, gather_rays: settings.gather_rays, seed_rays: 16_384, max_cells: settings.max_cells, generations: 3, seed: settings.seed };
+        let params = CacheParams {
+            cell,
+            gather_rays: settings.gather_rays,
+            seed_rays: 16_384,
+            max_cells: settings.max_cells,
+            generations: 3,
+            seed: settings.seed,
+        };
         let cache = RadianceCache::build(&tracer, &seeds, &params);
         tracing::info!(
             "radiance cache: {} cells of {:.3} units, {} gather rays, {} iterations, {:.2} s",
@@ -209,7 +232,13 @@ impl<'a> Renderer<'a> {
     /// alone blows out sunlit floors beside deep shade).
     fn auto_exposure(&self, eyes: &[Vec3]) -> f32 {
         let quick = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed: self.settings.seed };
-        let mut seen: Vec<f32> = eyes.iter().enumerate().flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, crate::seeds::image::exposure(i as u32)).color).map(luminance).filter(|l| l.is_finite()).collect();
+        let mut seen: Vec<f32> = eyes
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &eye)| self.equirect(&quick, eye, 128, crate::seeds::image::exposure(i as u32)).color)
+            .map(luminance)
+            .filter(|l| l.is_finite())
+            .collect();
         if seen.is_empty() {
             return 1.0;
         }
@@ -239,10 +268,20 @@ impl<'a> Renderer<'a> {
     /// lighting from those two ([`reuse`]). Rows toward the poles trace
     /// fewer pixels ([`equirect_columns`]): a fifth less work a frame.
     /// `each` breaks to stop the path there (its encoder failed, say).
-    pub fn path_frames(&self, params: &TraceParams, eyes: &[Vec3], width: u32, image: u64, interval: u32, mut each: impl FnMut(usize, Frame) -> ControlFlow<()>) {
+    pub fn path_frames(
+        &self,
+        params: &TraceParams,
+        eyes: &[Vec3],
+        width: u32,
+        image: u64,
+        interval: u32,
+        mut each: impl FnMut(usize, Frame) -> ControlFlow<()>,
+    ) {
         let n = eyes.len();
         let columns = equirect_rows(width);
-        let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse, &columns);
+        let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| {
+            self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse, &columns)
+        };
         if params.samples != 1 || interval <= 1 || n < 3 {
             for i in 0..n {
                 if each(i, render(params, i, reuse::Reuse::Off).0).is_break() {
@@ -256,7 +295,8 @@ impl<'a> Renderer<'a> {
             keys.push(n - 1);
         }
         // Keys after the first: fewer rays, averaged with the keys before.
-        let later = params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
+        let later =
+            params.gather.filter(|g| g.history_rays > 0).map(|g| TraceParams { gather: Some(GatherParams { rays: g.history_rays, ..g }), ..*params });
         let (first, lit) = render(params, 0, reuse::Reuse::Key { history: None });
         if each(0, first).is_break() {
             return;
@@ -290,7 +330,9 @@ impl<'a> Renderer<'a> {
         let up = right.cross(forward);
         let tan = (0.5 * fov_y).tan();
         let aspect = width as f32 / height as f32;
-        self.tracer.render(params, eye, width, height, image, |s, t| (forward + right * ((2.0 * s - 1.0) * tan * aspect) + up * ((1.0 - 2.0 * t) * tan)).normalize())
+        self.tracer.render(params, eye, width, height, image, |s, t| {
+            (forward + right * ((2.0 * s - 1.0) * tan * aspect) + up * ((1.0 - 2.0 * t) * tan)).normalize()
+        })
     }
 
     /// The mean radiance leaving the scene's surface around `p`, seen from the

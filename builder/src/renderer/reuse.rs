@@ -102,7 +102,12 @@ impl Lit {
     /// The mean of `value` over the pixels (at most four) that saw the point
     /// of `s`, weighted by nearness and likeness; `None` where this key saw
     /// something else there.
-    fn blend<T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(&self, s: &Surface, (x, y, footprint): (f32, f32, f32), value: impl Fn(usize, &Seen) -> T) -> Option<T> {
+    fn blend<T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Div<f32, Output = T>>(
+        &self,
+        s: &Surface,
+        (x, y, footprint): (f32, f32, f32),
+        value: impl Fn(usize, &Seen) -> T,
+    ) -> Option<T> {
         if footprint <= 0.0 {
             return None;
         }
@@ -128,7 +133,13 @@ impl Lit {
             let wy = if dy == 1 { fy } else { 1.0 - fy };
             for dx in 0..2 {
                 let xx = (u0 + dx) * columns;
-                let xx = if xx < 0 { xx + width } else if xx >= width { xx - width } else { xx };
+                let xx = if xx < 0 {
+                    xx + width
+                } else if xx >= width {
+                    xx - width
+                } else {
+                    xx
+                };
                 let i = (yy * width + xx) as usize;
                 if let Some(p) = &self.points[i] {
                     let j = (2 * dy + dx) as usize;
@@ -283,7 +294,8 @@ mod tests {
             let dir = (Vec3::new(r(), r(), r()) * 2.0 - 1.0).normalize_or(Vec3::X);
             let normal = (-dir + Vec3::new(r(), r(), r()) * 0.6 - 0.3).normalize();
             let s = Surface { position: eye + dir * (3.0 + 0.05 * r()), normal, geometric: normal, albedo: Vec3::ONE, emission: Vec3::ZERO };
-            let (lanes, (one_by_one, weight)) = (Between { keys: [&lit, &lit], t: 0.0 }.irradiance([None, Some(&s), None, None])[1], blend_one_by_one(&lit, &s));
+            let (lanes, (one_by_one, weight)) =
+                (Between { keys: [&lit, &lit], t: 0.0 }.irradiance([None, Some(&s), None, None])[1], blend_one_by_one(&lit, &s));
             // (Within rounding of the threshold either answer is right.)
             if (weight - 0.25).abs() < 1e-3 {
                 continue;

@@ -55,9 +55,7 @@ pub fn srgb_decode(c: f32) -> f32 {
 
 fn srgb_table() -> &'static [f32; 256] {
     static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        std::array::from_fn(|i| srgb_decode(i as f32 / 255.0))
-    })
+    TABLE.get_or_init(|| std::array::from_fn(|i| srgb_decode(i as f32 / 255.0)))
 }
 
 /// Bilinear filtering of a tiled sRGB texture: linear RGB and alpha.
@@ -154,13 +152,8 @@ pub struct Materials<'a> {
 }
 
 /// What triangles without a material look like.
-static DEFAULT_MATERIAL: Material = Material {
-    name: String::new(),
-    base_color: [0.7, 0.7, 0.7, 1.0],
-    base_color_texture: None,
-    alpha_mode: AlphaMode::Opaque,
-    emissive: Vec3::ZERO,
-};
+static DEFAULT_MATERIAL: Material =
+    Material { name: String::new(), base_color: [0.7, 0.7, 0.7, 1.0], base_color_texture: None, alpha_mode: AlphaMode::Opaque, emissive: Vec3::ZERO };
 
 impl<'a> Materials<'a> {
     fn of(&self, triangle: u32) -> &Material {
@@ -183,7 +176,11 @@ impl<'a> Materials<'a> {
                     let uv_area = (q - p).perp_dot(r - p).abs();
                     let area = (b - a).cross(c - a).length();
                     // Degenerate either way: the full level.
-                    if uv_area > 0.0 && area > 0.0 { 0.5 * (texels * uv_area / area).log2() } else { f32::NEG_INFINITY }
+                    if uv_area > 0.0 && area > 0.0 {
+                        0.5 * (texels * uv_area / area).log2()
+                    } else {
+                        f32::NEG_INFINITY
+                    }
                 })
                 .collect();
         }
@@ -258,7 +255,14 @@ impl<'a> Materials<'a> {
         // (half the lookups there, for a blend no one could see).
         let k = (level as usize).min(levels.len());
         let f = (level - k as f32).min(1.0);
-        factor * if f <= 0.1 || k == levels.len() { at(k) } else if f >= 0.9 { at(k + 1) } else { at(k) * (1.0 - f) + at(k + 1) * f }
+        factor
+            * if f <= 0.1 || k == levels.len() {
+                at(k)
+            } else if f >= 0.9 {
+                at(k + 1)
+            } else {
+                at(k) * (1.0 - f) + at(k + 1) * f
+            }
     }
 
     /// Whether a hit is a hole in a cut-out (blended materials count as
@@ -332,7 +336,13 @@ impl<'a> Materials<'a> {
         } else {
             f32::NEG_INFINITY
         };
-        Surface { position: ray.at(hit.t), normal: geometric, geometric, albedo: self.colour_at(m, hit.triangle, hit.u, hit.v, level).min(Vec3::splat(0.98)), emission: m.emissive }
+        Surface {
+            position: ray.at(hit.t),
+            normal: geometric,
+            geometric,
+            albedo: self.colour_at(m, hit.triangle, hit.u, hit.v, level).min(Vec3::splat(0.98)),
+            emission: m.emissive,
+        }
     }
 }
 
@@ -423,8 +433,7 @@ impl Lighting {
         } else {
             lighting.sky = Sky::NONE;
             lighting.points = ceiling_lights(scene, rays, viewpoints);
-            lighting.description =
-                format!("no lights in a closed scene: {} default ceiling lights, one above each viewpoint", lighting.points.len());
+            lighting.description = format!("no lights in a closed scene: {} default ceiling lights, one above each viewpoint", lighting.points.len());
         }
         lighting
     }

@@ -1,7 +1,7 @@
 use super::*;
-use image::Rgb;
 use exploremaps_scenes::mesh::MeshBuilder;
 use exploremaps_scenes::{AlphaMode, Material, Texture};
+use image::Rgb;
 use rand::Rng;
 use rand_pcg::Pcg32;
 
@@ -37,11 +37,30 @@ fn furnace_matches_the_analytic_radiance() {
     let expected = 1.0 / (1.0 - 0.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 7));
     let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let pure = path_traced.render(&TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 16, 0, equirect_direction);
-    let first_hit_cache = renderer.equirect(&TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 0);
-    let one_bounce = renderer.equirect(&TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 0);
+    let pure = path_traced.render(
+        &TraceParams { samples: 64, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 },
+        eye,
+        32,
+        16,
+        0,
+        equirect_direction,
+    );
+    let first_hit_cache = renderer.equirect(
+        &TraceParams { samples: 1, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 },
+        eye,
+        32,
+        0,
+    );
+    let one_bounce = renderer.equirect(
+        &TraceParams { samples: 16, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 },
+        eye,
+        32,
+        0,
+    );
     let gathered = renderer.equirect(&renderer.settings.panorama, eye, 32, 0);
-    for (name, frame) in [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce), ("final gather", &gathered)] {
+    for (name, frame) in
+        [("path traced", &pure), ("cache at the first hit", &first_hit_cache), ("one bounce then cache", &one_bounce), ("final gather", &gathered)]
+    {
         let m = mean(&frame.color);
         for c in [m.x, m.y, m.z] {
             assert!((c - expected).abs() < 0.01 * expected, "{name}: mean radiance {m}, expected {expected}");
@@ -62,10 +81,22 @@ fn the_path_tracer_stops_at_its_bounce_cap() {
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 7));
     let path_traced = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
     for bounces in [1u32, 2] {
-        let frame = path_traced.render(&TraceParams { samples: 64, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 }, eye, 32, 16, 0, equirect_direction);
+        let frame = path_traced.render(
+            &TraceParams { samples: 64, bounces, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 1 },
+            eye,
+            32,
+            16,
+            0,
+            equirect_direction,
+        );
         let sum = |n: u32| (0..=n).map(|k| albedo.powi(k as i32)).sum::<f32>();
         let m = mean(&frame.color).x;
-        assert!(m > 0.99 * sum(bounces) && m < 1.01 * sum(bounces + 1), "{bounces} bounces: mean radiance {m}, expected {} to {}", sum(bounces), sum(bounces + 1));
+        assert!(
+            m > 0.99 * sum(bounces) && m < 1.01 * sum(bounces + 1),
+            "{bounces} bounces: mean radiance {m}, expected {} to {}",
+            sum(bounces),
+            sum(bounces + 1)
+        );
     }
 }
 
@@ -105,7 +136,11 @@ fn a_path_stops_at_the_frame_its_consumer_breaks_on() {
             let mut seen = Vec::new();
             renderer.path_frames(&params, &eyes, 32, 0, 4, |i, _| {
                 seen.push(i);
-                if i == stop { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+                if i == stop {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
             });
             assert_eq!(seen, (0..=stop).collect::<Vec<_>>(), "{} samples, stop at {stop}", params.samples);
         }
@@ -187,7 +222,11 @@ fn a_thinned_equirect_frame_keeps_its_traced_pixels_and_interpolates_the_rest() 
     let interpolated: Vec<Vec3> = skipped.iter().map(|&(i, _)| thinned.color[i]).collect();
     let nearest: Vec<Vec3> = skipped.iter().map(|&(_, j)| full.color[j]).collect();
     let (d, d_nearest) = (relative_difference(&interpolated, &truth), relative_difference(&nearest, &truth));
-    println!("{} pixels traced, {} interpolated: {d:.4} off their traced values (the nearest traced pixel's: {d_nearest:.4})", traced.len(), skipped.len());
+    println!(
+        "{} pixels traced, {} interpolated: {d:.4} off their traced values (the nearest traced pixel's: {d_nearest:.4})",
+        traced.len(),
+        skipped.len()
+    );
     assert!(skipped.len() > traced.len() / 5, "{} skipped", skipped.len());
     assert!(d < 0.5 * d_nearest, "interpolated {d:.4}, the nearest traced pixel {d_nearest:.4}");
 }
@@ -218,7 +257,11 @@ fn cutout_holes_let_light_and_sight_through() {
         }
     }
     let texture = m.add_texture(Texture { name: "half".into(), image: alpha });
-    let leaf = m.add_material(Material { base_color_texture: Some(texture), alpha_mode: AlphaMode::Mask { cutoff: 0.5 }, ..Material::diffuse("leaf", [0.0; 3]) });
+    let leaf = m.add_material(Material {
+        base_color_texture: Some(texture),
+        alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+        ..Material::diffuse("leaf", [0.0; 3])
+    });
     m.set_material(glow);
     m.cuboid(Vec3::new(-10.0, -10.0, -6.0), Vec3::new(10.0, 10.0, -5.0));
     m.set_material(leaf);
@@ -374,10 +417,19 @@ fn denoising_brings_a_noisy_path_traced_image_closer_to_the_converged_one() {
     let eye = Vec3::new(3.0, 1.6, 2.5);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Preview, 1));
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-    let shot = |spp: u32, seed: u64| pure.render(&TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed }, eye, 96, 64, 0, |s, t| {
-        let d = Vec3::new(2.0 * s - 1.0, (1.0 - 2.0 * t) * 0.66, -1.0);
-        d.normalize()
-    });
+    let shot = |spp: u32, seed: u64| {
+        pure.render(
+            &TraceParams { samples: spp, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed },
+            eye,
+            96,
+            64,
+            0,
+            |s, t| {
+                let d = Vec3::new(2.0 * s - 1.0, (1.0 - 2.0 * t) * 0.66, -1.0);
+                d.normalize()
+            },
+        )
+    };
     let reference = renderer.to_image(96, 64, &shot(1024, 7).color);
     // Measured: 1, 2, 4, 16 spp go from 21.0, 22.6, 25.4, 30.7 dB to 23.4, 27.5, 27.8, 31.3 dB.
     let mut noisy = shot(2, 1);
@@ -428,7 +480,9 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     let renderer = Renderer::new(&scene, &rays, &[eye, Vec3::new(1.5, 1.6, 1.5), Vec3::new(4.5, 1.6, 3.5)], Settings::new(Quality::Final, 1));
     let size = 64;
     // Straight up, 90° across: all ceiling.
-    let up = |params: &TraceParams, tracer: &Tracer| tracer.render(params, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize());
+    let up = |params: &TraceParams, tracer: &Tracer| {
+        tracer.render(params, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize())
+    };
     let pure = Tracer::path_traced(&scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
     let reference = up(&TraceParams { samples: 512, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 5 }, &pure);
     let ours = up(&renderer.settings.panorama, &renderer.tracer);
@@ -436,7 +490,9 @@ fn the_ceiling_of_a_room_lit_through_a_window_shows_no_cache_blotches() {
     let energy = |f: &Frame| band_energy(size as usize, &f.color, 1.5, 8.0);
     let (e_ref, e_ours, e_before) = (energy(&reference), energy(&ours), energy(&before));
     let mean_ratio = mean(&ours.color).dot(Vec3::ONE) / mean(&reference.color).dot(Vec3::ONE);
-    println!("ceiling band energy: reference {e_ref:.4}, final {e_ours:.4}, cache at the first hit {e_before:.4}; mean {mean_ratio:.3} of the reference's");
+    println!(
+        "ceiling band energy: reference {e_ref:.4}, final {e_ours:.4}, cache at the first hit {e_before:.4}; mean {mean_ratio:.3} of the reference's"
+    );
     let failed = e_ours > 1.5 * e_ref || !(0.85..1.15).contains(&mean_ratio);
     if failed || std::env::var("SHOW").is_ok() {
         let out = failure_dir();
@@ -510,7 +566,9 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     });
     assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..9).collect::<Vec<_>>(), "frames come in order");
     // Lit alone as path frames are, rows thinned toward the poles.
-    let alone = |params: &TraceParams, i: usize| renderer.tracer.render_reusing(params, eyes[i], (width, width / 2), i as u64, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0;
+    let alone = |params: &TraceParams, i: usize| {
+        renderer.tracer.render_reusing(params, eyes[i], (width, width / 2), i as u64, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0
+    };
     let full = alone(&video, 4);
     let cache_only = alone(&TraceParams { gather: None, ..video }, 4);
     let between = &frames[4].1;
@@ -518,7 +576,9 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     let (d_between, d_cache) = (relative_difference(&between.color, &full.color), relative_difference(&cache_only.color, &full.color));
     // Light taken from the wrong surface (an occluder, the far side of an
     // edge) shows as pixels far off, which a mean hides.
-    let far_off = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).filter(|(x, y)| (luminance(**x) - luminance(**y)).abs() > 0.25 * luminance(**y) + 1e-3).count() as f32 / b.len() as f32;
+    let far_off = |a: &[Vec3], b: &[Vec3]| {
+        a.iter().zip(b).filter(|(x, y)| (luminance(**x) - luminance(**y)).abs() > 0.25 * luminance(**y) + 1e-3).count() as f32 / b.len() as f32
+    };
     let (f_between, f_cache) = (far_off(&between.color, &full.color), far_off(&cache_only.color, &full.color));
     println!("middle frame against the frame lit in full: reused {d_between:.4} ({f_between:.4} of pixels 25 % off), cache at the first hit {d_cache:.4} ({f_cache:.4})");
     let failed = d_between > 0.04 || f_between > 0.018;
@@ -547,7 +607,10 @@ fn key_frames_averaged_with_the_keys_before_come_closer_to_the_answer() {
     let eyes: Vec<Vec3> = (0..9).map(|i| Vec3::new(2.0 + 0.05 * i as f32, 1.6, 3.5)).collect();
     let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(Quality::Final, 1));
     let width = 256;
-    let with = |rays: u32, history_rays: u32| TraceParams { gather: renderer.settings.video.gather.map(|g| GatherParams { rays, history_rays, ..g }), ..renderer.settings.video };
+    let with = |rays: u32, history_rays: u32| TraceParams {
+        gather: renderer.settings.video.gather.map(|g| GatherParams { rays, history_rays, ..g }),
+        ..renderer.settings.video
+    };
     let keys = |params: &TraceParams| {
         let mut frames = Vec::new();
         renderer.path_frames(params, &eyes, width, 0, 2, |_, f| {
@@ -588,14 +651,30 @@ fn sampling_the_lights_changes_the_noise_not_the_answer() {
         let guided = Tracer::path_traced(scene, &rays, lighting, &[eye]);
         let plain = Tracer { guide: None, ..Tracer::path_traced(scene, &rays, guided.lighting.clone(), &[eye]) };
         let size = 16;
-        let up = |tracer: &Tracer, samples: u32, seed: u64| tracer.render(&TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed }, eye, size, size, 0, |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize()).color;
+        let up = |tracer: &Tracer, samples: u32, seed: u64| {
+            tracer
+                .render(
+                    &TraceParams { samples, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed },
+                    eye,
+                    size,
+                    size,
+                    0,
+                    |s, t| Vec3::new(2.0 * s - 1.0, 1.0, 2.0 * t - 1.0).normalize(),
+                )
+                .color
+        };
         // (At 8,192 samples the lamp room's truth was itself 3 % off in a
         // quarter: its lamp is small, and bounces alone rarely find it.)
         let truth = up(&plain, 32768, 1);
         let quarter_means = |img: &[Vec3]| -> Vec<f32> {
-            (0..4).map(|q| img.iter().enumerate().filter(|(i, _)| (i % 16 / 8) + 2 * (i / 16 / 8) == q).map(|(_, c)| luminance(*c)).sum::<f32>() / 64.0).collect()
+            (0..4)
+                .map(|q| img.iter().enumerate().filter(|(i, _)| (i % 16 / 8) + 2 * (i / 16 / 8) == q).map(|(_, c)| luminance(*c)).sum::<f32>() / 64.0)
+                .collect()
         };
-        let rms = |img: &[Vec3]| (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt() / luminance(mean(&truth));
+        let rms = |img: &[Vec3]| {
+            (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt()
+                / luminance(mean(&truth))
+        };
         let sampled = up(&guided, 2048, 2);
         for (q, (a, b)) in quarter_means(&sampled).iter().zip(quarter_means(&truth)).enumerate() {
             assert!((a / b - 1.0).abs() < 0.03, "{}: quarter {q} of the ceiling {a:.4} with light sampling, {b:.4} with bounces alone", scene.name);
@@ -654,7 +733,8 @@ fn antialiasing_brings_one_sample_frames_close_to_many_samples() {
     let frame = |params: TraceParams| renderer.to_image(width, width / 2, &renderer.equirect(&params, eye, width, 0).color);
     let centres = renderer.equirect(&TraceParams { antialias: false, ..video }, eye, width, 0);
     let refined = trace::contrast_edges(&centres.color, centres.width, centres.height).len() as f32 / centres.color.len() as f32;
-    let (plain, smooth, many) = (renderer.to_image(width, width / 2, &centres.color), frame(video), frame(TraceParams { samples: 32, antialias: false, ..video }));
+    let (plain, smooth, many) =
+        (renderer.to_image(width, width / 2, &centres.color), frame(video), frame(TraceParams { samples: 32, antialias: false, ..video }));
     let error = |a: &RgbImage| a.as_raw().iter().zip(many.as_raw()).map(|(&x, &y)| f32::from(x.abs_diff(y))).sum::<f32>() / a.as_raw().len() as f32;
     let (e_plain, e_smooth) = (error(&plain), error(&smooth));
     println!("against 32 samples a pixel: centres {e_plain:.3} levels, antialiased {e_smooth:.3}; {:.1} % of pixels refined", 100.0 * refined);
@@ -686,7 +766,10 @@ fn several_sun_rays_smooth_a_soft_shadow_edge() {
     let truth = shot(1024, 1, 1);
     // The penumbra runs across the image: dark at the left, lit at the right.
     assert!(luminance(truth[0]) < 0.01 && luminance(truth[47]) > 0.1, "{} .. {}", luminance(truth[0]), luminance(truth[47]));
-    let rms = |img: &[Vec3]| (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt() / luminance(mean(&truth));
+    let rms = |img: &[Vec3]| {
+        (img.iter().zip(&truth).map(|(a, b)| (luminance(*a) - luminance(*b)).powi(2)).sum::<f32>() / img.len() as f32).sqrt()
+            / luminance(mean(&truth))
+    };
     let (one, eight) = (rms(&shot(2, 1, 2)), rms(&shot(2, 8, 2)));
     println!("penumbra at 2 samples a pixel: relative RMS error {one:.3} with one sun ray, {eight:.3} with eight");
     assert!(eight < 0.35 * one, "eight stratified sun rays should cut the penumbra's noise: {eight:.3} against {one:.3}");
@@ -715,8 +798,18 @@ fn the_floor_darkens_at_a_boxs_foot_as_the_reference_does() {
     tracer.cache = Some(RadianceCache::build(&tracer, &[eye], &params));
     // Toward the box's foot from above and beside it: floor around it, its side.
     let size = 96;
-    let view = |tracer: &Tracer, params: &TraceParams| tracer.render(params, eye, size, size, 0, |s, t| (Vec3::new(-1.0, -0.9, 0.0) + Vec3::new(0.0, 0.0, 0.8 * (2.0 * s - 1.0)) + Vec3::new(-0.45, 0.5, 0.0) * 0.8 * (1.0 - 2.0 * t)).normalize()).color;
-    let reference = view(&Tracer::path_traced(&scene, &rays, lighting, &[eye]), &TraceParams { samples: 256, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 2 });
+    let view = |tracer: &Tracer, params: &TraceParams| {
+        tracer
+            .render(params, eye, size, size, 0, |s, t| {
+                (Vec3::new(-1.0, -0.9, 0.0) + Vec3::new(0.0, 0.0, 0.8 * (2.0 * s - 1.0)) + Vec3::new(-0.45, 0.5, 0.0) * 0.8 * (1.0 - 2.0 * t))
+                    .normalize()
+            })
+            .color
+    };
+    let reference = view(
+        &Tracer::path_traced(&scene, &rays, lighting, &[eye]),
+        &TraceParams { samples: 256, bounces: 0, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 2 },
+    );
     let panorama = Settings::new(Quality::Final, 1).panorama;
     let ours = view(&tracer, &panorama);
     let plain = view(&tracer, &TraceParams { gather: panorama.gather.map(|g| GatherParams { near: 0, spread: 0.0, ..g }), ..panorama });
@@ -744,7 +837,8 @@ fn fine_checker_floor() -> Scene {
     scene.positions = vec![Vec3::new(-20.0, 0.0, -20.0), Vec3::new(20.0, 0.0, -20.0), Vec3::new(20.0, 0.0, 20.0), Vec3::new(-20.0, 0.0, 20.0)];
     scene.uvs = scene.positions.iter().map(|p| glam::Vec2::new(p.x, p.z) * 10.0).collect();
     scene.triangles = vec![[0, 2, 1], [0, 3, 2]];
-    let checker = image::RgbaImage::from_fn(64, 64, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 255, 255, 255]) } else { image::Rgba([0, 0, 0, 255]) });
+    let checker =
+        image::RgbaImage::from_fn(64, 64, |x, y| if (x + y) % 2 == 0 { image::Rgba([255, 255, 255, 255]) } else { image::Rgba([0, 0, 0, 255]) });
     scene.textures.push(Texture { name: "checker".into(), image: checker });
     scene.materials = vec![Material { base_color_texture: Some(0), ..Material::diffuse("checker", [1.0; 3]) }];
     scene.triangle_material = vec![0; 2];
@@ -777,7 +871,8 @@ fn one_sample_a_pixel_reads_a_fine_texture_averaged_over_the_pixel() {
         for x in 0..size {
             let centre = direction(x as f32 + 0.5, y as f32 + 0.5);
             let (Some(filtered), Some(point)) = (albedo(centre, pixel), albedo(centre, 0.0)) else { continue };
-            let truth = (0..256).filter_map(|_| albedo(direction(x as f32 + rng.random::<f32>(), y as f32 + rng.random::<f32>()), 0.0)).sum::<f32>() / 256.0;
+            let truth =
+                (0..256).filter_map(|_| albedo(direction(x as f32 + rng.random::<f32>(), y as f32 + rng.random::<f32>()), 0.0)).sum::<f32>() / 256.0;
             filtered_error += (filtered - truth).abs();
             point_error += (point - truth).abs();
             filtered_sum += filtered;

@@ -240,7 +240,16 @@ impl<'a> Tracer<'a> {
     /// rest by interpolating along the row, wrapping around
     /// ([`super::equirect_columns`]); empty traces every pixel.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn render_reusing(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync, reuse: Reuse, columns: &[u32]) -> (Frame, Option<Lit>) {
+    pub(super) fn render_reusing(
+        &self,
+        params: &TraceParams,
+        eye: Vec3,
+        (width, height): (u32, u32),
+        image: u64,
+        project: impl Fn(f32, f32) -> Vec3 + Sync,
+        reuse: Reuse,
+        columns: &[u32],
+    ) -> (Frame, Option<Lit>) {
         debug_assert!(columns.is_empty() || (columns.len() == height as usize && columns.iter().all(|&c| c >= 1 && width % c == 0)));
         let traced = |x: u32, y: u32| columns.get(y as usize).is_none_or(|&c| x.is_multiple_of(c));
         let keep = matches!(reuse, Reuse::Key { .. });
@@ -249,7 +258,9 @@ impl<'a> Tracer<'a> {
         let mut lit = keep.then(|| Lit { eye, width, height, columns: columns.to_vec(), points: vec![None; n], history: vec![Vec4::ZERO; n] });
         // Frames between key frames gather nothing: the keys did.
         let field = match (&params.gather, &self.cache, params.bounces, reuse) {
-            (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => Some(self.gather_field(g, params.seed, eye, (width, height), image, &project, &traced)),
+            (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => {
+                Some(self.gather_field(g, params.seed, eye, (width, height), image, &project, &traced))
+            }
             _ => None,
         };
         let antialias = params.antialias && params.samples == 1;
@@ -319,7 +330,17 @@ impl<'a> Tracer<'a> {
     /// rotated grid, lit as the centre was (the same gather field, the same key
     /// frames), and keep the mean of the five; flat regions cost nothing more.
     #[allow(clippy::too_many_arguments)]
-    fn antialias(&self, params: &TraceParams, eye: Vec3, image: u64, project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, reuse: Reuse, steady: &[Vec3], frame: &mut Frame) {
+    fn antialias(
+        &self,
+        params: &TraceParams,
+        eye: Vec3,
+        image: u64,
+        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+        field: Option<&Field>,
+        reuse: Reuse,
+        steady: &[Vec3],
+        frame: &mut Frame,
+    ) {
         const GRID: [(f32, f32); 4] = [(0.375, 0.125), (0.875, 0.375), (0.625, 0.875), (0.125, 0.625)];
         let (width, height) = (frame.width, frame.height);
         let edges = contrast_edges(steady, width, height);
@@ -350,7 +371,18 @@ impl<'a> Tracer<'a> {
     /// `jitter`: where in each pixel its one sample goes, and the random
     /// stream of the first (the rest follow), instead of pixel centres.
     #[allow(clippy::too_many_arguments)]
-    fn render_tile(&self, params: &TraceParams, eye: Vec3, (width, height): (u32, u32), image: u64, pixels: &[(u32, u32)], project: &(impl Fn(f32, f32) -> Vec3 + Sync), field: Option<&Field>, reuse: Reuse, jitter: Option<(&[(f32, f32)], u64)>) -> Vec<Pixel> {
+    fn render_tile(
+        &self,
+        params: &TraceParams,
+        eye: Vec3,
+        (width, height): (u32, u32),
+        image: u64,
+        pixels: &[(u32, u32)],
+        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+        field: Option<&Field>,
+        reuse: Reuse,
+        jitter: Option<(&[(f32, f32)], u64)>,
+    ) -> Vec<Pixel> {
         // Antialiasing's extra samples (jittered) keep nothing.
         let keep = matches!(reuse, Reuse::Key { .. }) && jitter.is_none();
         let spp = params.samples.max(1);
@@ -522,7 +554,14 @@ impl<'a> Tracer<'a> {
             .iter()
             .zip(sums)
             .zip(last_hit)
-            .map(|((&(x, y), (c, a, n, steady)), hit)| Pixel { index: (y * width + x) as usize, color: c * inv, albedo: a * inv, normal: n.normalize_or_zero(), steady: steady * inv, hit })
+            .map(|((&(x, y), (c, a, n, steady)), hit)| Pixel {
+                index: (y * width + x) as usize,
+                color: c * inv,
+                albedo: a * inv,
+                normal: n.normalize_or_zero(),
+                steady: steady * inv,
+                hit,
+            })
             .collect()
     }
 }

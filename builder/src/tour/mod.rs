@@ -122,7 +122,14 @@ const TILE_QUALITY: u8 = 90;
 /// `viewers` into `out`. `library`: a `node_modules` folder to copy the
 /// viewers' scripts from; without it the pages load them from jsDelivr.
 /// `progress(done, of)` follows the probes.
-pub fn export(bundle: &Path, graph: &Graph, viewers: &[Viewer], out: &Path, library: Option<&Path>, mut progress: impl FnMut(usize, usize)) -> Result<TourReport, TourError> {
+pub fn export(
+    bundle: &Path,
+    graph: &Graph,
+    viewers: &[Viewer],
+    out: &Path,
+    library: Option<&Path>,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<TourReport, TourError> {
     if out.exists() && !out.join(MARKER).exists() && std::fs::read_dir(out).map_err(io(out))?.next().is_some() {
         return Err(TourError::Occupied(out.display().to_string()));
     }
@@ -132,7 +139,13 @@ pub fn export(bundle: &Path, graph: &Graph, viewers: &[Viewer], out: &Path, libr
     if let Some(lib) = library {
         for (package, _, file) in viewers.iter().flat_map(|v| v.library()) {
             if !lib.join(package).join(file).exists() {
-                let packages: Vec<String> = viewers.iter().flat_map(|v| v.library()).map(|(p, v, _)| format!("{p}@{v}")).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+                let packages: Vec<String> = viewers
+                    .iter()
+                    .flat_map(|v| v.library())
+                    .map(|(p, v, _)| format!("{p}@{v}"))
+                    .collect::<std::collections::BTreeSet<_>>()
+                    .into_iter()
+                    .collect();
                 return Err(TourError::Library { path: lib.join(package).join(file).display().to_string(), packages: packages.join(" ") });
             }
         }
@@ -229,13 +242,27 @@ fn links(graph: &Graph) -> Vec<Link> {
     for p in &graph.paths {
         for reversed in [false, true] {
             let (from, to) = if reversed { (p.to, p.from) } else { (p.from, p.to) };
-            links.push(Link { from, to, path: p.id, reversed, departure: p.travel_direction(reversed, false), arrival: graph.arrival_direction(p, reversed) });
+            links.push(Link {
+                from,
+                to,
+                path: p.id,
+                reversed,
+                departure: p.travel_direction(reversed, false),
+                arrival: graph.arrival_direction(p, reversed),
+            });
         }
     }
     links
 }
 
-fn write_tour(bundle: &Path, graph: &Graph, viewers: &[Viewer], dir: &Path, library: Option<&Path>, progress: &mut impl FnMut(usize, usize)) -> Result<TourReport, TourError> {
+fn write_tour(
+    bundle: &Path,
+    graph: &Graph,
+    viewers: &[Viewer],
+    dir: &Path,
+    library: Option<&Path>,
+    progress: &mut impl FnMut(usize, usize),
+) -> Result<TourReport, TourError> {
     let mut report = TourReport { probes: graph.probes.len(), ..Default::default() };
     // Titles follow the thumbnail bar: "View 1" is the first there.
     let mut rank: Vec<usize> = (0..graph.probes.len()).collect();
@@ -286,7 +313,10 @@ fn write_tour(bundle: &Path, graph: &Graph, viewers: &[Viewer], dir: &Path, libr
         })
         .collect();
     let tour = json!({ "title": graph.scene.name, "first": first.to_string(), "probes": probes, "links": tour_links });
-    let tour_js = format!("// The tour, for ExploreMaps' scripts (written by `exploremaps export`).\nwindow.EXPLOREMAPS_TOUR = {};\n", serde_json::to_string_pretty(&tour).expect("JSON of plain values"));
+    let tour_js = format!(
+        "// The tour, for ExploreMaps' scripts (written by `exploremaps export`).\nwindow.EXPLOREMAPS_TOUR = {};\n",
+        serde_json::to_string_pretty(&tour).expect("JSON of plain values")
+    );
     report.bytes += write(dir, "tour.js", tour_js.as_bytes())?;
     report.bytes += write(dir, "transition.js", include_str!("transition.js").as_bytes())?;
     for &viewer in viewers {
@@ -306,7 +336,13 @@ fn write_tour(bundle: &Path, graph: &Graph, viewers: &[Viewer], dir: &Path, libr
         let folder = viewer.folder();
         report.bytes += write(dir, &format!("{folder}/index.html"), page.as_bytes())?;
         match viewer {
-            Viewer::Pannellum => report.bytes += write(dir, "pannellum/tour.json", serde_json::to_string_pretty(&pannellum(graph, &tour, &links, &title)).expect("JSON").as_bytes())?,
+            Viewer::Pannellum => {
+                report.bytes += write(
+                    dir,
+                    "pannellum/tour.json",
+                    serde_json::to_string_pretty(&pannellum(graph, &tour, &links, &title)).expect("JSON").as_bytes(),
+                )?
+            }
             Viewer::Marzipano => {
                 let data = format!("var APP_DATA = {};\n", serde_json::to_string_pretty(&marzipano(graph, &tour, &links, &title)).expect("JSON"));
                 report.bytes += write(dir, "marzipano/data.js", data.as_bytes())?;
@@ -317,7 +353,8 @@ fn write_tour(bundle: &Path, graph: &Graph, viewers: &[Viewer], dir: &Path, libr
     let items: String = viewers.iter().map(|v| format!("<li><a href=\"{}/index.html\">{}</a></li>\n", v.folder(), v.title())).collect();
     let index = include_str!("index.html").replace("{{TITLE}}", &html_escape(&graph.scene.name)).replace("{{VIEWERS}}", &items);
     report.bytes += write(dir, "index.html", index.as_bytes())?;
-    let marker = json!({ "generator": concat!("exploremaps ", env!("CARGO_PKG_VERSION")), "viewers": viewers.iter().map(|v| v.folder()).collect::<Vec<_>>() });
+    let marker =
+        json!({ "generator": concat!("exploremaps ", env!("CARGO_PKG_VERSION")), "viewers": viewers.iter().map(|v| v.folder()).collect::<Vec<_>>() });
     write(dir, MARKER, marker.to_string().as_bytes())?;
     Ok(report)
 }
@@ -380,7 +417,11 @@ fn marzipano(graph: &Graph, tour: &Value, links: &[Link], title: &dyn Fn(u32) ->
             let tiles = tiles_of(tour, probe.id);
             let mut levels = vec![json!({ "tileSize": tiles.preview_size, "size": tiles.preview_size, "fallbackOnly": true })];
             levels.extend((1..=tiles.levels).map(|l| json!({ "tileSize": tiles.tile, "size": tiles.level_size(l) })));
-            let hotspots: Vec<Value> = links.iter().filter(|l| l.from == probe.id).map(|l| json!({ "yaw": radians(l.departure.0), "pitch": radians(-l.departure.1), "rotation": 0, "target": l.to.to_string() })).collect();
+            let hotspots: Vec<Value> = links
+                .iter()
+                .filter(|l| l.from == probe.id)
+                .map(|l| json!({ "yaw": radians(l.departure.0), "pitch": radians(-l.departure.1), "rotation": 0, "target": l.to.to_string() }))
+                .collect();
             let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
             json!({
                 "id": probe.id.to_string(), "name": title(probe.id), "levels": levels, "faceSize": tiles.size,

@@ -97,14 +97,27 @@ impl Platform for Script {
         // Tiles are 16 pixels, white.
         let tiles: Vec<Loaded> = std::mem::take(&mut self.tiles_pending)
             .into_iter()
-            .map(|(probe, size, slot, x, y)| Loaded::Tile { probe, size, slot, x, y, pixels: crate::panorama::TilePixels::Rgba { width: 16, height: 16, rgba: vec![255; 4 * 16 * 16] } })
+            .map(|(probe, size, slot, x, y)| Loaded::Tile {
+                probe,
+                size,
+                slot,
+                x,
+                y,
+                pixels: crate::panorama::TilePixels::Rgba { width: 16, height: 16, rgba: vec![255; 4 * 16 * 16] },
+            })
             .collect();
         let maps: Vec<Loaded> = maps.into_iter().chain(tiles).collect();
-        proxies.into_iter().chain(refined).chain(maps).chain(self.pending
-            .drain(..)
-            .map(|(probe, size)| {
+        proxies
+            .into_iter()
+            .chain(refined)
+            .chain(maps)
+            .chain(self.pending.drain(..).map(|(probe, size)| {
                 if self.broken.contains(&probe) {
-                    return Loaded::Failed { what: format!("probes/{probe}/{size}_px.jpg"), error: "is not a readable image".into(), probe: Some(probe) };
+                    return Loaded::Failed {
+                        what: format!("probes/{probe}/{size}_px.jpg"),
+                        error: "is not a readable image".into(),
+                        probe: Some(probe),
+                    };
                 }
                 let cube = Cube::new(&gpu.device, size);
                 let grey = vec![128u8; (4 * size * size) as usize];
@@ -132,7 +145,10 @@ fn bundle_graph() -> Graph {
     let mut g = graph();
     for p in &mut g.probes {
         p.assets.thumbnail = Some(format!("probes/{}/thumbnail.jpg", p.id));
-        p.assets.cube_levels = [8u32, 16, 32].iter().map(|&size| CubeLevel { size, faces: std::array::from_fn(|f| format!("probes/{}/{size}_{f}.jpg", p.id)) }).collect();
+        p.assets.cube_levels = [8u32, 16, 32]
+            .iter()
+            .map(|&size| CubeLevel { size, faces: std::array::from_fn(|f| format!("probes/{}/{size}_{f}.jpg", p.id)) })
+            .collect();
     }
     for p in &mut g.paths {
         p.assets.video = Some(format!("paths/{}.mp4", p.id));
@@ -284,7 +300,15 @@ fn a_probe_with_only_large_levels_still_shows_and_one_with_none_gives_a_message(
 fn graph_with_proxy() -> Graph {
     let mut g = bundle_graph();
     g.scene.eye_height_m = Some(1.6);
-    let level = |i: usize| exploremaps_format::ProxyLevel { file: format!("proxy/{i}.emmc"), triangles: 4, vertices: 8, error: 0.0, bytes: 100, seen: Some(format!("proxy/{i}.seen")), chunks: vec![] };
+    let level = |i: usize| exploremaps_format::ProxyLevel {
+        file: format!("proxy/{i}.emmc"),
+        triangles: 4,
+        vertices: 8,
+        error: 0.0,
+        bytes: 100,
+        seen: Some(format!("proxy/{i}.seen")),
+        chunks: vec![],
+    };
     let depth_maps = (0..g.probes.len()).map(|p| format!("proxy/depth/{p}.emdm")).collect();
     g.proxy = Some(exploremaps_format::Proxy { levels: vec![level(0), level(1)], glb: None, floors: vec![0.0, 3.0], depth_maps, stream: None });
     g
@@ -297,7 +321,8 @@ fn the_proxy_refines_by_vertex_splits_or_comes_whole_when_they_fail() {
     for broken in [false, true] {
         let mut script = Script { broken_stream: broken, ..Script::default() };
         let mut g = graph_with_proxy();
-        let packet = |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), offset: 0, triangles, bytes: 10 };
+        let packet =
+            |k: usize, triangles: u64| exploremaps_format::ProxyPacket { file: format!("proxy/splits-{k}.emvs"), offset: 0, triangles, bytes: 10 };
         g.proxy.as_mut().unwrap().stream = Some(ProxyStream { from: 1, to: 0, packets: vec![packet(0, 5), packet(1, 6)] });
         let Some(mut app) = app_of(g, &mut script, 1 << 30, 360) else { return };
         app.resize(640, 360, 1.0);

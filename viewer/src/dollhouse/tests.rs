@@ -139,12 +139,18 @@ fn floors_cut_above_head_height_and_below_the_next_storey() {
 
 /// Draws `mesh` seen by `camera` into a `size`² target and reads it back.
 pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Option<Vec<u8>> {
-    render_with(mesh, size, |pass, device, queue, encoder, target| pass.draw(device, queue, encoder, target, size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal()))
+    render_with(mesh, size, |pass, device, queue, encoder, target| {
+        pass.draw(device, queue, encoder, target, size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal())
+    })
 }
 
 /// Clears a `size`² target to black, runs `call` on it with a pass holding
 /// `mesh`, and reads it back.
-fn render_with(mesh: &ProxyMesh, size: u32, call: impl FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView)) -> Option<Vec<u8>> {
+fn render_with(
+    mesh: &ProxyMesh,
+    size: u32,
+    call: impl FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView),
+) -> Option<Vec<u8>> {
     let (device, queue) = crate::panorama::tests::gpu()?;
     let mut pass = DollhousePass::new(&device, wgpu::TextureFormat::Rgba8UnormSrgb);
     pass.upload(&device, &queue, mesh);
@@ -183,7 +189,9 @@ fn a_section_outlines_what_crosses_the_plane() {
     let mesh = ProxyMesh::new(0, data, vec![]);
     let section = mesh.section(0.5);
     assert_eq!(section.len(), 8);
-    let on_outline = |x: f32, z: f32| (x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6 || z.abs() < 1e-6 || (z - 1.0).abs() < 1e-6) && (0.0..=1.0).contains(&x) && (0.0..=1.0).contains(&z);
+    let on_outline = |x: f32, z: f32| {
+        (x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6 || z.abs() < 1e-6 || (z - 1.0).abs() < 1e-6) && (0.0..=1.0).contains(&x) && (0.0..=1.0).contains(&z)
+    };
     assert!(section.iter().all(|s| on_outline(s[0], s[1]) && on_outline(s[2], s[3])), "{section:?}");
     let length: f32 = section.iter().map(|s| ((s[2] - s[0]).powi(2) + (s[3] - s[1]).powi(2)).sqrt()).sum();
     assert!((length - 4.0).abs() < 1e-4, "the perimeter: {length}");
@@ -194,7 +202,11 @@ fn a_section_outlines_what_crosses_the_plane() {
 fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
     let mesh = two_storeys(vec![]);
     // A 32-pixel square at (0, 16) of a 64² target, 2 px a unit, centred on the origin.
-    let Some(px) = render_with(&mesh, 64, |pass, device, queue, encoder, target| pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else { return };
+    let Some(px) = render_with(&mesh, 64, |pass, device, queue, encoder, target| {
+        pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)
+    }) else {
+        return;
+    };
     let at = |x: u32, y: u32| {
         let i = 4 * (y * 64 + x) as usize;
         [px[i], px[i + 1], px[i + 2]]
@@ -210,7 +222,11 @@ fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
     // Seen from below (wound the other way), a floor is a solid's inside: dark.
     let mut flipped = two_storeys(vec![]);
     flipped.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-    let Some(px) = render_with(&flipped, 64, |pass, device, queue, encoder, target| pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else { return };
+    let Some(px) = render_with(&flipped, 64, |pass, device, queue, encoder, target| {
+        pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)
+    }) else {
+        return;
+    };
     let i = 4 * (32 * 64 + 16);
     assert!(px[i..i + 3].iter().all(|&c| c < 60), "{:?}", &px[i..i + 3]);
 }

@@ -14,7 +14,10 @@ pub(crate) fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
         let adapter = match instance.request_adapter(&wgpu::RequestAdapterOptions::default()).await {
             Ok(a) => a,
             Err(e) => {
-                assert!(std::env::var("EXPLOREMAPS_SKIP_GPU").is_ok_and(|v| v == "1"), "no GPU adapter ({e}); install mesa-vulkan-drivers, or set EXPLOREMAPS_SKIP_GPU=1");
+                assert!(
+                    std::env::var("EXPLOREMAPS_SKIP_GPU").is_ok_and(|v| v == "1"),
+                    "no GPU adapter ({e}); install mesa-vulkan-drivers, or set EXPLOREMAPS_SKIP_GPU=1"
+                );
                 eprintln!("SKIPPED: no GPU adapter ({e})");
                 return None;
             }
@@ -46,7 +49,12 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
     render_target(device, queue, SIZE, |encoder, target| {
         let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: None,
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store } })],
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
             depth_stencil_attachment: None,
             timestamp_writes: None,
             occlusion_query_set: None,
@@ -58,7 +66,12 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
 
 /// Clears a `size`² RGBA8 sRGB target to black, lets `draw` record passes
 /// into it, and reads its pixels back.
-pub(crate) fn render_target(device: &wgpu::Device, queue: &wgpu::Queue, size: u32, draw: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::TextureView)) -> Vec<u8> {
+pub(crate) fn render_target(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    size: u32,
+    draw: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::TextureView),
+) -> Vec<u8> {
     let target = device.create_texture(&wgpu::TextureDescriptor {
         label: None,
         size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
@@ -70,11 +83,21 @@ pub(crate) fn render_target(device: &wgpu::Device, queue: &wgpu::Queue, size: u3
         view_formats: &[],
     });
     let view = target.create_view(&Default::default());
-    let readback = device.create_buffer(&wgpu::BufferDescriptor { label: None, size: u64::from(size * size * 4), usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ, mapped_at_creation: false });
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: u64::from(size * size * 4),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
     let mut encoder = device.create_command_encoder(&Default::default());
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: None,
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: &view, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store } })],
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+        })],
         depth_stencil_attachment: None,
         timestamp_writes: None,
         occlusion_query_set: None,
@@ -83,7 +106,10 @@ pub(crate) fn render_target(device: &wgpu::Device, queue: &wgpu::Queue, size: u3
     draw(&mut encoder, &view);
     encoder.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-        wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) } },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) },
+        },
         wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
     );
     queue.submit([encoder.finish()]);
@@ -112,7 +138,15 @@ fn known_views_show_the_right_faces_the_right_way_up() {
         .map(|f| {
             (0..n * n)
                 .flat_map(|i| {
-                    let c = if f == 5 { if i / n < n / 2 { [255, 255, 255] } else { [0, 0, 0] } } else { colours[f] };
+                    let c = if f == 5 {
+                        if i / n < n / 2 {
+                            [255, 255, 255]
+                        } else {
+                            [0, 0, 0]
+                        }
+                    } else {
+                        colours[f]
+                    };
                     [c[0], c[1], c[2], 255]
                 })
                 .collect()
@@ -162,7 +196,12 @@ fn video_frames_are_sampled_as_world_aligned_equirectangular_images() {
     // Four vertical bands by yaw: [−Z..+X) red, [+X..+Z) green, [+Z..−X) blue, [−X..−Z) white.
     let (w, h) = (64u32, 32u32);
     let bands = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]];
-    let rgba: Vec<u8> = (0..w * h).flat_map(|i| { let c = bands[((i % w) * 4 / w) as usize]; [c[0], c[1], c[2], 255] }).collect();
+    let rgba: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let c = bands[((i % w) * 4 / w) as usize];
+            [c[0], c[1], c[2], 255]
+        })
+        .collect();
     let video = VideoTexture::new(&device, w, h);
     video.write(&queue, &rgba);
     use std::f32::consts::PI;

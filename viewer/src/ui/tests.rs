@@ -2,7 +2,19 @@ use super::*;
 use crate::navigation::tests::graph;
 
 fn screen(width: f32, height: f32, scale: f32) -> Screen {
-    Screen { width, height, scale, show_map: true, touring: false, thumbs_ready: true, message: false, proxy: false, dollhouse: None, plan: None, sections: std::rc::Rc::new([]) }
+    Screen {
+        width,
+        height,
+        scale,
+        show_map: true,
+        touring: false,
+        thumbs_ready: true,
+        message: false,
+        proxy: false,
+        dollhouse: None,
+        plan: None,
+        sections: std::rc::Rc::new([]),
+    }
 }
 
 fn centre_of(l: &Layout, action: Action) -> Option<[f32; 2]> {
@@ -18,7 +30,14 @@ fn the_path_bar_runs_left_to_right_by_departure_with_the_best_aligned_in_the_mid
     let l = layout(&nav, &screen(1280.0, 720.0, 1.0));
     let xs: Vec<f32> = (0..3).map(|p| centre_of(&l, Action::TakePath(p)).unwrap()[0]).collect();
     // Markers are hits too; the path bar tiles are the last hits per path, so look them up by row.
-    let bar: Vec<(f32, u32)> = l.hits.iter().filter_map(|h| match h.action { Action::TakePath(p) if !h.round => Some((h.x + h.w / 2.0, p)), _ => None }).collect();
+    let bar: Vec<(f32, u32)> = l
+        .hits
+        .iter()
+        .filter_map(|h| match h.action {
+            Action::TakePath(p) if !h.round => Some((h.x + h.w / 2.0, p)),
+            _ => None,
+        })
+        .collect();
     assert_eq!(bar.len(), 3, "{bar:?}");
     let mut sorted = bar.clone();
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -137,7 +156,8 @@ fn links_round_trip_and_name_bad_values() {
 #[test]
 fn a_bar_shows_the_proxy_refining() {
     let nav = Navigator::new(graph(), Some(0), 1).unwrap();
-    let over = |loading| Screen { dollhouse: Some(DollhouseScreen { markers: Vec::new(), floors: 0, floor: None, loading }), ..screen(1000.0, 600.0, 1.0) };
+    let over =
+        |loading| Screen { dollhouse: Some(DollhouseScreen { markers: Vec::new(), floors: 0, floor: None, loading }), ..screen(1000.0, 600.0, 1.0) };
     let filled = |l: &Layout| l.shapes.iter().filter(|s| s.colour == HIGHLIGHT && s.a[1] < 5.0 && s.b[1] < 5.0).map(|s| s.b[0] - s.a[0]).next();
     let half = layout(&nav, &over(Some(0.4)));
     assert!(filled(&half).is_some_and(|len| (len - 400.0).abs() < 1.0), "{:?}", filled(&half));
