@@ -30,6 +30,7 @@ use glam::Vec3;
 use petgraph::unionfind::UnionFind;
 use rand::Rng;
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
 use std::time::Instant;
@@ -40,6 +41,9 @@ const WITNESSES_PER_PROBE: usize = 16;
 /// A step gliding off walking height costs this many walking steps: a join
 /// walks wherever it can.
 const GLIDE_COST: f32 = 4.0;
+/// A* searches run this many at a time (a fixed number, so that the paths
+/// do not depend on the thread count).
+const SEARCH_BATCH: usize = 8;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConnectParams {
@@ -165,24 +169,36 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
         crate::freespace::components_26(&space.grid, &space.navigable)
     };
     let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
-    for (i, j) in searches {
-        if part_of(probes[i]) != part_of(probes[j]) {
-            stats.unroutable += 1;
-            continue;
-        }
-        let bound = params.prune_ratio * (probes[i] - probes[j]).length();
-        let arc = |x: usize, y: usize| paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline));
-        let detour = (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));
-        if detour {
-            stats.pruned += 1;
-            continue;
-        }
-        match a_star(space, probes[i], probes[j]) {
-            Some(polyline) => {
-                stats.a_star += 1;
-                paths.push(RawPath { from: i, to: j, polyline });
+    // In batches of a fixed size, whatever the thread count: a batch's pairs
+    // are checked for detours against the paths found before it, then
+    // searched in parallel.
+    for batch in searches.chunks(SEARCH_BATCH) {
+        let mut wanted = Vec::with_capacity(batch.len());
+        for &(i, j) in batch {
+            if part_of(probes[i]) != part_of(probes[j]) {
+                stats.unroutable += 1;
+                continue;
             }
-            None => stats.unroutable += 1,
+            let bound = params.prune_ratio * (probes[i] - probes[j]).length();
+            let arc =
+                |x: usize, y: usize| paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline));
+            let detour =
+                (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));
+            if detour {
+                stats.pruned += 1;
+            } else {
+                wanted.push((i, j));
+            }
+        }
+        let routes: Vec<Option<Vec<Vec3>>> = wanted.par_iter().map(|&(i, j)| a_star(space, probes[i], probes[j])).collect();
+        for (&(i, j), route) in wanted.iter().zip(routes) {
+            match route {
+                Some(polyline) => {
+                    stats.a_star += 1;
+                    paths.push(RawPath { from: i, to: j, polyline });
+                }
+                None => stats.unroutable += 1,
+            }
         }
     }
     // Phase 3: groups of probes that share no view with each other but stand
@@ -429,7 +445,8 @@ fn a_star(space: &FreeSpace, a: Vec3, b: Vec3) -> Option<Vec<Vec3>> {
     let h = |i: usize| 1.5 * (g.center(g.coords(i)) - b).length();
     // Per visited voxel: cost so far, parent, expanded. A map, not grid-sized
     // arrays: a search visits a sliver of a fine grid (tens of millions of cells).
-    let mut state: HashMap<usize, (f32, u32, bool)> = HashMap::from([(start, (0.0, start as u32, false))]);
+    let mut state: FxHashMap<usize, (f32, u32, bool)> = FxHashMap::default();
+    state.insert(start, (0.0, start as u32, false));
     let mut open = BinaryHeap::from([(Reverse(ordered(h(start))), start)]);
     while let Some((Reverse(key), i)) = open.pop() {
         let here = state.get_mut(&i).expect("queued voxels have a state");
