@@ -67,7 +67,7 @@ const MIN_NORMAL_COSINE: f32 = 0.2;
 /// bunny's 50 % level and the Dabrovic Sponza's 1 % level farther from their
 /// input than meshoptimizer's, and 1.7 times the time); half keeps every
 /// level of the proxy bench's four scenes within 3 % of meshoptimizer's
-/// distances or closer (ARCHITECTURE.md, proxy figures).
+/// distances or closer (docs/2026-12-06-measurement-history.md, proxy figures).
 const FARTHEST_PLANE_SHARE: f32 = 0.5;
 /// Most triangles on an edge that collapses (a split record brings back at
 /// most 255; real non-manifold edges carry three or four).
