@@ -245,11 +245,11 @@ fn parse_point(text: &str) -> Result<[f32; 3], String> {
     }
 }
 
-/// `i/n` with i < n.
 /// How a bundle is rendered.
 #[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// final: 2 samples a pixel, every light sampled (4 shadow rays over the sun's
+    /// final: one sample through each pixel centre and four more where a pixel
+    /// differs from a neighbour, every light sampled (4 shadow rays over the sun's
     /// disk), global illumination gathered one bounce deep over the baked radiance
     /// cache, cube faces 512/1024/2048 and 1024-wide videos (about 20 s a probe and
     /// 0.2 s a video frame on the Crytek Sponza, 2 cores); preview: one sample
@@ -261,7 +261,7 @@ pub struct RenderArgs {
     /// Largest cube face in pixels (levels halve down to 512); default by quality.
     #[arg(long)]
     pub face: Option<u32>,
-    /// Video frame width (height is half), a multiple of 16; default by quality.
+    /// Video frame width (height is half), a multiple of 32; default by quality.
     #[arg(long)]
     pub video_width: Option<u32>,
     /// Triangles of the 3D proxy's finest level (its coarse level, which the
