@@ -57,7 +57,7 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         cause.is::<BadInput>()
             || cause.is::<LoadError>()
             || matches!(cause.downcast_ref(), Some(pipeline::PlanError::FreeSpace(_)))
-            || cause.is::<ExportError>()
+            || matches!(cause.downcast_ref(), Some(ExportError::Format(_)))
             || matches!(
                 cause.downcast_ref(),
                 Some(TourError::Image { .. } | TourError::NotRendered(_) | TourError::Occupied(_) | TourError::Library { .. })

@@ -85,6 +85,14 @@ fn scenes_lists_and_exports_builtins_that_load_back() {
         assert!(out.status.success(), "{}", stderr(&out));
         assert_eq!(info_triangles(path.to_str().unwrap()), info_triangles("maze:4"));
     }
+    // A name of no format is the user's to fix (2); a folder that cannot be
+    // written is a failure of the disk, not of the input (1).
+    let unknown = exploremaps(&["scenes", "maze:4", "-o", dir.path().join("maze.txt").to_str().unwrap()]);
+    assert_eq!(unknown.status.code(), Some(2), "{}", stderr(&unknown));
+    std::fs::write(dir.path().join("a-file"), b"").unwrap();
+    let unwritable = exploremaps(&["scenes", "maze:4", "-o", dir.path().join("a-file/maze.obj").to_str().unwrap()]);
+    assert_eq!(unwritable.status.code(), Some(1), "{}", stderr(&unwritable));
+    assert!(stderr(&unwritable).contains("a-file/maze"), "{}", stderr(&unwritable));
 }
 
 #[test]

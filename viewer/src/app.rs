@@ -5,7 +5,7 @@
 //! `web`) own the window, files and decoding.
 
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
-use crate::navigation::{direction, Navigator, State};
+use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
@@ -811,7 +811,7 @@ impl App {
             if !self.panos.contains_key(&probe) && !self.failed.contains(&probe) {
                 return;
             }
-            let _ = self.nav.arrive(probe, yaw, pitch);
+            log_refusal(self.nav.arrive(probe, yaw, pitch));
             self.mode = Mode::Panorama;
             self.fade_in_s = FADE_S;
         }
@@ -832,10 +832,10 @@ impl App {
         let facing = point.map(|q| facing(target, q));
         let joined = self.nav.path_bar().iter().any(|c| c.to == probe);
         if joined || self.proxy.is_none() {
-            let _ = match facing {
+            log_refusal(match facing {
                 Some(f) => self.nav.go_to_facing(probe, f),
                 None => self.nav.go_to(probe),
-            };
+            });
             return;
         }
         let (yaw, pitch) = facing.or_else(|| p.preferred_directions.first().map(|d| (d.yaw, d.pitch))).unwrap_or((self.nav.view.yaw, 0.0));
@@ -1135,7 +1135,7 @@ impl App {
                     Key::ZoomOut => self.nav.zoom(1.0 / 0.9),
                     Key::Go => {
                         if let Some(best) = self.nav.path_bar().first() {
-                            let _ = self.nav.take_path(best.path);
+                            log_refusal(self.nav.take_path(best.path));
                         }
                     }
                     Key::NextProbe | Key::PreviousProbe => {
@@ -1158,7 +1158,7 @@ impl App {
     /// A tap: on the interface it acts; on the view it takes the path whose
     /// marker is nearest, or the best-aligned one if it is within 45°.
     fn tap(&mut self, x: f32, y: f32, platform: &mut dyn Platform) {
-        let _ = match self.layout.hit(x, y) {
+        let result = match self.layout.hit(x, y) {
             Some(Action::GoTo(p)) => {
                 self.go_to(p, None);
                 Ok(())
@@ -1187,6 +1187,7 @@ impl App {
                 _ => Ok(()),
             },
         };
+        log_refusal(result);
     }
 
     /// Which probes the proxy hides from the dollhouse camera, a few a frame
@@ -1404,3 +1405,16 @@ impl App {
 
 #[cfg(test)]
 mod tests;
+
+/// A move the navigator refused: a press while on the way is expected and
+/// ignored; a path or probe the bundle lacks is a fault, logged.
+fn log_refusal(result: Result<(), NavError>) {
+    let text = match result {
+        Ok(()) | Err(NavError::Busy) => return,
+        Err(e) => format!("move refused: {e}"),
+    };
+    #[cfg(not(target_arch = "wasm32"))]
+    tracing::warn!("{text}");
+    #[cfg(target_arch = "wasm32")]
+    web_sys::console::warn_1(&text.into());
+}
