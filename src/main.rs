@@ -495,6 +495,24 @@ fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
         f.open,
         f.seconds
     );
+    if !f.left_out.is_empty() {
+        let largest: Vec<String> = f
+            .left_out
+            .iter()
+            .take(3)
+            .map(|p| {
+                format!(
+                    "{:.0} m³ around ({}, {}, {}), {}",
+                    p.volume_m3,
+                    num(p.centre[0] as f64),
+                    num(p.centre[1] as f64),
+                    num(p.centre[2] as f64),
+                    p.why
+                )
+            })
+            .collect();
+        println!("  left out    {} part(s) of the open space, the largest: {}", f.left_out.len(), largest.join("; "));
+    }
     if let Some(w) = &f.walk {
         let levels: Vec<String> = w.levels.iter().map(|(y, share)| format!("{} ({:.0} %)", num(*y as f64), 100.0 * share)).collect();
         println!(

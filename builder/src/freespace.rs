@@ -309,6 +309,8 @@ pub struct FreeSpaceStats {
     /// Parts of the open space with clearance ≥ r, and how many were kept.
     pub components: usize,
     pub components_kept: usize,
+    /// Room-sized parts left out, largest first.
+    pub left_out: Vec<LeftOut>,
     pub navigable: usize,
     /// Fraction of rays from open space that hit front faces (1 = closed interior).
     pub enclosure: f32,
@@ -580,6 +582,8 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         .collect();
     let (labels, sizes) = components(&grid, &candidate);
     let mut kept = vec![false; sizes.len()];
+    // Why each part left out was, for the report.
+    let mut apart: Vec<&'static str> = vec!["apart from the start point's part"; sizes.len()];
     match params.start {
         Some(p) => {
             let c = grid.cell(p).ok_or(FreeSpaceError::StartOutside(p))?;
@@ -598,7 +602,10 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         // The padding guarantees free space at the grid's corner, around the scene.
         None if space == SpaceMode::Outside => match labels[0] {
             NONE => return Err(FreeSpaceError::Nothing("outside", near, "try --space inside or a smaller near distance")),
-            corner => kept[corner as usize] = true,
+            corner => {
+                kept[corner as usize] = true;
+                apart.fill("inside the object, apart from the space around it");
+            }
         },
         None => {
             let votes = faced_votes(scene, &grid, &labels, sizes.len(), near);
@@ -620,9 +627,19 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             let drowned = under_water(&water, rays, &grid, &labels, &clearance, sizes.len());
             for (k, &d) in drowned.iter().enumerate() {
                 kept[k] &= !d;
+                apart[k] = if d {
+                    "under water"
+                } else if votes[k] == 0 {
+                    "no surface faces it (a void inside geometry)"
+                } else if exterior[k] {
+                    "open to the box's edge but apart from the rest (the outside of a building)"
+                } else {
+                    "sealed off: no opening to the rest wide enough to pass"
+                };
             }
         }
     }
+    let left_out = left_out_parts(&grid, &labels, &sizes, &kept, &apart, scene.metres_per_unit);
     let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
     // Flying, paths glide where probes fly; walking, see below.
     let mut glide = Vec::new();
@@ -656,6 +673,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         solid: (0..grid.len()).filter(|&i| free_in_box[i] && !open[i]).count(),
         components: sizes.len(),
         components_kept: kept.iter().filter(|&&k| k).count(),
+        left_out,
         navigable: navigable.iter().filter(|&&n| n).count(),
         enclosure: solids.enclosure,
         facing_out,
@@ -669,6 +687,37 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     };
     Ok((FreeSpace { grid, occupied, clearance, open, navigable, glide, near, space, walk, bounds, navigable_distance: Default::default() }, stats))
 }
+
+/// A part of the open space left out of the navigable space.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LeftOut {
+    /// Its voxels' mean position, scene units.
+    pub centre: [f32; 3],
+    pub volume_m3: f32,
+    pub why: &'static str,
+}
+
+/// Parts a person could stand in (at least [`LEFT_OUT_M3`]) that are not
+/// kept, largest first, with why.
+fn left_out_parts(grid: &Grid, labels: &[u32], sizes: &[usize], kept: &[bool], why: &[&'static str], metres_per_unit: f32) -> Vec<LeftOut> {
+    let voxel_m3 = (grid.voxel * metres_per_unit).powi(3);
+    let big = |k: usize| !kept[k] && sizes[k] as f32 * voxel_m3 >= LEFT_OUT_M3;
+    let mut sums = vec![glam::DVec3::ZERO; sizes.len()];
+    for (i, &l) in labels.iter().enumerate() {
+        if l != NONE && big(l as usize) {
+            sums[l as usize] += grid.center(grid.coords(i)).as_dvec3();
+        }
+    }
+    let mut out: Vec<LeftOut> = (0..sizes.len())
+        .filter(|&k| big(k))
+        .map(|k| LeftOut { centre: (sums[k] / sizes[k] as f64).as_vec3().into(), volume_m3: sizes[k] as f32 * voxel_m3, why: why[k] })
+        .collect();
+    out.sort_by(|a, b| b.volume_m3.total_cmp(&a.volume_m3));
+    out
+}
+
+/// Parts smaller than this are not reported, m³ (a closet is bigger).
+const LEFT_OUT_M3: f32 = 4.0;
 
 fn scale_word(source: ScaleSource) -> &'static str {
     match source {

@@ -630,6 +630,9 @@ mod tests {
         // The sealed house: blocks x 37..45, z 21..29.
         let sealed = |p: &[f32; 3]| (37.0..45.0).contains(&p[0]) && (21.0..29.0).contains(&p[2]);
         assert!(!g.probes.iter().any(|p| sealed(&p.position)), "a probe in the sealed house");
+        // ... and the report names it as left out, and why.
+        let named = plan.stats.free_space.left_out.iter().any(|p| sealed(&p.centre) && p.why.starts_with("sealed off"));
+        assert!(named, "{:?}", plan.stats.free_space.left_out);
     }
 
     #[test]
