@@ -406,10 +406,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
     let half_band = 0.5 * rise + grid.voxel;
     let step = STEP_M / metres_per_unit;
-    let eye_voxel = |c: &FloorCell| {
-        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
-        grid.cell(Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + eye, grid.origin.z + (z as f32 + 0.5) * grid.voxel))
-    };
+    let eye_voxel = |c: &FloorCell| grid.cell(over_column(grid, c.column, c.floor_y + eye));
     // Step 2: cells a person can stand on.
     let standing: Vec<FloorCell> =
         floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
@@ -418,10 +415,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     for (k, c) in standing.iter().enumerate() {
         by_column[c.column].push(k as u32);
     }
-    let centre = |c: &FloorCell, h: f32| {
-        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
-        Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, c.floor_y + h, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
-    };
+    let centre = |c: &FloorCell, h: f32| over_column(grid, c.column, c.floor_y + h);
     // Step 3: steps to the next columns along x and z, then, between cells that
     // are still apart, to the other columns within a stride ahead (half the
     // disc, so each pair once); each checked by a hip-height ray. The rise is
@@ -609,6 +603,12 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     (walk, band, stats)
 }
 
+/// The point at height `y` over the centre of grid column `column`.
+fn over_column(grid: &Grid, column: usize, y: f32) -> Vec3 {
+    let (x, z) = (column % grid.dims[0], column / grid.dims[0]);
+    Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, y, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
+}
+
 /// Where one region's floor lies a step to [`FURNITURE_M`] above another's
 /// along their edge (within two columns).
 struct Ledge {
@@ -651,16 +651,12 @@ fn ledges(
             }
         }
     }
-    let eye_over = |c: &FloorCell, y: f32| {
-        let (x, z) = (c.column % grid.dims[0], c.column / grid.dims[0]);
-        Vec3::new(grid.origin.x + (x as f32 + 0.5) * grid.voxel, y, grid.origin.z + (z as f32 + 0.5) * grid.voxel)
-    };
     let level: Vec<Ray> = samples
         .values()
         .flatten()
         .map(|&(a, b)| {
             let y = standing[a].floor_y + eye;
-            Ray::segment(eye_over(&standing[a], y), eye_over(&standing[b], y))
+            Ray::segment(over_column(grid, standing[a].column, y), over_column(grid, standing[b].column, y))
         })
         .collect();
     let blocked = rays.occluded_batch(&level, Packing::Single);
