@@ -47,11 +47,22 @@ fn main() {
         ("grey_room", "grey_white_room/grey_white_room.obj", Some(1.0), true),
         ("apartment", "dream_apartment/dream_apartment.glb", Some(1.0), true),
     ] {
-        if !wanted(name) {
+        let canonical = name == "crytek" && wanted("crytek_cm");
+        if !(wanted(name) || canonical) {
             continue;
         }
         match load(&shared.join(file), &LoadOptions::default()) {
-            Ok(scene) => scenes.push((name.to_string(), scene, truth, architecture)),
+            Ok(scene) => {
+                if canonical {
+                    // The canonical Crytek Sponza's own units (centimetres): the shared copy is scaled by 1/20.
+                    let mut canonical = scene.clone();
+                    canonical.positions.iter_mut().for_each(|p| *p *= 20.0);
+                    scenes.push(("crytek_cm".into(), canonical, Some(0.01), true));
+                }
+                if wanted(name) {
+                    scenes.push((name.to_string(), scene, truth, architecture))
+                }
+            }
             Err(e) => println!("SKIPPED {name}: {e}"),
         }
     }

@@ -625,6 +625,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             }
             // Nobody visits the sea under its surface (its bed faces it).
             let drowned = under_water(&water, rays, &grid, &labels, &clearance, sizes.len());
+            let wraps = wrapping(&grid, &labels, &kept);
             for (k, &d) in drowned.iter().enumerate() {
                 kept[k] &= !d;
                 apart[k] = if d {
@@ -633,13 +634,15 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
                     "no surface faces it (a void inside geometry)"
                 } else if exterior[k] {
                     "open to the box's edge but apart from the rest (the outside of a building)"
+                } else if wraps[k] {
+                    "around the rest, closed by outer panels (the outside of a building inside a backdrop)"
                 } else {
                     "sealed off: no opening to the rest wide enough to pass"
                 };
             }
         }
     }
-    let left_out = left_out_parts(&grid, &labels, &sizes, &kept, &apart, scene.metres_per_unit);
+    let left_out = left_out_parts(&grid, &labels, &in_box, &kept, &apart, scene.metres_per_unit);
     let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
     // Flying, paths glide where probes fly; walking, see below.
     let mut glide = Vec::new();
@@ -697,20 +700,24 @@ pub struct LeftOut {
     pub why: &'static str,
 }
 
-/// Parts a person could stand in (at least [`LEFT_OUT_M3`]) that are not
-/// kept, largest first, with why.
-fn left_out_parts(grid: &Grid, labels: &[u32], sizes: &[usize], kept: &[bool], why: &[&'static str], metres_per_unit: f32) -> Vec<LeftOut> {
+/// Parts a person could stand in (at least [`LEFT_OUT_M3`], not counting
+/// the voxels along the box's edge, where a shell one voxel thick outside a
+/// backdrop would count) that are not kept, largest first, with why.
+fn left_out_parts(grid: &Grid, labels: &[u32], in_box: &[bool], kept: &[bool], why: &[&'static str], metres_per_unit: f32) -> Vec<LeftOut> {
     let voxel_m3 = (grid.voxel * metres_per_unit).powi(3);
-    let big = |k: usize| !kept[k] && sizes[k] as f32 * voxel_m3 >= LEFT_OUT_M3;
-    let mut sums = vec![glam::DVec3::ZERO; sizes.len()];
+    let mut sums = vec![(glam::DVec3::ZERO, 0usize); kept.len()];
     for (i, &l) in labels.iter().enumerate() {
-        if l != NONE && big(l as usize) {
-            sums[l as usize] += grid.center(grid.coords(i)).as_dvec3();
+        if l != NONE && !kept[l as usize] && grid.neighbours(grid.coords(i)).all(|n| in_box[grid.index(n)]) {
+            let (sum, count) = &mut sums[l as usize];
+            *sum += grid.center(grid.coords(i)).as_dvec3();
+            *count += 1;
         }
     }
-    let mut out: Vec<LeftOut> = (0..sizes.len())
-        .filter(|&k| big(k))
-        .map(|k| LeftOut { centre: (sums[k] / sizes[k] as f64).as_vec3().into(), volume_m3: sizes[k] as f32 * voxel_m3, why: why[k] })
+    let mut out: Vec<LeftOut> = sums
+        .iter()
+        .zip(why)
+        .filter(|((_, count), _)| *count as f32 * voxel_m3 >= LEFT_OUT_M3)
+        .map(|(&(sum, count), &why)| LeftOut { centre: (sum / count as f64).as_vec3().into(), volume_m3: count as f32 * voxel_m3, why })
         .collect();
     out.sort_by(|a, b| b.volume_m3.total_cmp(&a.volume_m3));
     out
@@ -1290,6 +1297,26 @@ fn touches_boundary(grid: &Grid, labels: &[u32], count: usize, in_box: &[bool]) 
     touches
 }
 
+/// Per component: whether its bounds hold the kept parts' bounds with room
+/// to spare on every side (the space around a building, where a backdrop
+/// closes it in).
+fn wrapping(grid: &Grid, labels: &[u32], kept: &[bool]) -> Vec<bool> {
+    let mut bounds = vec![([usize::MAX; 3], [0usize; 3]); kept.len()];
+    let (mut lo_kept, mut hi_kept) = ([usize::MAX; 3], [0usize; 3]);
+    for (i, &l) in labels.iter().enumerate().filter(|(_, &l)| l != NONE) {
+        let c = grid.coords(i);
+        let (lo, hi) = &mut bounds[l as usize];
+        for a in 0..3 {
+            (lo[a], hi[a]) = (lo[a].min(c[a]), hi[a].max(c[a]));
+            if kept[l as usize] {
+                (lo_kept[a], hi_kept[a]) = (lo_kept[a].min(c[a]), hi_kept[a].max(c[a]));
+            }
+        }
+    }
+    // Sideways only: a building's outside need not reach under its floor.
+    bounds.iter().map(|(lo, hi)| [0, 2].iter().all(|&a| lo[a] < lo_kept[a] && hi[a] > hi_kept[a])).collect()
+}
+
 /// Per component: how many triangles face it. Each triangle votes for the first
 /// component found stepping out along its normal (r plus one voxel, doubling up
 /// to eight times that). Votes count triangles, not area: the detail of a scene
@@ -1320,7 +1347,7 @@ fn faced_votes(scene: &Scene, grid: &Grid, labels: &[u32], count: usize, near: f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::rooms;
+    use crate::testing::{rooms, rooms_with};
     use exploremaps_scenes::mesh::MeshBuilder;
     use exploremaps_scenes::BuiltIn;
 
@@ -1476,6 +1503,28 @@ mod tests {
                 assert_eq!(space.is_navigable(centre(k)), joined, "doors {doors:?}, room {k}: {stats:?}");
             }
         }
+    }
+
+    #[test]
+    fn the_air_around_a_building_inside_a_backdrop_is_named_so() {
+        // A closed room with posts, inside a closed box of thin panels 5 m off (the Crytek Sponza's backdrop).
+        let scene = rooms_with(1, 6.0, 3.0, 4.0, &[], |m| {
+            for x in [1.5, 3.0, 4.5] {
+                m.cylinder(Vec3::new(x, 0.5, 2.0), 0.2, 2.0, 64);
+            }
+            let (lo, hi, t) = (Vec3::new(-5.0, -0.2, -5.0), Vec3::new(11.0, 6.0, 9.0), 0.1);
+            m.cuboid(lo - Vec3::Y * t, Vec3::new(hi.x, lo.y, hi.z));
+            m.cuboid(Vec3::new(lo.x, hi.y, lo.z), hi + Vec3::Y * t);
+            m.cuboid(lo, Vec3::new(lo.x + t, hi.y, hi.z));
+            m.cuboid(Vec3::new(hi.x - t, lo.y, lo.z), hi);
+            m.cuboid(lo, Vec3::new(hi.x, hi.y, lo.z + t));
+            m.cuboid(Vec3::new(lo.x, lo.y, hi.z - t), hi);
+        });
+        let (space, stats) = run(&scene, &fly(SpaceMode::Inside)).unwrap();
+        assert!(space.is_navigable(Vec3::new(2.2, 1.5, 1.0)), "{stats:?}");
+        let largest = stats.left_out.first().unwrap_or_else(|| panic!("the air around the room is left out: {stats:?}"));
+        assert!(largest.why.starts_with("around the rest"), "{largest:?}");
+        assert!(largest.volume_m3 > 500.0, "{largest:?}");
     }
 
     #[test]
