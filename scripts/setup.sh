@@ -90,7 +90,7 @@ if [ "$(wasm-bindgen --version 2>/dev/null)" != "wasm-bindgen 0.2.130" ]; then
 fi
 # Playwright (the library only; it drives Debian's Chromium) for the browser tests.
 # The tour viewers `exploremaps export` writes for, at the versions it pins
-# (builder/src/tour/mod.rs), for the export tests (--library target/node/node_modules).
+# (builder/src/export/mod.rs), for the export tests (--library target/node/node_modules).
 node_dir="$(cd "$(dirname "$0")/.." && pwd)/target/node"
 if [ ! -e "$node_dir/node_modules/playwright-core/index.mjs" ] || [ ! -e "$node_dir/node_modules/@photo-sphere-viewer/virtual-tour-plugin/index.module.js" ]; then
   mkdir -p "$node_dir"

@@ -158,7 +158,7 @@ pub struct SceneArgs {
     #[arg(long)]
     pub metres_per_unit: Option<f32>,
     /// The most triangles a scene file may hold, checked before its data is read.
-    #[arg(long, default_value_t = exploremaps_builder::load::MAX_TRIANGLES)]
+    #[arg(long, default_value_t = exploremaps_builder::scene_io::MAX_TRIANGLES)]
     pub max_triangles: u64,
 }
 
@@ -196,7 +196,7 @@ pub struct PlanArgs {
     /// Stop placing probes once this fraction of the reachable surface is seen. The
     /// default leaves out only nooks seen through narrow gaps, each of which would
     /// cost a probe; 1 places probes until none adds anything.
-    #[arg(long, default_value_t = exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET)]
+    #[arg(long, default_value_t = exploremaps_builder::plan::explore::DEFAULT_COVERAGE_TARGET)]
     pub coverage: f64,
     /// The most probes to place before clustering, even short of --coverage (a warning
     /// says when a scene needs more). More take longer to plan and render.
@@ -410,10 +410,10 @@ impl Default for Recorded {
             seed: 1,
             up: "y".into(),
             metres_per_unit: None,
-            max_triangles: exploremaps_builder::load::MAX_TRIANGLES,
+            max_triangles: exploremaps_builder::scene_io::MAX_TRIANGLES,
             space: "auto".into(),
             strategy: "greedy".into(),
-            coverage_target: exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET,
+            coverage_target: exploremaps_builder::plan::explore::DEFAULT_COVERAGE_TARGET,
             near_m: None,
             max_cells: 256,
             cluster: true,

@@ -8,13 +8,13 @@ mod serve;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use cli::{Cli, Command, PlanArgs, PlanJob, QualityArg, RenderArgs, SceneArgs, ShardArg};
-use exploremaps_builder::cluster::SynthesisParams;
-use exploremaps_builder::coverage::CoverageParams;
-use exploremaps_builder::explore::{ExploreParams, Strategy};
-use exploremaps_builder::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
-use exploremaps_builder::load::{self, LoadError, LoadOptions};
-use exploremaps_builder::pipeline::{self, PlanParams};
+use exploremaps_builder::plan::cluster::SynthesisParams;
+use exploremaps_builder::plan::coverage::CoverageParams;
+use exploremaps_builder::plan::explore::{ExploreParams, Strategy};
+use exploremaps_builder::plan::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
+use exploremaps_builder::plan::{self, PlanParams};
 use exploremaps_builder::render::{Quality, Settings};
+use exploremaps_builder::scene_io::{self, LoadError, LoadOptions};
 use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
 use exploremaps_format::{Graph, GRAPH_FILE};
 use glam::Vec3;
@@ -51,12 +51,12 @@ fn main() -> ExitCode {
 /// start points and probes outside the free space, tour and link names), 1
 /// for everything else (the program, the disk, the GPU).
 fn exit_code(e: &anyhow::Error) -> u8 {
-    use exploremaps_builder::{export::ExportError, tour::TourError};
+    use exploremaps_builder::{export::TourError, scene_io::write::ExportError};
     use exploremaps_viewer::native::ViewError;
     let bad_input = e.chain().any(|cause| {
         cause.is::<BadInput>()
             || cause.is::<LoadError>()
-            || matches!(cause.downcast_ref(), Some(pipeline::PlanError::FreeSpace(_)))
+            || matches!(cause.downcast_ref(), Some(plan::PlanError::FreeSpace(_)))
             || matches!(cause.downcast_ref(), Some(ExportError::Format(_)))
             || matches!(
                 cause.downcast_ref(),
@@ -116,7 +116,7 @@ fn run(cli: &Cli) -> Result<()> {
             let scene = builtin.generate(cli.seed);
             match output {
                 Some(path) => {
-                    exploremaps_builder::export::export(&scene, path)?;
+                    exploremaps_builder::scene_io::write::export(&scene, path)?;
                     println!("wrote {} ({} triangles)", path.display(), scene.triangles.len());
                     Ok(())
                 }
@@ -159,7 +159,7 @@ fn run(cli: &Cli) -> Result<()> {
 }
 
 fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Option<&Path>) -> Result<()> {
-    use exploremaps_builder::tour::{self, Viewer};
+    use exploremaps_builder::export::{self, Viewer};
     let mut viewers = Vec::new();
     for name in to {
         let chosen: Vec<Viewer> = if name == "all" { Viewer::ALL.to_vec() } else { vec![name.parse().map_err(|e| BadInput(format!("--to {e}")))?] };
@@ -170,11 +170,11 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
         }
     }
     let graph = read_graph(bundle)?;
-    let out = output.map_or_else(|| tour::default_folder(bundle), Path::to_path_buf);
+    let out = output.map_or_else(|| export::default_folder(bundle), Path::to_path_buf);
     let bar = indicatif::ProgressBar::new(graph.probes.len() as u64)
         .with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
     let started = Instant::now();
-    let report = tour::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64))?;
+    let report = export::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64))?;
     bar.finish_and_clear();
     let names: Vec<&str> = viewers.iter().map(|v| v.folder()).collect();
     println!(
@@ -193,7 +193,8 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
 /// A file if one exists at that path, else a built-in scene by name; with the
 /// source to record in the bundle (an absolute path, or `builtin:<spec>`).
 fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
-    let up = load::parse_up_axis(&args.up).ok_or_else(|| BadInput(format!("--up {}: expected x, y or z, optionally signed (e.g. -z)", args.up)))?;
+    let up =
+        scene_io::parse_up_axis(&args.up).ok_or_else(|| BadInput(format!("--up {}: expected x, y or z, optionally signed (e.g. -z)", args.up)))?;
     if let Some(m) = args.metres_per_unit {
         if !(m.is_finite() && m > 0.0) {
             bail!(BadInput(format!("--metres-per-unit {m}: must be a positive number")));
@@ -204,7 +205,7 @@ fn load_scene(args: &SceneArgs, seed: u64) -> Result<(Scene, String)> {
     if builtin_name.is_none() && (path.exists() || path.extension().is_some()) {
         let spinner = spinner(format!("loading {}", path.display()));
         let started = Instant::now();
-        let scene = load::load(path, &LoadOptions { up, metres_per_unit: args.metres_per_unit, max_triangles: args.max_triangles })?;
+        let scene = scene_io::load(path, &LoadOptions { up, metres_per_unit: args.metres_per_unit, max_triangles: args.max_triangles })?;
         spinner.finish_and_clear();
         tracing::info!("loaded {} in {:.2} s", path.display(), started.elapsed().as_secs_f64());
         let source = std::fs::canonicalize(path).unwrap_or(path.to_path_buf()).display().to_string();
@@ -280,7 +281,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<(Graph, Scene)> {
     let (scene, source) = load_scene(scene_args, seed)?;
     let params = plan_params(planning, seed);
     let spinner = spinner(format!("planning {} ({} triangles)", scene.name, scene.triangles.len()));
-    let result = pipeline::plan(&scene, &source, &params);
+    let result = plan::plan(&scene, &source, &params);
     spinner.finish_and_clear();
     let mut plan = result?;
     // What `exploremaps coverage` and `render` need to load the scene again.
@@ -349,12 +350,12 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
         if !(1..=65536).contains(&spp) {
             bail!(BadInput(format!("--spp {spp}: use 1 to 65536 samples a pixel")));
         }
-        settings.panorama.samples = spp;
+        settings.trace.panorama.samples = spp;
     }
     if args.bounces > 16 {
         bail!(BadInput(format!("--bounces {}: use 0 to 16", args.bounces)));
     }
-    settings.panorama.bounces = args.bounces;
+    settings.trace.panorama.bounces = args.bounces;
     settings.denoise = args.denoise;
     Ok(settings)
 }
@@ -362,7 +363,7 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
 /// `exploremaps render`: the assets the bundle lacks, given its graph and scene.
 fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>, (mut graph, scene): (Graph, Scene)) -> Result<()> {
     let (index, count) = shard.unwrap_or((0, 1));
-    let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.quality.name()));
+    let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.trace.quality.name()));
     bar.set_style(
         indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -464,7 +465,7 @@ fn remeasure(bundle: &Path, samples: usize) -> Result<()> {
         coverage: CoverageParams { samples: samples.clamp(1, 10_000_000), seed, ..Default::default() },
     };
     let spinner = spinner(format!("measuring coverage of {} probes", graph.probes.len()));
-    let result = pipeline::remeasure(&scene, graph, &params);
+    let result = plan::remeasure(&scene, graph, &params);
     spinner.finish_and_clear();
     let plan = result.with_context(|| format!("{} (its probes)", bundle.join(GRAPH_FILE).display()))?;
     exploremaps_builder::bundle::write_plan(bundle, &plan)?;
@@ -481,7 +482,7 @@ fn num(x: f64) -> String {
     }
 }
 
-fn print_plan(scene: &Scene, output: &Path, plan: &pipeline::Plan) {
+fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
     let f = &plan.stats.free_space;
     let c = &plan.coverage;
     let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
@@ -633,7 +634,7 @@ mod tests {
 
     #[test]
     fn bad_input_exits_2_wherever_it_is_wrapped_and_the_program_s_failures_1() {
-        let free_space = pipeline::PlanError::FreeSpace(exploremaps_builder::freespace::FreeSpaceError::StartInGeometry(Vec3::ZERO));
+        let free_space = plan::PlanError::FreeSpace(exploremaps_builder::plan::freespace::FreeSpaceError::StartInGeometry(Vec3::ZERO));
         let wrapped = anyhow::Error::new(free_space).context("graph.json (its probes)");
         assert_eq!(exit_code(&wrapped), 2);
         assert_eq!(exit_code(&anyhow::Error::new(BadInput("--face 3".into()))), 2);

@@ -283,7 +283,7 @@ fn answer(stream: std::net::TcpStream, method: &str, response: &Response) -> std
 pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     let root = bundle.canonicalize().with_context(|| format!("{}: no such bundle folder", bundle.display()))?;
     // A tour `export` wrote is served as it is, without our viewer.
-    let tour = root.join(exploremaps_builder::tour::MARKER).is_file();
+    let tour = root.join(exploremaps_builder::export::MARKER).is_file();
     let web = if tour { None } else { web };
     // A folder without graph.json is not a bundle; a graph the viewer cannot
     // read is still served, so the viewer shows the reason in the page.

@@ -1,6 +1,6 @@
 //! End-to-end tests of the `exploremaps` command line.
 
-use exploremaps_builder::smooth::{MAX_DURATION_S, MIN_DURATION_S};
+use exploremaps_builder::plan::smooth::{MAX_DURATION_S, MIN_DURATION_S};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

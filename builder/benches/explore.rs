@@ -8,12 +8,12 @@
 //! explored in at most 3 s on 2 cores; 95 % with at most 18 probes, 98 % with
 //! at most 44, at least 98 % with the paper's 36.
 
-use exploremaps_builder::coverage::{coverage, CoverageParams};
-use exploremaps_builder::explore::{explore, ExploreParams, Strategy};
-use exploremaps_builder::freespace::{free_space, FreeSpaceParams};
-use exploremaps_builder::load::{load, LoadOptions};
+use exploremaps_builder::plan::coverage::{coverage, CoverageParams};
+use exploremaps_builder::plan::explore::{explore, ExploreParams, Strategy};
+use exploremaps_builder::plan::freespace::{free_space, FreeSpaceParams};
+use exploremaps_builder::plan::visibility::CubeView;
 use exploremaps_builder::raycast::RayScene;
-use exploremaps_builder::visibility::CubeView;
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_scenes::{BuiltIn, Scene};
 use std::path::Path;
 use std::time::Instant;
@@ -50,7 +50,7 @@ fn main() {
             strategy,
             selection_samples: env("SEL", 20_000.0) as usize,
             candidates: env("CANDS", 2000.0) as usize,
-            coverage_target: env("TARGET", exploremaps_builder::explore::DEFAULT_COVERAGE_TARGET),
+            coverage_target: env("TARGET", exploremaps_builder::plan::explore::DEFAULT_COVERAGE_TARGET),
             ..Default::default()
         };
         let (probes, st) = explore(scene, &rays, &space, &params);
@@ -90,12 +90,12 @@ fn main() {
         if strategy == Strategy::Greedy {
             // Cluster, synthesize and orient the candidates (issue: cluster).
             let t = Instant::now();
-            let (out, cs) = exploremaps_builder::cluster::synthesize(scene, &rays, &space, &probes, &Default::default());
+            let (out, cs) = exploremaps_builder::plan::cluster::synthesize(scene, &rays, &space, &probes, &Default::default());
             let cluster_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let diagonal = scene.bounds().diagonal();
             for &p in &out.probes {
-                std::hint::black_box(exploremaps_builder::orient::preferred_directions(&rays, p, space.near, diagonal));
+                std::hint::black_box(exploremaps_builder::plan::orient::preferred_directions(&rays, p, space.near, diagonal));
             }
             let orient_s = t.elapsed().as_secs_f64();
             let final_report = coverage(scene, &rays, &space, &out.probes, &CoverageParams::default());
@@ -105,7 +105,7 @@ fn main() {
                 "", cs.clusters, out.probes.len(), cs.added_back, 100.0 * final_report.fraction(), need(0.95), cluster_s, orient_s
             );
         }
-        let baselines = exploremaps_builder::pipeline::baselines(&rays, &space, probes.len(), 1, &report);
+        let baselines = exploremaps_builder::plan::baselines(&rays, &space, probes.len(), 1, &report);
         let line: Vec<String> = baselines.iter().map(|b| format!("{} {:.2} %", b.name, 100.0 * b.report.fraction())).collect();
         println!("{:<34} baselines with the same {} probes: {}", "", probes.len(), line.join(", "));
     }

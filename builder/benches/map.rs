@@ -19,12 +19,12 @@
 //! posterior's peaks; =gaps: the measured gaps at the true scale), KIND=1
 //! the kind's evidence.
 
-use exploremaps_builder::coverage::coverage_like;
-use exploremaps_builder::explore::{explore, ExploreParams};
-use exploremaps_builder::freespace::{free_space, FreeSpaceParams, HeightMode};
-use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::plan::coverage::coverage_like;
+use exploremaps_builder::plan::explore::{explore, ExploreParams};
+use exploremaps_builder::plan::freespace::{free_space, FreeSpaceParams, HeightMode};
+use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_scenes::awkward::{awkward, AWKWARD};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
@@ -85,8 +85,8 @@ fn main() {
         for (name, scene, _, architecture) in &scenes {
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             let b = scene.bounds();
-            let facing = exploremaps_builder::freespace::facing_out(scene, &rays, &b, 1);
-            let (enclosed, ground) = exploremaps_builder::freespace::kind_evidence(&rays, &b, 1);
+            let facing = exploremaps_builder::plan::freespace::facing_out(scene, &rays, &b, 1);
+            let (enclosed, ground) = exploremaps_builder::plan::freespace::kind_evidence(&rays, &b, 1);
             println!(
                 "{name:<10} architecture {architecture:<5} facing out {facing:.2} enclosed {enclosed:.2} ground {ground:.2} height {:.2} m",
                 b.extent().y * scene.metres_per_unit
@@ -98,7 +98,7 @@ fn main() {
         for (name, scene, truth, _) in &scenes {
             let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
             let t = std::time::Instant::now();
-            let guess = exploremaps_builder::scale::guess(scene, &rays);
+            let guess = exploremaps_builder::plan::scale::guess(scene, &rays);
             let said = guess.as_ref().map_or("no evidence".to_string(), |g| g.describe());
             println!(
                 "{name:<10} truth {:>7} ({:?}): {said} [{:.2} s]",
@@ -108,7 +108,7 @@ fn main() {
             );
             if std::env::var("SCALE_ONLY").as_deref() == Ok("peaks") {
                 // The posterior's local peaks, best first.
-                let post = exploremaps_builder::scale::posterior(&exploremaps_builder::scale::evidence(scene, &rays));
+                let post = exploremaps_builder::plan::scale::posterior(&exploremaps_builder::plan::scale::evidence(scene, &rays));
                 let mut peaks: Vec<(f64, f64)> =
                     (1..post.len() - 1).filter(|&k| post[k].1 >= post[k - 1].1 && post[k].1 > post[k + 1].1).map(|k| post[k]).collect();
                 peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -119,7 +119,7 @@ fn main() {
             if std::env::var("SCALE_ONLY").as_deref() == Ok("gaps") {
                 // Gaps at the true scale, metres, in bins of a fifth of a decade.
                 let t = truth.unwrap_or(1.0);
-                let evidence = exploremaps_builder::scale::evidence(scene, &rays);
+                let evidence = exploremaps_builder::plan::scale::evidence(scene, &rays);
                 for (what, heights) in [("gaps", &evidence.gaps), ("parapets", &evidence.parapets)] {
                     let mut bins = [0usize; 25];
                     for g in heights {

@@ -3,9 +3,9 @@
 //! Goals (issue: paths): paths plus smoothing within 1 s on the Crytek Sponza,
 //! at most 10 ms a path; a full plan (load to order) within 6 s.
 
-use exploremaps_builder::coverage::CoverageParams;
-use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::plan::coverage::CoverageParams;
+use exploremaps_builder::plan::{plan, PlanParams};
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_scenes::{BuiltIn, Scene};
 use std::path::Path;
 use std::time::Instant;

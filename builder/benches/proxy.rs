@@ -44,11 +44,11 @@
 //! (a part of a shared scene's path) keeps the gallery and that scene;
 //! `ONE_GROUP=1` simplifies without material borders, as meshoptimizer does.
 
-use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::progressive::Progressive;
 use exploremaps_builder::proxy::simplify::{simplify, simplify_with_colours, Colours, Simplified, SimplifyParams};
 use exploremaps_builder::proxy::weld::weld_scene;
 use exploremaps_builder::proxy::{vertex_albedo, Mesh, COLOUR_WEIGHT};
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_format::{meshcode, splits};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;

@@ -39,10 +39,11 @@
 //! light threshold (0.01 by default, 0 off), CYCLES_GUIDING=1 turns Cycles' path
 //! guiding on, DROP_OBJECTS=a,b leaves out the objects whose names start so.
 
-use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::colour::srgb_to_linear;
+use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
-use exploremaps_builder::renderer::{downsample, psnr, srgb_to_linear, to_image, Quality, Renderer, Settings, TraceParams, Tracer};
+use exploremaps_builder::scene_io::{load, LoadOptions};
+use exploremaps_builder::tracer::{downsample, psnr, to_image, Quality, Renderer, Settings, TraceParams, Tracer};
 use exploremaps_format::cube_direction;
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
@@ -143,6 +144,7 @@ fn main() {
         let eye = viewpoints[0];
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let mut settings = Settings::new(Quality::Final, 1);
+        let video_width = exploremaps_builder::render::Settings::new(Quality::Final, 1).video_width;
         // VIDEO_KEYS=n tries another key-frame interval.
         if let Some(n) = std::env::var("VIDEO_KEYS").ok().and_then(|v| v.parse().ok()) {
             settings.video_keys = n;
@@ -184,7 +186,7 @@ fn main() {
         let t = Instant::now();
         let mut renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
         if !keep("sky") {
-            renderer.tracer.lighting.sky = exploremaps_builder::renderer::Sky::NONE;
+            renderer.tracer.lighting.sky = exploremaps_builder::tracer::Sky::NONE;
         }
         let bake = t.elapsed().as_secs_f64();
         let exposure = renderer.exposure;
@@ -251,9 +253,9 @@ fn main() {
             ("final video frame", settings.video),
         ] {
             let t = Instant::now();
-            let frame = renderer.equirect(&params, eye, settings.video_width, 0);
+            let frame = renderer.equirect(&params, eye, video_width, 0);
             let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
+            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, video_width, f, small)).collect();
             rows.push((
                 tag.to_string(),
                 seconds,
@@ -277,7 +279,7 @@ fn main() {
             let t = Instant::now();
             let mut middle = None;
             let mut done = vec![];
-            renderer.path_frames(&settings.video, &eyes, settings.video_width, 0, settings.video_keys, |i, frame| {
+            renderer.path_frames(&settings.video, &eyes, video_width, 0, settings.video_keys, |i, frame| {
                 done.push(t.elapsed().as_secs_f64());
                 if i == 2 * interval + interval / 2 {
                     middle = Some(frame);
@@ -290,7 +292,7 @@ fn main() {
             gaps.sort_by(f64::total_cmp);
             let between = gaps[gaps.len() / 2];
             let frame = middle.expect("the middle frame");
-            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, settings.video_width, f, small)).collect();
+            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, video_width, f, small)).collect();
             let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
             rows.push((tag, seconds, save("final_video_between_keys", small, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
         }
@@ -655,7 +657,7 @@ fn cycles(
         "uvs": !scene.uvs.is_empty(),
         "normals": !scene.normals.is_empty(),
         "materials": materials,
-        "suns": lighting.suns.iter().map(|&(d, e)| json!({"direction": z_up(d), "irradiance": e.to_array(), "angle": 2.0 * exploremaps_builder::renderer::SUN_RADIUS})).collect::<Vec<_>>(),
+        "suns": lighting.suns.iter().map(|&(d, e)| json!({"direction": z_up(d), "irradiance": e.to_array(), "angle": 2.0 * exploremaps_builder::tracer::SUN_RADIUS})).collect::<Vec<_>>(),
         "points": lighting.points.iter().map(|&(p, i)| json!({"position": z_up(p), "intensity": i.to_array()})).collect::<Vec<_>>(),
         "sky_rows": if sky.zenith == Vec3::ZERO && sky.horizon == Vec3::ZERO && sky.ground == Vec3::ZERO { serde_json::Value::Null } else { json!(sky_rows) },
         "eye": z_up(eye),

@@ -9,9 +9,9 @@
 //! Reference limits measured on these 2-core machines when the project began:
 //! coherent 18-20 (single) / 42-50 (packets), incoherent ≈ 11, shadow 31 / 65 Mrays/s.
 
+use exploremaps_builder::plan::visibility::CubeView;
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
 use exploremaps_builder::seeds::cosine_direction;
-use exploremaps_builder::visibility::CubeView;
 use exploremaps_scenes::BuiltIn;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};

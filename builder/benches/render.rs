@@ -5,11 +5,12 @@
 //! Cycles is in the quality bench (`CYCLES=1`), against a common reference.
 //! Goal (issue 14): the whole Crytek Sponza bundle at `final` within 15 min on 2 cores.
 
-use exploremaps_builder::coverage::CoverageParams;
-use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::plan::coverage::CoverageParams;
+use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::{Packing, Ray, RayScene};
-use exploremaps_builder::renderer::{equirect_direction, Quality, Renderer, Settings};
+use exploremaps_builder::render::Settings;
+use exploremaps_builder::scene_io::{load, LoadOptions};
+use exploremaps_builder::tracer::{equirect_direction, Quality, Renderer};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
 use std::path::Path;
@@ -58,7 +59,7 @@ fn main() {
     for quality in [Quality::Preview, Quality::Final] {
         let settings = Settings::new(quality, 1);
         let t = Instant::now();
-        let renderer = Renderer::new(&scene, &rays, &viewpoints, settings.clone());
+        let renderer = Renderer::new(&scene, &rays, &viewpoints, settings.trace.clone());
         let cache = renderer.tracer.cache.as_ref().unwrap().stats.clone();
         println!(
             "\n{}: lighting: {}; cache {} cells, {} gather rays, {} iterations, {:.2} s (renderer ready in {:.2} s, exposure {:.2})",
@@ -75,7 +76,7 @@ fn main() {
         let t = Instant::now();
         let n = 10;
         for f in 0..n {
-            renderer.equirect(&settings.video, eye + Vec3::X * f as f32 * 0.1, vw, f);
+            renderer.equirect(&settings.trace.video, eye + Vec3::X * f as f32 * 0.1, vw, f);
         }
         let lit_alone = t.elapsed().as_secs_f64() / n as f64;
         // As bundles render them: along a path, a key frame every
@@ -83,32 +84,32 @@ fn main() {
         let eyes: Vec<Vec3> = graph
             .paths
             .first()
-            .map(|p| p.camera.iter().take(2 * settings.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect())
+            .map(|p| p.camera.iter().take(2 * settings.trace.video_keys as usize + 1).map(|k| Vec3::from(k.position)).collect())
             .unwrap_or_default();
         let t = Instant::now();
-        renderer.path_frames(&settings.video, &eyes, vw, 0, settings.video_keys, |_, _| std::ops::ControlFlow::Continue(()));
+        renderer.path_frames(&settings.trace.video, &eyes, vw, 0, settings.trace.video_keys, |_, _| std::ops::ControlFlow::Continue(()));
         let per_frame = t.elapsed().as_secs_f64() / eyes.len().max(1) as f64;
-        let px = (vw * vw / 2) as f64 * settings.video.samples as f64;
+        let px = (vw * vw / 2) as f64 * settings.trace.video.samples as f64;
         println!(
             "  video frame {vw}x{} at {} spp: lit alone {:.1} ms ({:.1} M samples/s); along a path (a key every {} frames) {:.1} ms a frame over {} frames; all {frames} frames: {:.0} s",
             vw / 2,
-            settings.video.samples,
+            settings.trace.video.samples,
             lit_alone * 1e3,
             px / lit_alone / 1e6,
-            settings.video_keys,
+            settings.trace.video_keys,
             per_frame * 1e3,
             eyes.len(),
             per_frame * frames as f64
         );
         let t = Instant::now();
-        let faces = renderer.cube(&settings.panorama, eye, settings.face, 0);
+        let faces = renderer.cube(&settings.trace.panorama, eye, settings.face, 0);
         let cube_s = t.elapsed().as_secs_f64();
-        let samples = 6.0 * (settings.face * settings.face) as f64 * settings.panorama.samples as f64;
+        let samples = 6.0 * (settings.face * settings.face) as f64 * settings.trace.panorama.samples as f64;
         println!(
             "  cube {}² x 6 at {} spp, {} bounce(s): {:.1} s ({:.2} M samples/s); all {} probes: {:.0} s",
             settings.face,
-            settings.panorama.samples,
-            settings.panorama.bounces,
+            settings.trace.panorama.samples,
+            settings.trace.panorama.bounces,
             cube_s,
             samples / cube_s / 1e6,
             graph.probes.len(),
@@ -118,10 +119,10 @@ fn main() {
     }
     // Preview video frames trace one primary and one sun shadow ray a sample (point lights baked).
     let settings = Settings::new(Quality::Preview, 1);
-    let renderer = Renderer::new(&scene, &rays, &viewpoints, settings.clone());
+    let renderer = Renderer::new(&scene, &rays, &viewpoints, settings.trace.clone());
     let t = Instant::now();
     for f in 0..5 {
-        renderer.equirect(&settings.video, eye, w, f);
+        renderer.equirect(&settings.trace.video, eye, w, f);
     }
     let whole = 5.0 * (w * h) as f64 / t.elapsed().as_secs_f64() / 1e6;
     println!("\nrays: Embree's 8-wide coherent packets alone {limit:.1} Mrays/s on a {w}x{h} equirect's primary rays; whole preview frames (primary + sun shadow + cache) {whole:.1} M pixels/s, {:.1} Mrays/s", whole * 2.0);

@@ -17,13 +17,13 @@
 //! `cargo bench -p exploremaps-builder --bench space`; SCENES (comma list of
 //! names below) narrows the run.
 
-use exploremaps_builder::coverage::{coverage, coverage_like, CoverageParams};
-use exploremaps_builder::explore::{explore, ExploreParams};
-use exploremaps_builder::freespace::{free_space, FreeSpaceParams, HeightMode};
-use exploremaps_builder::load::{load, LoadOptions};
-use exploremaps_builder::pipeline::{plan, PlanParams};
+use exploremaps_builder::plan::coverage::{coverage, coverage_like, CoverageParams};
+use exploremaps_builder::plan::explore::{explore, ExploreParams};
+use exploremaps_builder::plan::freespace::{free_space, FreeSpaceParams, HeightMode};
+use exploremaps_builder::plan::walk::SLOPE_COS;
+use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::{Ray, RayScene};
-use exploremaps_builder::walk::SLOPE_COS;
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_scenes::{BuiltIn, Scene};
 use glam::Vec3;
 use std::path::Path;

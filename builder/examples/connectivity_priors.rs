@@ -5,9 +5,9 @@
 //! `cargo run --release -p exploremaps-builder --example connectivity_priors`
 //! (needs the shared scenes beside the repository).
 
-use exploremaps_builder::load::{load, LoadOptions};
 use exploremaps_builder::proxy::simplify::{simplify, SimplifyParams};
 use exploremaps_builder::proxy::weld::weld_scene;
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_format::meshcode;
 use exploremaps_scenes::BuiltIn;
 use std::path::Path;

@@ -6,7 +6,7 @@
 //! count, timings apart.
 
 use crate::files::write_atomic;
-use crate::pipeline::Plan;
+use crate::plan::Plan;
 use exploremaps_format::GRAPH_FILE;
 use std::path::Path;
 
@@ -17,7 +17,7 @@ pub enum BundleError {
     #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
     Invalid(#[from] exploremaps_format::FormatError),
     #[error("cannot denoise {path}: {source}")]
-    Denoise { path: String, source: crate::renderer::DenoiseError },
+    Denoise { path: String, source: crate::tracer::DenoiseError },
     #[error("cannot encode the transition video {path}: {source}")]
     Video { path: String, source: crate::video::VideoError },
     #[error("cannot code the proxy mesh {path}: {source}; this is a bug, please report it")]

@@ -11,31 +11,19 @@
 //! `files` and `seeds` (every random stream) are utilities.
 
 pub mod bundle;
-pub mod cluster;
-pub mod connect;
-pub mod coverage;
-pub mod explore;
+pub mod colour;
 pub mod export;
 pub mod files;
-pub mod freespace;
-pub mod load;
-pub mod order;
-pub mod orient;
-pub mod pipeline;
+pub mod plan;
 pub mod proxy;
 pub mod raycast;
 pub mod render;
-pub mod renderer;
-pub mod report;
-pub mod scale;
+pub mod scene_io;
 pub mod seeds;
-pub mod smooth;
 #[cfg(test)]
 mod testing;
 pub mod tiles;
-pub mod tour;
+pub mod tracer;
 pub mod video;
-pub mod visibility;
-pub mod walk;
 
 pub use exploremaps_scenes as scenes;

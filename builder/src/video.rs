@@ -266,7 +266,7 @@ fn ffmpeg_failed(ffmpeg: &mut Ffmpeg) -> VideoError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::renderer::{psnr, Quality, Renderer, Settings};
+    use crate::tracer::{psnr, Quality, Renderer, Settings};
     use exploremaps_format::video::{decode_mp4, Mp4Decoder};
     use glam::Vec3;
 

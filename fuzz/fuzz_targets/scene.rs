@@ -2,7 +2,7 @@
 //! temporary folder (made once per process, in memory under /dev/shm where
 //! there is one, so no input goes to disk) and loads them as `plan` would.
 
-use exploremaps_builder::load::{load, LoadOptions};
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use std::path::PathBuf;
 use std::sync::OnceLock;
 

@@ -11,7 +11,7 @@
 //! Colours are display sRGB, as the panoramas' pixels.
 
 use super::Mesh;
-use crate::renderer::Renderer;
+use crate::tracer::Renderer;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -96,7 +96,7 @@ fn fill(values: &[Option<Vec3>], neighbours: &[Vec<u32>]) -> Vec<Vec3> {
 mod tests {
     use super::*;
     use crate::raycast::{Ray, RayScene};
-    use crate::renderer::{Quality, Settings};
+    use crate::tracer::{Quality, Settings};
 
     #[test]
     fn baked_colours_match_the_panorama_where_both_see_the_floor() {

@@ -105,7 +105,7 @@ pub fn levels(scene: &Scene, params: &ProxyParams) -> Vec<Level> {
 /// triangles, each sampled at three points and weighted by area. What the
 /// simplifier keeps; the proxy's shown colours are baked later, with light.
 pub fn vertex_albedo(scene: &Scene, mesh: &Mesh, sources: &[u32]) -> Vec<Vec3> {
-    let materials = crate::renderer::Materials::new(scene);
+    let materials = crate::tracer::Materials::new(scene);
     let (mut sum, mut weight) = (vec![Vec3::ZERO; mesh.positions.len()], vec![0.0f32; mesh.positions.len()]);
     for (tri, &source) in mesh.triangles.iter().zip(sources) {
         let [a, b, c] = tri.map(|v| mesh.positions[v as usize]);
@@ -117,7 +117,7 @@ pub fn vertex_albedo(scene: &Scene, mesh: &Mesh, sources: &[u32]) -> Vec<Vec3> {
             weight[v as usize] += area;
         }
     }
-    let display = |c: Vec3| Vec3::from(c.to_array().map(|x| crate::renderer::linear_to_srgb(x) as f32 / 255.0));
+    let display = |c: Vec3| Vec3::from(c.to_array().map(|x| crate::colour::linear_to_srgb(x) as f32 / 255.0));
     sum.iter().zip(&weight).map(|(s, &w)| if w > 0.0 { display(*s / w) } else { Vec3::ZERO }).collect()
 }
 
@@ -271,7 +271,7 @@ mod tests {
             "dream_apartment/dream_apartment.glb",
         ] {
             let Some(path) = crate::testing::shared_scene(file) else { continue };
-            let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
+            let scene = crate::scene_io::load(&path, &crate::scene_io::LoadOptions::default()).unwrap();
             let (mesh, _) = weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
             let bits = coded_round_trip(file, &mesh);
             eprintln!("{file}: {} triangles, {bits:.2} connectivity bits a triangle", mesh.triangles.len());

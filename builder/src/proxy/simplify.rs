@@ -1366,7 +1366,7 @@ pub(crate) mod tests {
             ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj", "grey_white_room/grey_white_room.obj"]
         {
             let Some(path) = crate::testing::shared_scene(file) else { continue };
-            let scene = crate::load::load(&path, &crate::load::LoadOptions::default()).unwrap();
+            let scene = crate::scene_io::load(&path, &crate::scene_io::LoadOptions::default()).unwrap();
             let (m, _) = super::super::weld::weld_scene(&scene, 1e-5 * scene.bounds().diagonal());
             for ratio in [0.1, 0.01] {
                 let s = simplify(&m, &SimplifyParams { target_triangles: (m.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY });

@@ -12,24 +12,67 @@
 //!    manifest (`shards`, which also completes a split render).
 //! 5. graph.json lists every asset whose files exist ([`list_assets`]).
 //!
-//! The pictures themselves come from `crate::renderer`.
+//! The pictures themselves come from `crate::tracer`.
 
 mod path;
 mod probe;
 mod proxy;
 mod shards;
 
-pub use crate::renderer::{Quality, Settings};
+pub use crate::tracer::Quality;
 pub use shards::{finalize, Shard};
 
 use crate::bundle::{write, write_graph, BundleError};
-use crate::renderer::Renderer;
+use crate::tracer::Renderer;
 use exploremaps_format::Graph;
 use exploremaps_scenes::Scene;
 use glam::Vec3;
 use probe::ProbeFiles;
 use std::path::Path;
 use std::time::Instant;
+
+/// What a render makes, and how well: the tracer's settings for the quality,
+/// and the render jobs' own choices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// How each picture is traced.
+    pub trace: crate::tracer::Settings,
+    /// Largest cube face; smaller levels halve it down to 512.
+    pub face: u32,
+    /// Video frame width (height is half), a multiple of 32.
+    pub video_width: u32,
+    /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
+    /// real bounces or few samples; the cache alone leaves little noise).
+    pub denoise: bool,
+    /// The light 3D stand-in written with the panoramas.
+    pub proxy: crate::proxy::ProxyParams,
+}
+
+impl Settings {
+    pub fn new(quality: Quality, seed: u64) -> Settings {
+        let trace = crate::tracer::Settings::new(quality, seed);
+        match quality {
+            Quality::Preview => Settings {
+                trace,
+                face: 512,
+                video_width: 512,
+                denoise: false,
+                proxy: crate::proxy::ProxyParams { bake_samples: 4, ..Default::default() },
+            },
+            Quality::Final => Settings { trace, face: 2048, video_width: 1024, denoise: false, proxy: Default::default() },
+            Quality::Tour => Settings { trace, face: 4096, ..Settings::new(Quality::Final, seed) },
+        }
+    }
+
+    /// Cube-face sizes from 512 (or the largest, if smaller) up to `face`.
+    pub fn face_levels(&self) -> Vec<u32> {
+        let mut levels = vec![self.face];
+        while levels[0] > 512 && levels[0] % 2 == 0 {
+            levels.insert(0, levels[0] / 2);
+        }
+        levels
+    }
+}
 
 /// One unit of rendering, owned by one shard.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,7 +150,7 @@ pub fn render_missing(
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
         let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
         viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
-        let renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
+        let renderer = Renderer::new(scene, &rays, &viewpoints, settings.trace.clone());
         let encoder = crate::video::Encoder::detect();
         report.video_encoder = Some(encoder.name());
         let seconds_setup = setup_started.elapsed().as_secs_f64();
@@ -160,15 +203,15 @@ pub fn render_missing(
 /// manifest carries the same; `finalize` checks that every shard's agree).
 fn stats(settings: &Settings, renderer: &Renderer, report: &RenderReport) -> serde_json::Value {
     serde_json::json!({
-        "quality": settings.quality.name(),
+        "quality": settings.trace.quality.name(),
         "lighting": renderer.tracer.lighting.description,
         "exposure": renderer.exposure,
         "cache_cells": renderer.tracer.cache.as_ref().map(|c| c.stats.cells),
         "video_encoder": report.video_encoder,
-        "samples_per_pixel": settings.panorama.samples,
-        "bounces": settings.panorama.bounces,
+        "samples_per_pixel": settings.trace.panorama.samples,
+        "bounces": settings.trace.panorama.bounces,
         "denoised": settings.denoise,
-        "seed": settings.seed,
+        "seed": settings.trace.seed,
     })
 }
 

@@ -2,9 +2,10 @@
 //! full, the frames between reusing their light), encoded as an MP4, and a
 //! poster (the first frame).
 
+use super::Settings;
 use crate::bundle::{write, BundleError};
 use crate::files::jpeg;
-use crate::renderer::{Renderer, Settings};
+use crate::tracer::Renderer;
 use crate::video::Encoder;
 use exploremaps_format::Path as PathInfo;
 use glam::Vec3;
@@ -30,9 +31,9 @@ pub(super) fn render(
     let w = settings.video_width;
     let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();
     // Each frame goes to the encoder as it is rendered; the first is the poster too.
-    let mut stream = encoder.stream(crate::smooth::FPS);
+    let mut stream = encoder.stream(crate::plan::smooth::FPS);
     let (mut first, mut failed) = (None, None);
-    renderer.path_frames(&settings.video, &eyes, w, crate::seeds::image::video(id as u32), settings.video_keys, |_, frame| {
+    renderer.path_frames(&settings.trace.video, &eyes, w, crate::seeds::image::video(id as u32), settings.trace.video_keys, |_, frame| {
         let image = renderer.to_image(w, w / 2, &frame.color);
         failed = stream.push(&image).err();
         first.get_or_insert(image);

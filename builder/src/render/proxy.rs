@@ -60,7 +60,7 @@ pub(super) fn render(
     dir: &Path,
     scene: &exploremaps_scenes::Scene,
     graph: &exploremaps_format::Graph,
-    renderer: &crate::renderer::Renderer,
+    renderer: &crate::tracer::Renderer,
     params: &crate::proxy::ProxyParams,
 ) -> Result<(), BundleError> {
     use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel, ProxyStream};
@@ -112,7 +112,7 @@ pub(super) fn render(
             }
         }
         if i == 0 {
-            write(dir, PROXY_GLB, &crate::export::proxy_glb(&scene.name, &level.mesh, &colours))?;
+            write(dir, PROXY_GLB, &crate::scene_io::write::unlit_mesh_glb(&scene.name, &level.mesh.positions, &level.mesh.triangles, &colours))?;
             proxy.glb = Some(PROXY_GLB.to_string());
         }
         let (triangles, vertices) = (level.mesh.triangles.len() as u64, level.mesh.positions.len() as u64);

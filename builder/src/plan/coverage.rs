@@ -1,7 +1,7 @@
 //! Coverage: how much of the reachable surface a set of probes sees. An
 //! independent check of exploration: it samples the surface itself and tests
 //! visibility from the final probes with its own occlusion rays, never with
-//! the stages' `crate::visibility`. Reachability (step 2) is the one
+//! the stages' `crate::plan::visibility`. Reachability (step 2) is the one
 //! definition both use, so those stages optimise what this measures.
 //!
 //! Inputs: the scene, its ray-casting structure, the navigable [`FreeSpace`],
@@ -33,7 +33,7 @@
 //!
 //! Defaults: 200,000 samples, 16 reach directions, seed 1.
 
-use crate::freespace::FreeSpace;
+use crate::plan::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use crate::seeds::cosine_direction;
 use exploremaps_scenes::Scene;
@@ -326,7 +326,7 @@ fn seen_from(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+    use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::{rooms, rooms_with};
     use exploremaps_scenes::mesh::MeshBuilder;
 

@@ -24,7 +24,7 @@
 //! two-arc detour through a third probe are pruned (longest first, never
 //! disconnecting the graph), so the graph stays readable.
 
-use crate::freespace::FreeSpace;
+use crate::plan::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
 use petgraph::unionfind::UnionFind;
@@ -166,7 +166,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     let (part, _) = if searches.is_empty() && components(probes.len(), &paths) == 1 {
         (Vec::new(), Vec::new())
     } else {
-        crate::freespace::components_26(&space.grid, &space.navigable)
+        crate::plan::freespace::components_26(&space.grid, &space.navigable)
     };
     let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
     // In batches of a fixed size, whatever the thread count: a batch's pairs
@@ -217,7 +217,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     // apart, a room reached over a sill), a path glides through the fly
     // space between them, straightened.
     if !space.glide.is_empty() && components(probes.len(), &paths) > 1 {
-        let (glide_part, _) = crate::freespace::components_26(&space.grid, &space.glide);
+        let (glide_part, _) = crate::plan::freespace::components_26(&space.grid, &space.glide);
         let parts: Vec<Option<u32>> =
             probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
         for (i, j, polyline) in walks_between_groups(space, &space.glide, probes, &parts, &paths) {
@@ -491,7 +491,7 @@ fn ordered(x: f32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+    use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
 
     fn setup(scene: &exploremaps_scenes::Scene) -> (RayScene, FreeSpace) {
@@ -545,8 +545,8 @@ mod tests {
 
     #[test]
     fn maze_paths_exist_stay_in_the_corridors_and_are_deterministic() {
-        use crate::explore::{explore, ExploreParams};
-        use crate::smooth::smooth;
+        use crate::plan::explore::{explore, ExploreParams};
+        use crate::plan::smooth::smooth;
         let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
         let (rays, space) = setup(&scene);
         let (candidates, _) = explore(&scene, &rays, &space, &ExploreParams::default());
@@ -572,7 +572,7 @@ mod tests {
         // The maze's probes with one witness asked for: the floor of 16 a probe still joins them.
         let scene = exploremaps_scenes::BuiltIn::Maze(5).generate(3);
         let (rays, space) = setup(&scene);
-        let (candidates, _) = crate::explore::explore(&scene, &rays, &space, &crate::explore::ExploreParams::default());
+        let (candidates, _) = crate::plan::explore::explore(&scene, &rays, &space, &crate::plan::explore::ExploreParams::default());
         let probes: Vec<Vec3> = candidates.iter().map(|c| c.position).collect();
         let (_, stats) = connect(&rays, &space, &probes, &ConnectParams { witness_points: 1, ..Default::default() });
         assert_eq!(stats.components, 1, "{} probes: {stats:?}", probes.len());

@@ -32,7 +32,7 @@
 //!    leads to. Room-sized regions at least 1 m wide somewhere that a ledge
 //!    of up to 1.3 m joins to a kept one, with nothing between, are kept too (the terraces of a hill or a block
 //!    world: a path glides over the ledge). A room joins the rest through its
-//!    door: the walking grid is fine enough for doors (see [`crate::freespace`]).
+//!    door: the walking grid is fine enough for doors (see [`crate::plan::freespace`]).
 //! 5. The band: voxels within half a step plus one voxel of eye height above a
 //!    kept floor cell, and in the fly space. Neighbouring columns' bands overlap,
 //!    and where floor cells joined across a stride (a nosing) the band spans
@@ -49,7 +49,7 @@
 //! Defaults: eye 1.6 m, head room 0.25 m above the eye, steps up to 0.3 m,
 //! slopes up to 40°.
 
-use crate::freespace::Grid;
+use crate::plan::freespace::Grid;
 use crate::raycast::{Packing, Ray, RayScene};
 use glam::Vec3;
 use petgraph::unionfind::UnionFind;

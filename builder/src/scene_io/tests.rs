@@ -164,7 +164,7 @@ fn truncated_files_are_errors_or_shorter_scenes_never_panics() {
     assert!(error_text(&write(d, "cut.ply", ply.as_bytes())).contains("PLY"));
     // A GLB cut in half, at every eighth of its length.
     let glb = d.join("whole.glb");
-    crate::export::write_glb(&BuiltIn::Pillars.generate(0), &glb).unwrap();
+    crate::scene_io::write::write_glb(&BuiltIn::Pillars.generate(0), &glb).unwrap();
     let bytes = fs::read(&glb).unwrap();
     for eighth in 1..8 {
         let cut = write(d, &format!("cut{eighth}.glb"), &bytes[..bytes.len() * eighth / 8]);
@@ -185,7 +185,7 @@ fn vertex_colours_load_from_ply_obj_and_gltf_and_colour_the_surface() {
         assert!((scene.colours[0] - Vec3::X).length() < 1e-6 && (scene.colours[1] - Vec3::Y).length() < 1e-6);
         assert!((scene.colours[2] - Vec3::splat(grey)).length() < 1e-4, "{:?}", scene.colours);
         // The surface's colour is the material's times the colours, interpolated.
-        let materials = crate::renderer::Materials::new(&scene);
+        let materials = crate::tracer::Materials::new(&scene);
         let base = Vec3::from_slice(&scene.materials[0].base_color[..3]);
         assert!((materials.albedo(0, 0.0, 0.0) - Vec3::X * base).length() < 1e-5);
         assert!((materials.albedo(0, 0.5, 0.5) - (Vec3::Y + Vec3::splat(grey)) * 0.5 * base).length() < 1e-4);
@@ -203,9 +203,9 @@ fn vertex_colours_load_from_ply_obj_and_gltf_and_colour_the_surface() {
     let scene = load_default(&write(d, "c.gltf", gltf.to_string().as_bytes())).unwrap();
     assert_eq!(scene.colours, [Vec3::new(0.25, 0.5, 0.75), Vec3::ONE, Vec3::ZERO]);
     // Both exporters write them: exactly to GLB, within a level of an sRGB byte to OBJ.
-    crate::export::write_glb(&scene, &d.join("back.glb")).unwrap();
+    crate::scene_io::write::write_glb(&scene, &d.join("back.glb")).unwrap();
     assert_eq!(load_default(&d.join("back.glb")).unwrap().colours, scene.colours);
-    crate::export::write_obj(&scene, &d.join("back.obj")).unwrap();
+    crate::scene_io::write::write_obj(&scene, &d.join("back.obj")).unwrap();
     let back = load_default(&d.join("back.obj")).unwrap();
     for (a, b) in back.colours.iter().zip(&scene.colours) {
         assert!((*a - *b).abs().max_element() < 0.006, "{a} against {b}");
@@ -255,7 +255,7 @@ fn builtin_scene_round_trips_through_obj_and_glb() {
     let original = BuiltIn::Gallery.generate(3);
     for name in ["gallery.obj", "gallery.glb"] {
         let path = dir.path().join(name);
-        crate::export::export(&original, &path).unwrap();
+        crate::scene_io::write::export(&original, &path).unwrap();
         let back = load_default(&path).unwrap();
         assert_eq!(back.triangles.len(), original.triangles.len(), "{name}");
         assert_eq!(back.textures.len(), original.textures.len(), "{name}");

@@ -25,9 +25,9 @@
 //! arc length with slow-in/slow-out (smoothstep); view blended with the same
 //! easing from the direction of travel at departure to the arrival direction.
 
-use crate::connect::{polyline_length, segment_clear};
-use crate::freespace::FreeSpace;
-use crate::orient::yaw_pitch;
+use crate::plan::connect::{polyline_length, segment_clear};
+use crate::plan::freespace::FreeSpace;
+use crate::plan::orient::yaw_pitch;
 use crate::raycast::{Ray, RayScene};
 use exploremaps_format::timing::{ease, ArcLength};
 use glam::Vec3;
@@ -159,7 +159,7 @@ pub fn camera_keys(p: &[Vec3], duration_s: f32, arrival: Option<(f32, f32)>) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+    use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
 
     fn pillar_room() -> (RayScene, FreeSpace) {
         let scene = crate::testing::pillar_room(1.0);

@@ -5,7 +5,7 @@
 
 use super::obj::empty_scene;
 use super::{check_triangle_count, LoadError};
-use crate::renderer::{srgb_decode, srgb_to_linear};
+use crate::colour::{srgb_decode, srgb_to_linear};
 use exploremaps_scenes::{Material, Scene};
 use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::Parser;

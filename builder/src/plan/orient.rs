@@ -23,8 +23,8 @@
 //!
 //! Defaults: α = 0.5, β = 0.5, cube faces of 24², 96 directions.
 
+use crate::plan::visibility::CubeView;
 use crate::raycast::RayScene;
-use crate::visibility::CubeView;
 use glam::Vec3;
 
 pub const ALPHA: f32 = 0.5;

@@ -40,9 +40,10 @@ mod trace;
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
 pub use gather::GatherParams;
-pub use surface::{linear_to_srgb, srgb_decode, srgb_to_linear, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
+pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 pub use trace::{Frame, TraceParams, Tracer};
 
+use crate::colour::linear_to_srgb;
 use crate::raycast::RayScene;
 use exploremaps_format::{cube_direction, cube_face_of, direction};
 use exploremaps_scenes::Scene;
@@ -74,7 +75,9 @@ impl Quality {
     }
 }
 
-/// Everything a bundle render is set by.
+/// How a quality traces its images: samples, bounces, the radiance cache,
+/// and how video frames reuse lighting (what to render is the render stage's
+/// `render::Settings`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     pub quality: Quality,
@@ -86,10 +89,6 @@ pub struct Settings {
     pub cell_m: f32,
     pub gather_rays: usize,
     pub max_cells: usize,
-    /// Largest cube face; smaller levels halve it down to 512.
-    pub face: u32,
-    /// Video frame width (height is half), a multiple of 16.
-    pub video_width: u32,
     /// Frames from one video key frame to the next; the frames between reuse
     /// the keys' lighting ([`Renderer::path_frames`]); 1 renders every frame in full.
     /// `final` takes 32 with 16 rays at every pixel of a key: the quality
@@ -105,11 +104,6 @@ pub struct Settings {
     /// wider passes near the eye (`GatherParams::widen`), which took the
     /// frame between keys to 0.0742.
     pub video_keys: u32,
-    /// Denoise panoramas and thumbnails with Open Image Denoise (worth it with
-    /// real bounces or few samples; the cache alone leaves little noise).
-    pub denoise: bool,
-    /// The light 3D stand-in written with the panoramas.
-    pub proxy: crate::proxy::ProxyParams,
     pub seed: u64,
 }
 
@@ -132,14 +126,10 @@ impl Settings {
                 cell_m: 0.3,
                 gather_rays: 32,
                 max_cells: 300_000,
-                face: 512,
-                video_width: 512,
                 video_keys: 1,
-                denoise: false,
-                proxy: crate::proxy::ProxyParams { bake_samples: 4, ..Default::default() },
                 seed,
             },
-            Quality::Tour => Settings { quality, face: 4096, ..Settings::new(Quality::Final, seed) },
+            Quality::Tour => Settings { quality, ..Settings::new(Quality::Final, seed) },
             Quality::Final => Settings {
                 quality,
                 panorama: TraceParams {
@@ -163,23 +153,10 @@ impl Settings {
                 cell_m: 0.15,
                 gather_rays: 64,
                 max_cells: 600_000,
-                face: 2048,
-                video_width: 1024,
                 video_keys: 32,
-                denoise: false,
-                proxy: crate::proxy::ProxyParams::default(),
                 seed,
             },
         }
-    }
-
-    /// Cube-face sizes from 512 (or the largest, if smaller) up to `face`.
-    pub fn face_levels(&self) -> Vec<u32> {
-        let mut levels = vec![self.face];
-        while levels[0] > 512 && levels[0] % 2 == 0 {
-            levels.insert(0, levels[0] / 2);
-        }
-        levels
     }
 }
 

@@ -241,7 +241,7 @@ fn equirect_resampled_from_the_cube_matches_a_direct_render() {
     let faces: Vec<Vec<Vec3>> = renderer.cube(&p, eye, 128, 0).into_iter().map(|f| f.color).collect();
     let resampled = renderer.to_image(128, 64, &equirect_from_cube(&faces, 128, 128));
     let direct = renderer.to_image(128, 64, &renderer.equirect(&p, eye, 128, 0).color);
-    let psnr = crate::renderer::psnr(&resampled, &direct);
+    let psnr = crate::tracer::psnr(&resampled, &direct);
     assert!(psnr > 25.0, "cube → equirect against a direct equirect render: {psnr:.1} dB");
 }
 
@@ -319,7 +319,7 @@ fn photo_sphere_jpeg_decodes_and_carries_gpano() {
 /// image (10× amplified) under target/render-failures/. `UPDATE_REFERENCES=1`
 /// rewrites the reference instead.
 fn check_reference(name: &str, actual: &RgbImage, min_db: f64) {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/renderer/references");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/tracer/references");
     let path = dir.join(format!("{name}.png"));
     if std::env::var("UPDATE_REFERENCES").is_ok_and(|v| v == "1") {
         actual.save(&path).unwrap();

@@ -8,23 +8,33 @@
 //! coverage (with random and grid baselines of the same probe count, and
 //! pictures) → graph. `crate::render` then renders a planned bundle.
 
-use crate::cluster::{self, SynthesisParams, SynthesisStats, Synthesized};
-use crate::connect::{self, ConnectParams, ConnectStats};
-use crate::coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
-use crate::explore::{explore, Candidate, ExploreParams, ExploreStats};
-use crate::freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats, SpaceMode};
-use crate::order::{self, OrderStats};
-use crate::orient;
+pub mod cluster;
+pub mod connect;
+pub mod coverage;
+pub mod explore;
+pub mod freespace;
+pub mod order;
+pub mod orient;
+pub mod report;
+pub mod scale;
+pub mod smooth;
+pub mod visibility;
+pub mod walk;
+
 use crate::raycast::{RayScene, RaycastError};
-use crate::report;
-use crate::scale::{self, ScaleGuess};
-use crate::smooth;
+use cluster::{SynthesisParams, SynthesisStats, Synthesized};
+use connect::{ConnectParams, ConnectStats};
+use coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
+use explore::{explore, Candidate, ExploreParams, ExploreStats};
 use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
+use freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats, SpaceMode};
 use glam::Vec3;
 use image::{Rgb, RgbImage};
+use order::OrderStats;
 use rand::Rng;
 use rayon::prelude::*;
+use scale::ScaleGuess;
 use std::borrow::Cow;
 use std::time::Instant;
 
@@ -303,7 +313,7 @@ fn ray_scene(scene: &Scene) -> Result<RayScene, PlanError> {
 }
 
 /// The scene at the scale planning uses: as stated or given; else measured
-/// from its own heights ([`crate::scale`]), trusted when sure, used untrusted
+/// from its own heights ([`crate::plan::scale`]), trusted when sure, used untrusted
 /// when unsure but a common unit; else the guess from its size, untrusted
 /// (free space then decides whether to walk from its rooms' heights).
 fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) -> (Cow<'a, Scene>, ScaleStats) {
@@ -326,7 +336,7 @@ fn scale_stage<'a>(scene: &'a Scene, rays: &RayScene, params: &FreeSpaceParams) 
     let object = match params.space {
         SpaceMode::Outside => true,
         SpaceMode::Inside => false,
-        SpaceMode::Auto => crate::freespace::facing_out(scene, rays, &scene.bounds(), params.seed) > crate::freespace::FACING_OUT_OBJECT,
+        SpaceMode::Auto => crate::plan::freespace::facing_out(scene, rays, &scene.bounds(), params.seed) > crate::plan::freespace::FACING_OUT_OBJECT,
     };
     if object {
         let reason = format!("{} m a unit, guessed from the size alone: an object, whose heights are not a building's", scene.metres_per_unit);

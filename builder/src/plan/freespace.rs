@@ -15,7 +15,7 @@
 //! from below) or not; pockets with no voxel two voxels away from every surface
 //! (slivers inside walls and slabs) count as solid too. The *open space*
 //! is every free voxel in the box outside such solids: the surface it sees is
-//! the ceiling of any placement ([`crate::coverage`] reports it); (4) which kind
+//! the ceiling of any placement ([`crate::plan::coverage`] reports it); (4) which kind
 //! of scene: `outside` (an object: most of its surface faces out of its box,
 //! toward the sides or below) or `inside` (everything else: interiors,
 //! semi-open architecture, landscapes); (5) navigable voxels, by height mode:
@@ -26,7 +26,7 @@
 //!   pockets (an attic, the void between a roof and its panels) stay out;
 //!   `outside`: free space with clearance ≥ r around the scene, in the padding
 //!   and in the open space connected to it;
-//! * *walk* ([`crate::walk`]): voxels within a band around eye height above the
+//! * *walk* ([`crate::plan::walk`]): voxels within a band around eye height above the
 //!   walkable floors of the visitor's parts of the fly space: the most-faced
 //!   part, parts with a tenth of its votes, and parts reaching the box's
 //!   boundary (a courtyard, the ground around a building), never an attic or a
@@ -54,9 +54,9 @@
 //! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
 //! order.
 
-use crate::coverage::surface_samples;
+use crate::plan::coverage::surface_samples;
+use crate::plan::walk::{self, Walk, WalkStats};
 use crate::raycast::{Hit, Packing, Ray, RayScene};
-use crate::walk::{self, Walk, WalkStats};
 use exploremaps_scenes::{Aabb, ScaleSource, Scene};
 use glam::Vec3;
 use petgraph::unionfind::UnionFind;
@@ -515,7 +515,7 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         .then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
     let judged = match scene.scale_source {
         ScaleSource::File | ScaleSource::User | ScaleSource::Measured => {
-            Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::scale::short(scene.metres_per_unit)))
+            Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::plan::scale::short(scene.metres_per_unit)))
         }
         ScaleSource::Guessed => match &floors {
             Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
@@ -1873,7 +1873,7 @@ mod tests {
 #[cfg(test)]
 mod shared_scene_tests {
     use super::*;
-    use crate::load::{load, LoadOptions};
+    use crate::scene_io::{load, LoadOptions};
 
     fn shared(relative: &str) -> Option<Scene> {
         crate::testing::shared_scene(relative).map(|path| load(&path, &LoadOptions::default()).unwrap())

@@ -235,7 +235,7 @@ fn atan2(y: Vec4, x: Vec4) -> Vec4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::renderer::gather::geometric_weight;
+    use crate::tracer::gather::geometric_weight;
 
     /// `Lit::blend` as it was written before its lanes: one pixel at a time
     /// with `geometric_weight` and libm's exponential.

@@ -10,8 +10,8 @@
 //! coverage metric found nothing reachable; in the top view, amber over free
 //! space the navigable space leaves out; probes are green dots.
 
-use crate::coverage::CoverageReport;
-use crate::freespace::FreeSpace;
+use crate::plan::coverage::CoverageReport;
+use crate::plan::freespace::FreeSpace;
 use crate::raycast::{Packing, Ray, RayScene};
 use exploremaps_scenes::Scene;
 use glam::Vec3;

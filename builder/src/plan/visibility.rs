@@ -11,8 +11,8 @@
 //! [`Targets`] the definition of which surface is reachable
 //! (`coverage::reachability`), so the stages optimise what it measures.
 
-use crate::coverage::{reachability, stratified_samples, SurfaceSamples};
-use crate::freespace::FreeSpace;
+use crate::plan::coverage::{reachability, stratified_samples, SurfaceSamples};
+use crate::plan::freespace::FreeSpace;
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use exploremaps_scenes::Scene;
 use glam::Vec3;

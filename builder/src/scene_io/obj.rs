@@ -56,7 +56,7 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
             scene.normals.extend(mesh.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
         }
         if with_colours {
-            let decode = |x: f32| crate::renderer::srgb_decode(x.clamp(0.0, 1.0));
+            let decode = |x: f32| crate::colour::srgb_decode(x.clamp(0.0, 1.0));
             scene.colours.extend(mesh.vertex_color.chunks_exact(3).map(|c| Vec3::new(decode(c[0]), decode(c[1]), decode(c[2]))));
         }
         if mesh.texcoords.len() == count * 2 {

@@ -26,7 +26,7 @@
 //!   random one and relaxes toward the area-weighted barycentre of the surface
 //!   it newly sees, halfway to any obstruction, while that area grows.
 //!
-//! When the free space is walked ([`crate::walk`]), every probe stands at eye
+//! When the free space is walked ([`crate::plan::walk`]), every probe stands at eye
 //! height above a walkable floor ([`FreeSpace::stand`]), and the greedy choice
 //! takes standpoints in the open part of a room while any gains, then others
 //! only for what none of those sees, and only up to 1.5 points short of the
@@ -37,10 +37,10 @@
 //! per depth jump, 6 relaxation steps; both: at most 256 probes. Deterministic:
 //! rays are traced in fixed order and all randomness is seeded.
 
-use crate::freespace::FreeSpace;
+use crate::plan::freespace::FreeSpace;
+use crate::plan::visibility::{CubeView, Targets};
+use crate::plan::walk::Standpoint;
 use crate::raycast::{Packing, Ray, RayScene};
-use crate::visibility::{CubeView, Targets};
-use crate::walk::Standpoint;
 use exploremaps_scenes::Scene;
 use glam::Vec3;
 use rand::Rng;
@@ -449,7 +449,7 @@ fn relax(rays: &RayScene, space: &FreeSpace, start: Vec3, seen: &[bool], params:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+    use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
     use exploremaps_scenes::mesh::MeshBuilder;
     use exploremaps_scenes::BuiltIn;
@@ -488,8 +488,8 @@ mod tests {
     fn covered(scene: &Scene, space: &FreeSpace, probes: &[Candidate]) -> f64 {
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
-        let params = crate::coverage::CoverageParams { samples: 20_000, seed: 77, ..Default::default() };
-        crate::coverage::coverage(scene, &rays, space, &positions, &params).fraction()
+        let params = crate::plan::coverage::CoverageParams { samples: 20_000, seed: 77, ..Default::default() };
+        crate::plan::coverage::coverage(scene, &rays, space, &positions, &params).fraction()
     }
 
     #[test]
@@ -593,7 +593,7 @@ mod tests {
         // The metric on 2,000 samples of the teapot alone (its share of 200,000
         // area-uniform samples would be about 20).
         let teapot = scene.objects.iter().position(|o| o == "teapot").unwrap() as u32;
-        let mut samples = crate::coverage::stratified_samples(&scene, 0, 2000, 5);
+        let mut samples = crate::plan::coverage::stratified_samples(&scene, 0, 2000, 5);
         let keep: Vec<usize> = (0..samples.points.len()).filter(|&i| scene.triangle_object[samples.triangles[i] as usize] == teapot).collect();
         samples.points = keep.iter().map(|&i| samples.points[i]).collect();
         samples.normals = keep.iter().map(|&i| samples.normals[i]).collect();
@@ -604,7 +604,7 @@ mod tests {
         for seed in 1..5 {
             let (probes, stats, space) = plan(&scene, &ExploreParams { seed, ..Default::default() });
             let positions: Vec<Vec3> = probes.iter().map(|p| p.position).collect();
-            let report = crate::coverage::coverage_of(samples.clone(), &rays, &space, &positions, &Default::default());
+            let report = crate::plan::coverage::coverage_of(samples.clone(), &rays, &space, &positions, &Default::default());
             assert!(report.reachable_area > 1000.0, "most of the teapot is reachable: {}", report.reachable_area);
             assert!(report.fraction() > 0.97, "seed {seed}: teapot {:.3} seen with {} probes ({stats:?})", report.fraction(), probes.len());
         }
@@ -680,10 +680,10 @@ mod tests {
             let (probes, stats) = explore(&scene, &rays, &space, &ExploreParams::default());
             let plain = ExploreParams { prefer_open: false, max_probes: probes.len(), coverage_target: 1.0, ..Default::default() };
             let (anywhere, _) = explore(&scene, &rays, &space, &plain);
-            let params = crate::coverage::CoverageParams { samples: 50_000, seed: 9, ..Default::default() };
+            let params = crate::plan::coverage::CoverageParams { samples: 50_000, seed: 9, ..Default::default() };
             let measured = |c: &[Candidate]| {
                 let positions: Vec<Vec3> = c.iter().map(|p| p.position).collect();
-                crate::coverage::coverage(&scene, &rays, &space, &positions, &params).fraction()
+                crate::plan::coverage::coverage(&scene, &rays, &space, &positions, &params).fraction()
             };
             let (c, greedy) = (measured(&probes), measured(&anywhere));
             assert!(c >= 0.97 && c >= greedy - 0.02, "{spec}: {c:.4} with {} probes, plain greedy {greedy:.4} ({stats:?})", probes.len());

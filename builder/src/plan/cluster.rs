@@ -264,11 +264,11 @@ fn anneal(
     (best, cast)
 }
 
-use crate::explore::Candidate;
-use crate::freespace::FreeSpace;
-use crate::orient;
+use crate::plan::explore::Candidate;
+use crate::plan::freespace::FreeSpace;
+use crate::plan::orient;
+use crate::plan::visibility::{count_bits, Targets};
 use crate::raycast::RayScene;
-use crate::visibility::{count_bits, Targets};
 use exploremaps_scenes::Scene;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -464,9 +464,9 @@ mod tests {
 
     #[test]
     fn synthesis_keeps_coverage_within_a_point_with_fewer_probes() {
-        use crate::coverage::{coverage, CoverageParams};
-        use crate::explore::{explore, ExploreParams};
-        use crate::freespace::{free_space, FreeSpaceParams};
+        use crate::plan::coverage::{coverage, CoverageParams};
+        use crate::plan::explore::{explore, ExploreParams};
+        use crate::plan::freespace::{free_space, FreeSpaceParams};
         use crate::raycast::RayScene;
         let scene = exploremaps_scenes::BuiltIn::Pillars.generate(2);
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
@@ -487,8 +487,8 @@ mod tests {
 
     #[test]
     fn two_rooms_give_two_clusters() {
-        use crate::coverage::{reachability, surface_samples};
-        use crate::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+        use crate::plan::coverage::{reachability, surface_samples};
+        use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
         use crate::raycast::{Packing, Ray, RayScene};
         use glam::Vec3;
         // Two 10 × 8 rooms joined by a door, three probes in each, in the far

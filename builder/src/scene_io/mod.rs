@@ -1,4 +1,6 @@
-//! Scene loading: OBJ + MTL, glTF 2.0 / GLB and PLY files into one [`Scene`].
+//! Scene files in and out: OBJ + MTL, glTF 2.0 / GLB and PLY files loaded
+//! into one [`Scene`], and scenes (and the 3D stand-in) written as OBJ or GLB
+//! by [`write`].
 //!
 //! Every loader returns a scene whose up axis is +Y (other up axes are rotated
 //! into it), whose bad triangles are dropped and counted, and whose unit scale
@@ -11,6 +13,7 @@ mod gltf_decode;
 pub(crate) use gltf::LUMENS_PER_WATT;
 mod obj;
 mod ply;
+pub mod write;
 
 use exploremaps_scenes::{guess_metres_per_unit, Light, ScaleSource, Scene, Texture};
 use glam::{Quat, Vec3};

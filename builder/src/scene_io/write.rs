@@ -75,7 +75,7 @@ pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     for (i, p) in scene.positions.iter().enumerate() {
         match scene.colours.get(i) {
             Some(c) => {
-                let [r, g, b] = c.to_array().map(|x| crate::renderer::linear_to_srgb(x) as f32 / 255.0);
+                let [r, g, b] = c.to_array().map(|x| crate::colour::linear_to_srgb(x) as f32 / 255.0);
                 let _ = writeln!(obj, "v {} {} {} {r} {g} {b}", p.x, p.y, p.z);
             }
             None => {
@@ -204,7 +204,7 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
             }
         };
         let peak = power.max_element().max(f32::MIN_POSITIVE);
-        lights.push(json!({ "type": kind, "color": (power / peak).to_array(), "intensity": peak * crate::load::LUMENS_PER_WATT }));
+        lights.push(json!({ "type": kind, "color": (power / peak).to_array(), "intensity": peak * crate::scene_io::LUMENS_PER_WATT }));
         node["extensions"] = json!({ "KHR_lights_punctual": { "light": lights.len() - 1 } });
         nodes.push(node);
     }
@@ -226,25 +226,27 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     write_atomic(path, &glb.finish(document)).map_err(io(path))
 }
 
-/// A proxy level as a glTF binary: positions, linear vertex colours
+/// A vertex-coloured mesh (a proxy level) as a glTF binary: positions, linear vertex colours
 /// (`COLOR_0`, from the baked sRGB ones), triangles, one unlit material
 /// (`KHR_materials_unlit`: the colours already hold the lighting).
-pub fn proxy_glb(name: &str, mesh: &crate::proxy::Mesh, colours: &[[u8; 3]]) -> Vec<u8> {
+pub fn unlit_mesh_glb(name: &str, positions: &[glam::Vec3], triangles: &[[u32; 3]], colours: &[[u8; 3]]) -> Vec<u8> {
     let mut glb = Glb::default();
     let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
-    let (lo, hi) = mesh.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let (lo, hi) = if mesh.positions.is_empty() { (glam::Vec3::ZERO, glam::Vec3::ZERO) } else { (lo, hi) };
-    let view = glb.view(&floats(&mut mesh.positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
-    let positions = glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": mesh.positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }));
-    let mut attributes = json!({ "POSITION": positions });
-    if colours.len() == mesh.positions.len() {
-        let linear = floats(&mut colours.iter().flat_map(|c| c.map(crate::renderer::srgb_to_linear)));
+    let (lo, hi) = positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = if positions.is_empty() { (glam::Vec3::ZERO, glam::Vec3::ZERO) } else { (lo, hi) };
+    let view = glb.view(&floats(&mut positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
+    let position = glb.accessor(
+        json!({ "bufferView": view, "componentType": FLOAT, "count": positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }),
+    );
+    let mut attributes = json!({ "POSITION": position });
+    if colours.len() == positions.len() {
+        let linear = floats(&mut colours.iter().flat_map(|c| c.map(crate::colour::srgb_to_linear)));
         let view = glb.view(&linear, Some(ARRAY_BUFFER));
         attributes["COLOR_0"] = json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": colours.len(), "type": "VEC3" })));
     }
-    let indices: Vec<u8> = mesh.triangles.iter().flat_map(|t| t.iter().flat_map(|i| i.to_le_bytes())).collect();
+    let indices: Vec<u8> = triangles.iter().flat_map(|t| t.iter().flat_map(|i| i.to_le_bytes())).collect();
     let view = glb.view(&indices, Some(ELEMENT_ARRAY_BUFFER));
-    let accessor = glb.accessor(json!({ "bufferView": view, "componentType": UNSIGNED_INT, "count": mesh.triangles.len() * 3, "type": "SCALAR" }));
+    let accessor = glb.accessor(json!({ "bufferView": view, "componentType": UNSIGNED_INT, "count": triangles.len() * 3, "type": "SCALAR" }));
     let document = json!({
         "asset": { "version": "2.0", "generator": "ExploreMaps" },
         "extensionsUsed": ["KHR_materials_unlit"],
