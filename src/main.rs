@@ -41,7 +41,7 @@ fn main() -> ExitCode {
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", message(&e));
+            eprintln!("error: {e:#}");
             ExitCode::from(exit_code(&e))
         }
     }
@@ -69,21 +69,6 @@ fn exit_code(e: &anyhow::Error) -> u8 {
     } else {
         1
     }
-}
-
-/// The error and its causes, each said once: most errors already quote
-/// their source in their own text.
-fn message(e: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in e.chain().map(|c| c.to_string()) {
-        if !text.contains(&cause) {
-            if !text.is_empty() {
-                text.push_str(": ");
-            }
-            text.push_str(&cause);
-        }
-    }
-    text
 }
 
 fn init_logging(verbose: u8, quiet: u8) {
@@ -644,10 +629,26 @@ mod tests {
 
     #[test]
     fn an_error_message_says_each_cause_once() {
-        // BundleError::Io quotes its source in its own text.
-        let disk = exploremaps_builder::bundle::BundleError::Io { path: "b/graph.json".into(), source: std::io::Error::other("disk full") };
-        let text = message(&anyhow::Error::new(disk).context("rendering b"));
-        assert!(text.starts_with("rendering b: cannot write b/graph.json: disk full;"), "{text}");
-        assert_eq!(text.matches("disk full").count(), 1, "{text}");
+        use exploremaps_builder::{bundle::BundleError, export::TourError, scene_io::write::ExportError};
+        let io = || std::io::Error::other("disk full");
+        let disk = BundleError::Io { path: "b/graph.json".into(), source: io() };
+        let text = format!("{:#}", anyhow::Error::new(disk).context("rendering b"));
+        assert!(text.starts_with("rendering b: cannot write b/graph.json"), "{text}");
+        assert!(text.ends_with(": disk full"), "{text}");
+        // No error repeats its source in its own text.
+        let json = exploremaps_format::Graph::from_json("{").unwrap_err();
+        let errors: Vec<(anyhow::Error, String)> = vec![
+            (BundleError::Io { path: "b".into(), source: io() }.into(), "disk full".into()),
+            (LoadError::Io { path: "s.obj".into(), source: io() }.into(), "disk full".into()),
+            (ExportError::Io { path: "o".into(), source: io() }.into(), "disk full".into()),
+            (TourError::Io { path: "t".into(), source: io() }.into(), "disk full".into()),
+            (exploremaps_viewer::native::ViewError::Read { path: "g".into(), source: io() }.into(), "disk full".into()),
+            (BundleError::Invalid(exploremaps_format::FormatError::Invalid("probe 3".into())).into(), "probe 3".into()),
+            (json.into(), "EOF".into()),
+        ];
+        for (error, cause) in errors {
+            let text = format!("{error:#}");
+            assert_eq!(text.matches(&cause).count(), 1, "{text}");
+        }
     }
 }

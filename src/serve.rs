@@ -295,7 +295,9 @@ pub fn serve(bundle: &Path, address: &str, web: Option<&Path>) -> Result<()> {
     }
     let graph_file = root.join(exploremaps_format::GRAPH_FILE);
     let graph = std::fs::read_to_string(&graph_file).map_err(|e| e.to_string());
-    if let (false, Err(e)) = (tour, graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| e.to_string()))) {
+    if let (false, Err(e)) =
+        (tour, graph.and_then(|text| exploremaps_format::Graph::from_json(&text).map_err(|e| exploremaps_format::error_chain(&e))))
+    {
         tracing::warn!("{}: {e}", graph_file.display());
     }
     let listener = std::net::TcpListener::bind(address)

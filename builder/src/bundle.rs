@@ -12,15 +12,15 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum BundleError {
-    #[error("cannot write {path}: {source}; check that the folder is writable and the disk has room")]
+    #[error("cannot write {path} (check that the folder is writable and the disk has room)")]
     Io { path: String, source: std::io::Error },
-    #[error("the planned graph is inconsistent ({0}); this is a bug, please report it")]
+    #[error("the planned graph is inconsistent (a bug: please report it)")]
     Invalid(#[from] exploremaps_format::FormatError),
-    #[error("cannot denoise {path}: {source}")]
+    #[error("cannot denoise {path}")]
     Denoise { path: String, source: crate::tracer::DenoiseError },
-    #[error("cannot encode the transition video {path}: {source}")]
+    #[error("cannot encode the transition video {path}")]
     Video { path: String, source: crate::video::VideoError },
-    #[error("cannot code the proxy mesh {path}: {source}; this is a bug, please report it")]
+    #[error("cannot code the proxy mesh {path} (a bug: please report it)")]
     Proxy { path: String, source: exploremaps_format::edgebreaker::CodingError },
     #[error(transparent)]
     Raycast(#[from] crate::raycast::RaycastError),

@@ -1,14 +1,16 @@
 //! The ExploreMaps builder: loads a scene and runs the pipeline on it.
 //!
-//! Two stages a user runs, each a module that reads as its list of steps:
-//! `pipeline` (`exploremaps plan`: raycast → freespace (with `walk`) →
-//! explore → cluster → orient → connect → smooth → order → coverage, pictures
-//! by `report`) and `render` (`exploremaps render`: the jobs a planned bundle
-//! lacks, pictured by `renderer`, videos by `video`, tour tiles by `tiles`,
-//! the 3D stand-in by `proxy`). `load` reads scene files; `raycast` is the
-//! only module that talks to Embree; `bundle` writes the folder; `tour`
-//! exports a bundle to other tour viewers; `export` (scenes out as OBJ/GLB),
-//! `files` and `seeds` (every random stream) are utilities.
+//! The folders are the pipeline. `scene_io` reads scene files (and writes
+//! scenes out); `plan` is `exploremaps plan` (raycast → scale → freespace
+//! (with `walk`) → explore → cluster → orient → connect → smooth → order →
+//! coverage, pictures by `report`; its `mod.rs` lists them in order);
+//! `render` is `exploremaps render` (the jobs a planned bundle lacks,
+//! pictured by `tracer`, videos by `video`, tour tiles by `tiles`, the 3D
+//! stand-in by `proxy`); `bundle` writes the folder; `export` is
+//! `exploremaps export` (a bundle as a tour for other viewers). `raycast` is
+//! the only module that talks to Embree; `files`, `seeds` (every random
+//! stream) and `colour` (sRGB) are utilities. No top-level module depends on
+//! one that depends on it (`tests/layout.rs`).
 
 pub mod bundle;
 pub mod colour;

@@ -18,7 +18,7 @@ use rand_pcg::{Pcg32, Pcg64Mcg};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u64)]
 pub enum Stream {
-    /// Area-uniform surface samples (`coverage::surface_samples`).
+    /// Area-uniform surface samples (`samples::surface_samples`).
     Surface = 0x636f_7665, // "cove"
     /// The samples added so that every object has its minimum.
     Strata = 0x7374_7261, // "stra"

@@ -419,11 +419,24 @@ pub struct GroupCoverage {
     pub covered_area: f64,
 }
 
+/// An error and its sources, each once, joined by ": " (as anyhow's `{:#}`).
+/// Errors here never repeat their source in their own text.
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        text.push_str(": ");
+        text.push_str(&cause.to_string());
+        source = cause.source();
+    }
+    text
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum FormatError {
     #[error("this bundle has format version {found}, but this program reads version {expected}; rebuild the bundle with this version of exploremaps, or use the matching viewer")]
     Version { found: u32, expected: u32 },
-    #[error("graph.json is not valid JSON or lacks required fields: {0}")]
+    #[error("graph.json is not valid JSON or lacks required fields")]
     Json(#[from] serde_json::Error),
     #[error("graph.json is inconsistent: {0}")]
     Invalid(String),

@@ -19,9 +19,9 @@ use winit::window::{Window, WindowId};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {
-    #[error("{path}: cannot read the bundle's graph ({source}); is this a bundle folder written by `exploremaps build`?")]
+    #[error("{path}: cannot read the bundle's graph (is this a bundle folder written by `exploremaps build`?)")]
     Read { path: PathBuf, source: std::io::Error },
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Format { path: PathBuf, source: FormatError },
     #[error("{0}")]
     Link(String),

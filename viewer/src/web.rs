@@ -617,7 +617,8 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     mark("wasm_ready");
     let graph_url = format!("{base}{GRAPH_FILE}");
     let text = JsFuture::from(fetch(&graph_url).await.map_err(|e| format!("{graph_url}: {e}"))?.text().map_err(js_error)?).await.map_err(js_error)?;
-    let graph = Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {e}"))?;
+    let graph =
+        Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {}", exploremaps_format::error_chain(&e)))?;
     if graph.probes.is_empty() {
         return Err(format!("{graph_url}: the bundle has no probes to show"));
     }

@@ -87,9 +87,9 @@ impl std::str::FromStr for Viewer {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TourError {
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io { path: String, source: std::io::Error },
-    #[error("{path}: cannot read the image ({source}); render the bundle again")]
+    #[error("{path}: cannot read the image (render the bundle again)")]
     Image { path: String, source: image::ImageError },
     #[error("probe {0} has no panorama; run `exploremaps render` on the bundle first")]
     NotRendered(u32),

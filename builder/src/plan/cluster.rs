@@ -487,8 +487,8 @@ mod tests {
 
     #[test]
     fn two_rooms_give_two_clusters() {
-        use crate::plan::coverage::{reachability, surface_samples};
         use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
+        use crate::plan::samples::{reachability, surface_samples};
         use crate::raycast::{Packing, Ray, RayScene};
         use glam::Vec3;
         // Two 10 × 8 rooms joined by a door, three probes in each, in the far

@@ -593,7 +593,7 @@ mod tests {
         // The metric on 2,000 samples of the teapot alone (its share of 200,000
         // area-uniform samples would be about 20).
         let teapot = scene.objects.iter().position(|o| o == "teapot").unwrap() as u32;
-        let mut samples = crate::plan::coverage::stratified_samples(&scene, 0, 2000, 5);
+        let mut samples = crate::plan::samples::stratified_samples(&scene, 0, 2000, 5);
         let keep: Vec<usize> = (0..samples.points.len()).filter(|&i| scene.triangle_object[samples.triangles[i] as usize] == teapot).collect();
         samples.points = keep.iter().map(|&i| samples.points[i]).collect();
         samples.normals = keep.iter().map(|&i| samples.normals[i]).collect();

@@ -54,7 +54,7 @@
 //! at most 40M cells (≈ 0.6 GiB). Deterministic: ray casts and sums run in fixed
 //! order.
 
-use crate::plan::coverage::surface_samples;
+use crate::plan::samples::surface_samples;
 use crate::plan::walk::{self, Walk, WalkStats};
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use exploremaps_scenes::{Aabb, ScaleSource, Scene};

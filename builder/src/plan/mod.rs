@@ -16,6 +16,7 @@ pub mod freespace;
 pub mod order;
 pub mod orient;
 pub mod report;
+pub mod samples;
 pub mod scale;
 pub mod smooth;
 pub mod visibility;

@@ -9,10 +9,10 @@
 //! and tests the final probes with its own occlusion rays, so it checks the
 //! choices made here rather than repeating them. It does share with
 //! [`Targets`] the definition of which surface is reachable
-//! (`coverage::reachability`), so the stages optimise what it measures.
+//! (`samples::reachability`), so the stages optimise what it measures.
 
-use crate::plan::coverage::{reachability, stratified_samples, SurfaceSamples};
 use crate::plan::freespace::FreeSpace;
+use crate::plan::samples::{reachability, stratified_samples, SurfaceSamples};
 use crate::raycast::{Hit, Packing, Ray, RayScene};
 use exploremaps_scenes::Scene;
 use glam::Vec3;

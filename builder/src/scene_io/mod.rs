@@ -58,7 +58,7 @@ pub fn parse_up_axis(text: &str) -> Option<Vec3> {
 
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}")]
     Io { path: PathBuf, source: std::io::Error },
     #[error("{path}: unknown scene format '{extension}'; ExploreMaps reads .obj (with .mtl), .gltf, .glb and .ply files")]
     UnknownFormat { path: PathBuf, extension: String },

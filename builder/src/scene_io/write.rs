@@ -11,9 +11,9 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Io { path: String, source: std::io::Error },
-    #[error("cannot encode texture {name}: {source}")]
+    #[error("cannot encode texture {name}")]
     Encode { name: String, source: image::ImageError },
     #[error("{0}: unknown export format; use a .obj or .glb file name")]
     Format(String),
