@@ -440,7 +440,9 @@ impl FreeSpace {
     }
 }
 
-/// Computes the navigable free space of a scene.
+/// Computes the navigable free space of a scene: the kind of scene and its
+/// box, the box's voxels, walk or fly (on a finer grid when walking needs
+/// one), the parts kept, and the eye-height band when walking.
 pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), FreeSpaceError> {
     let started = Instant::now();
     if !(8..=2048).contains(&params.max_cells) {
@@ -451,94 +453,24 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         Some(m) => m / scene.metres_per_unit,
         None => params.near_rel * bounds.diagonal(),
     };
-    // Which way the surface faces decides `auto`'s space; a scene to be in
-    // that is too flat to stand in gets a storey of sky (see `room_box`).
-    let facing_out = facing_out(scene, rays, &bounds, params.seed);
-    let kind = (params.space == SpaceMode::Auto).then(|| kind_evidence(rays, &bounds, params.seed));
-    let cabin = kind.is_some_and(|(enclosed, ground)| facing_out > CABIN_FACING_OUT && enclosed < CABIN_ENCLOSED && ground < CABIN_GROUND);
-    let inside = match params.space {
-        SpaceMode::Auto => facing_out <= FACING_OUT_OBJECT && !cabin,
-        given => given == SpaceMode::Inside,
-    };
-    let (room, sky) = if inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
-    let grid = make_grid(&room, params.max_cells, params.voxel);
-    let occupied = voxelize(scene, &grid);
-    let clearance: Vec<f32> = distance_transform(&grid, &occupied).into_iter().map(|d2| d2.sqrt() * grid.voxel).collect();
-
-    // Open space: free voxels in the box, minus the pockets enclosed by back faces.
-    let in_box: Vec<bool> = (0..grid.len())
-        .into_par_iter()
-        .map(|i| {
-            let p = grid.center(grid.coords(i));
-            p.cmpge(room.min).all() && p.cmple(room.max).all()
-        })
-        .collect();
-    let free_in_box: Vec<bool> = (0..grid.len()).map(|i| in_box[i] && !occupied[i]).collect();
-    let solids = classify_solids(&grid, &free_in_box, &clearance, &room, rays);
-    let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
-    let mut ray_count = solids.rays;
-
-    ray_count += FACING_SAMPLES + if kind.is_some() { KIND_RAYS } else { 0 };
-    let (space, mut space_reason) = match params.space {
-        SpaceMode::Auto if cabin => {
-            let (enclosed, ground) = kind.expect("auto");
-            let why = format!(
-                "auto: an object with an interior: {:.0} % of its surface faces out of its box, only {:.0} % of the box is closed space and {:.0} % of its footprint shows a ground from above; --space inside plans its interior",
-                100.0 * facing_out,
-                100.0 * enclosed,
-                100.0 * ground
-            );
-            (SpaceMode::Outside, why)
-        }
-        SpaceMode::Auto if !inside => {
-            (SpaceMode::Outside, format!("auto: an object, {:.0} % of its surface faces out of its box", 100.0 * facing_out))
-        }
-        SpaceMode::Auto => (
-            SpaceMode::Inside,
-            format!("auto: a scene to be in, {:.0} % of its surface faces out of its box, enclosure {:.2}", 100.0 * facing_out, solids.enclosure),
-        ),
-        given => (given, "given".to_string()),
-    };
-    if sky {
-        space_reason += &format!(
-            "; lower than a person stands ({:.2} units high), so it has open sky up to {:.2} units above its lowest point",
-            bounds.extent().y,
-            room.extent().y
-        );
-    }
+    let kind = SceneKind::judge(scene, rays, &bounds, params);
+    let (room, sky) = if kind.inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
+    let vol = Volumes::new(scene, rays, &room, params);
+    let mut ray_count = vol.solids.rays + FACING_SAMPLES + if kind.evidence.is_some() { KIND_RAYS } else { 0 };
+    let (space, space_reason) = kind.space(params.space, vol.solids.enclosure, sky.then_some((&bounds, &room)));
 
     // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
     // stated, or guessed with rooms of a plausible height.
     let eye = params.eye_height_m / scene.metres_per_unit;
     let water = walk::water_triangles(scene);
     let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk)
-        .then(|| walk::floor_cells(&grid, &occupied, &open, rays, scene.metres_per_unit, &water));
-    let judged = match scene.scale_source {
-        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => {
-            Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::plan::scale::short(scene.metres_per_unit)))
-        }
-        ScaleSource::Guessed => match &floors {
-            Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
-            None => Err("the scale is only guessed".to_string()),
-        },
-    };
-    // With a scale to trust, r is at most a person's half width: a probe passes
-    // any door a visitor passes, however large the scene.
-    if params.near_m.is_none() && judged.is_ok() {
-        near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
-    }
+        .then(|| walk::floor_cells(&vol.grid, &vol.occupied, &vol.open, rays, scene.metres_per_unit, &water));
+    let judged = scale_judgement(scene, floors.as_ref());
     let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
-    let (walking, height_reason) = match params.height {
-        HeightMode::Fly => (false, "given".to_string()),
-        HeightMode::Walk => (true, "given".to_string()),
-        HeightMode::Auto if space == SpaceMode::Outside => (false, "auto: objects are seen in free flight".to_string()),
-        HeightMode::Auto if !has_floors => (false, "auto: no floor a person can stand on".to_string()),
-        HeightMode::Auto => match &judged {
-            Ok(why) => (true, format!("auto: floors, and {why}")),
-            Err(why) => (false, format!("auto: {why}; pass --metres-per-unit to walk")),
-        },
-    };
-    if walking && params.near_m.is_none() {
+    let (walking, mut height_reason) = walk_or_fly(params.height, space, has_floors, &judged);
+    // With a scale to trust, or walking, r is at most a person's half width:
+    // a probe passes any door a visitor passes, however large the scene.
+    if params.near_m.is_none() && (judged.is_ok() || walking) {
         near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
     }
     // A large scene's grid is coarser than a door: walk on a finer one. It
@@ -547,18 +479,17 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
     // for floors again on the walking grid.
     let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
     let look_again = !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto;
-    let mut height_reason = height_reason;
-    if (walking || look_again) && grid.voxel > 1.001 * walk_voxel {
+    if (walking || look_again) && vol.grid.voxel > 1.001 * walk_voxel {
         let finer = make_grid(&room, params.max_cells, Some(walk_voxel)).voxel;
         let door_m = 2.0 * finer * scene.metres_per_unit;
-        if params.voxel.is_none() && finer < 0.999 * grid.voxel {
+        if params.voxel.is_none() && finer < 0.999 * vol.grid.voxel {
             let height = if walking { HeightMode::Walk } else { params.height };
             let (fs, mut stats) = free_space(scene, rays, &FreeSpaceParams { space, height, voxel: Some(finer), ..params.clone() })?;
             stats.space_reason = space_reason;
             stats.height_reason = if walking {
                 format!("{height_reason}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", finer * scene.metres_per_unit)
             } else {
-                format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, grid.voxel * scene.metres_per_unit)
+                format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, vol.grid.voxel * scene.metres_per_unit)
             };
             stats.rays += ray_count;
             stats.seconds = started.elapsed().as_secs_f64();
@@ -570,62 +501,283 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
         }
     }
 
-    let candidate: Vec<bool> = (0..grid.len())
+    let choice = Choice { space, walking, near };
+    let parts = keep_parts(scene, rays, &vol, &water, &choice, params.start)?;
+    let (solid, enclosure) = ((0..vol.grid.len()).filter(|&i| vol.free_in_box[i] && !vol.open[i]).count(), vol.solids.enclosure);
+    let mut fs = vol.into_space(&parts, &choice, bounds);
+    let walk_stats = match walking {
+        true => Some(fs.walk_on(floors.as_ref().expect("computed when walking"), rays, eye, scene.metres_per_unit, params.start)?),
+        false => None,
+    };
+    ray_count += walk_stats.as_ref().map_or(0, |w| w.rays);
+    let stats = FreeSpaceStats {
+        dims: fs.grid.dims,
+        voxel: fs.grid.voxel,
+        near,
+        occupied: fs.occupied.iter().filter(|&&o| o).count(),
+        open: fs.open.iter().filter(|&&o| o).count(),
+        solid,
+        components: parts.kept.len(),
+        components_kept: parts.kept.iter().filter(|&&k| k).count(),
+        left_out: parts.left_out,
+        navigable: fs.navigable.iter().filter(|&&n| n).count(),
+        enclosure,
+        facing_out: kind.facing_out,
+        space: space.name(),
+        space_reason,
+        height: if walking { "walk" } else { "fly" },
+        height_reason,
+        walk: walk_stats,
+        rays: ray_count,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    Ok((fs, stats))
+}
+
+impl FreeSpace {
+    /// Walking: the eye-height band over the kept floors becomes the
+    /// navigable space, and the kept parts are where paths glide.
+    fn walk_on(
+        &mut self,
+        floors: &walk::Floors,
+        rays: &RayScene,
+        eye: f32,
+        metres_per_unit: f32,
+        start: Option<Vec3>,
+    ) -> Result<WalkStats, FreeSpaceError> {
+        let (walk, band, stats) = walk::walk_space(&self.grid, &self.navigable, floors, rays, eye, metres_per_unit);
+        if band.iter().all(|&b| !b) {
+            return Err(FreeSpaceError::Nothing("walkable", self.near, "no floor a person can reach and stand on at eye height; try --fly"));
+        }
+        if let Some(p) = start {
+            if !band[self.grid.index(self.grid.cell(p).expect("checked by keep_parts"))] {
+                return Err(FreeSpaceError::StartNotNavigable(p, "walkable"));
+            }
+        }
+        self.glide = std::mem::replace(&mut self.navigable, band);
+        self.walk = Some(walk);
+        Ok(stats)
+    }
+}
+
+/// What kind of scene it is, from which way its surface faces (and, for
+/// `auto`, how much of its box is closed and whether it shows a ground).
+struct SceneKind {
+    facing_out: f32,
+    /// (enclosed, ground), measured for `auto` only.
+    evidence: Option<(f32, f32)>,
+    /// An object with an interior (a car's cabin).
+    cabin: bool,
+    /// A scene to be in.
+    inside: bool,
+}
+
+impl SceneKind {
+    fn judge(scene: &Scene, rays: &RayScene, bounds: &Aabb, params: &FreeSpaceParams) -> SceneKind {
+        // Which way the surface faces decides `auto`'s space; a scene to be in
+        // that is too flat to stand in gets a storey of sky (see `room_box`).
+        let facing_out = facing_out(scene, rays, bounds, params.seed);
+        let evidence = (params.space == SpaceMode::Auto).then(|| kind_evidence(rays, bounds, params.seed));
+        let cabin = evidence.is_some_and(|(enclosed, ground)| facing_out > CABIN_FACING_OUT && enclosed < CABIN_ENCLOSED && ground < CABIN_GROUND);
+        let inside = match params.space {
+            SpaceMode::Auto => facing_out <= FACING_OUT_OBJECT && !cabin,
+            given => given == SpaceMode::Inside,
+        };
+        SceneKind { facing_out, evidence, cabin, inside }
+    }
+
+    /// The space planned in, and why; `raised` holds the scene's box and the
+    /// one raised for a flat scene.
+    fn space(&self, asked: SpaceMode, enclosure: f32, raised: Option<(&Aabb, &Aabb)>) -> (SpaceMode, String) {
+        let (facing_out, cabin, inside) = (self.facing_out, self.cabin, self.inside);
+        let (space, mut space_reason) = match asked {
+            SpaceMode::Auto if cabin => {
+                let (enclosed, ground) = self.evidence.expect("auto");
+                let why = format!(
+                    "auto: an object with an interior: {:.0} % of its surface faces out of its box, only {:.0} % of the box is closed space and {:.0} % of its footprint shows a ground from above; --space inside plans its interior",
+                    100.0 * facing_out,
+                    100.0 * enclosed,
+                    100.0 * ground
+                );
+                (SpaceMode::Outside, why)
+            }
+            SpaceMode::Auto if !inside => {
+                (SpaceMode::Outside, format!("auto: an object, {:.0} % of its surface faces out of its box", 100.0 * facing_out))
+            }
+            SpaceMode::Auto => (
+                SpaceMode::Inside,
+                format!("auto: a scene to be in, {:.0} % of its surface faces out of its box, enclosure {:.2}", 100.0 * facing_out, enclosure),
+            ),
+            given => (given, "given".to_string()),
+        };
+        if let Some((bounds, room)) = raised {
+            space_reason += &format!(
+                "; lower than a person stands ({:.2} units high), so it has open sky up to {:.2} units above its lowest point",
+                bounds.extent().y,
+                room.extent().y
+            );
+        }
+        (space, space_reason)
+    }
+}
+
+/// The box's voxels: occupancy, clearance, and the open space (free voxels
+/// in the box outside the pockets enclosed by back faces).
+struct Volumes {
+    grid: Grid,
+    occupied: Vec<bool>,
+    clearance: Vec<f32>,
+    in_box: Vec<bool>,
+    free_in_box: Vec<bool>,
+    solids: Solids,
+    open: Vec<bool>,
+}
+
+impl Volumes {
+    fn new(scene: &Scene, rays: &RayScene, room: &Aabb, params: &FreeSpaceParams) -> Volumes {
+        let grid = make_grid(room, params.max_cells, params.voxel);
+        let occupied = voxelize(scene, &grid);
+        let clearance: Vec<f32> = distance_transform(&grid, &occupied).into_iter().map(|d2| d2.sqrt() * grid.voxel).collect();
+        let in_box: Vec<bool> = (0..grid.len())
+            .into_par_iter()
+            .map(|i| {
+                let p = grid.center(grid.coords(i));
+                p.cmpge(room.min).all() && p.cmple(room.max).all()
+            })
+            .collect();
+        let free_in_box: Vec<bool> = (0..grid.len()).map(|i| in_box[i] && !occupied[i]).collect();
+        let solids = classify_solids(&grid, &free_in_box, &clearance, room, rays);
+        let open: Vec<bool> = (0..grid.len()).map(|i| free_in_box[i] && !solids.solid[i]).collect();
+        Volumes { grid, occupied, clearance, in_box, free_in_box, solids, open }
+    }
+
+    /// The free space of the kept parts (flying: paths glide where probes
+    /// fly; walking narrows it to the eye-height band, see `walk_on`).
+    fn into_space(self, parts: &Parts, choice: &Choice, bounds: Aabb) -> FreeSpace {
+        let navigable: Vec<bool> = parts.labels.iter().map(|&l| l != NONE && parts.kept[l as usize]).collect();
+        let Volumes { grid, occupied, clearance, open, .. } = self;
+        let (near, space) = (choice.near, choice.space);
+        FreeSpace {
+            grid,
+            occupied,
+            clearance,
+            open,
+            navigable,
+            glide: Vec::new(),
+            near,
+            space,
+            walk: None,
+            bounds,
+            navigable_distance: Default::default(),
+        }
+    }
+}
+
+/// Whether the scale is one to walk by: stated, or guessed with rooms of a
+/// plausible height (`Ok` says why, `Err` why not).
+fn scale_judgement(scene: &Scene, floors: Option<&walk::Floors>) -> Result<String, String> {
+    match scene.scale_source {
+        ScaleSource::File | ScaleSource::User | ScaleSource::Measured => {
+            Ok(format!("the scale is {} ({} m a unit)", scale_word(scene.scale_source), crate::plan::scale::short(scene.metres_per_unit)))
+        }
+        ScaleSource::Guessed => match floors {
+            Some(f) => walk::judge_scale(f, scene.metres_per_unit).map(|why| format!("the guessed scale is plausible ({why})")),
+            None => Err("the scale is only guessed".to_string()),
+        },
+    }
+}
+
+/// Walk or fly, and why, for the height mode asked.
+fn walk_or_fly(asked: HeightMode, space: SpaceMode, has_floors: bool, judged: &Result<String, String>) -> (bool, String) {
+    match asked {
+        HeightMode::Fly => (false, "given".to_string()),
+        HeightMode::Walk => (true, "given".to_string()),
+        HeightMode::Auto if space == SpaceMode::Outside => (false, "auto: objects are seen in free flight".to_string()),
+        HeightMode::Auto if !has_floors => (false, "auto: no floor a person can stand on".to_string()),
+        HeightMode::Auto => match judged {
+            Ok(why) => (true, format!("auto: floors, and {why}")),
+            Err(why) => (false, format!("auto: {why}; pass --metres-per-unit to walk")),
+        },
+    }
+}
+
+/// What the navigable space is made of: the space planned in, whether it
+/// is walked, and r.
+struct Choice {
+    space: SpaceMode,
+    walking: bool,
+    near: f32,
+}
+
+/// The open space's parts where a probe fits, which are kept, and the large
+/// ones left out with why.
+struct Parts {
+    labels: Vec<u32>,
+    /// Per part.
+    kept: Vec<bool>,
+    left_out: Vec<LeftOut>,
+}
+
+/// Splits the space a probe fits in into parts and keeps where a visitor
+/// is: the start point's part, or the most-faced part, parts with a tenth
+/// of its votes, and (walking) the parts open to the world.
+fn keep_parts(scene: &Scene, rays: &RayScene, vol: &Volumes, water: &[bool], choice: &Choice, start: Option<Vec3>) -> Result<Parts, FreeSpaceError> {
+    let candidate: Vec<bool> = (0..vol.grid.len())
         .into_par_iter()
         .map(|i| {
-            let allowed = match space {
-                SpaceMode::Outside => !occupied[i] && (!in_box[i] || open[i]),
-                _ => open[i],
+            let allowed = match choice.space {
+                SpaceMode::Outside => !vol.occupied[i] && (!vol.in_box[i] || vol.open[i]),
+                _ => vol.open[i],
             };
-            allowed && clearance[i] >= near
+            allowed && vol.clearance[i] >= choice.near
         })
         .collect();
-    let (labels, sizes) = components(&grid, &candidate);
+    let (labels, sizes) = components(&vol.grid, &candidate);
     let mut kept = vec![false; sizes.len()];
     // Why each part left out was, for the report.
     let mut apart: Vec<&'static str> = vec!["apart from the start point's part"; sizes.len()];
-    match params.start {
+    match start {
         Some(p) => {
-            let c = grid.cell(p).ok_or(FreeSpaceError::StartOutside(p))?;
-            let i = grid.index(c);
-            if occupied[i] || (free_in_box[i] && !open[i]) {
+            let c = vol.grid.cell(p).ok_or(FreeSpaceError::StartOutside(p))?;
+            let i = vol.grid.index(c);
+            if vol.occupied[i] || (vol.free_in_box[i] && !vol.open[i]) {
                 return Err(FreeSpaceError::StartInGeometry(p));
             }
-            if clearance[i] < near {
-                return Err(FreeSpaceError::StartTooNarrow { point: p, clearance: clearance[i], near });
+            if vol.clearance[i] < choice.near {
+                return Err(FreeSpaceError::StartTooNarrow { point: p, clearance: vol.clearance[i], near: choice.near });
             }
             if labels[i] == NONE {
-                return Err(FreeSpaceError::StartNotNavigable(p, space.name()));
+                return Err(FreeSpaceError::StartNotNavigable(p, choice.space.name()));
             }
             kept[labels[i] as usize] = true;
         }
         // The padding guarantees free space at the grid's corner, around the scene.
-        None if space == SpaceMode::Outside => match labels[0] {
-            NONE => return Err(FreeSpaceError::Nothing("outside", near, "try --space inside or a smaller near distance")),
+        None if choice.space == SpaceMode::Outside => match labels[0] {
+            NONE => return Err(FreeSpaceError::Nothing("outside", choice.near, "try --space inside or a smaller near distance")),
             corner => {
                 kept[corner as usize] = true;
                 apart.fill("inside the object, apart from the space around it");
             }
         },
         None => {
-            let votes = faced_votes(scene, &grid, &labels, sizes.len(), near);
+            let votes = faced_votes(scene, &vol.grid, &labels, sizes.len(), choice.near);
             let most = votes.iter().copied().max().unwrap_or(0);
             if most == 0 {
-                return Err(FreeSpaceError::Nothing("inside", near, "try --space outside or a smaller near distance"));
+                return Err(FreeSpaceError::Nothing("inside", choice.near, "try --space outside or a smaller near distance"));
             }
             // Where a visitor is, walking or flying: the most-faced part, parts
             // with a tenth of its votes, and parts open to the world. Pockets
             // (an attic, the void between a roof and its panels) stay out: no
             // probe may stand where the rest of the map cannot reach.
-            let exterior = touches_boundary(&grid, &labels, sizes.len(), &in_box);
+            let exterior = touches_boundary(&vol.grid, &labels, sizes.len(), &vol.in_box);
             // (A walker also keeps the open parts, as courtyards; in flight
             // the open air above the roofs is one with them.)
             for (k, &v) in votes.iter().enumerate() {
-                kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || (walking && exterior[k]));
+                kept[k] = v > 0 && (v as f32 >= FACED_SHARE * most as f32 || (choice.walking && exterior[k]));
             }
             // Nobody visits the sea under its surface (its bed faces it).
-            let drowned = under_water(&water, rays, &grid, &labels, &clearance, sizes.len());
-            let wraps = wrapping(&grid, &labels, &kept);
+            let drowned = under_water(water, rays, &vol.grid, &labels, &vol.clearance, sizes.len());
+            let wraps = wrapping(&vol.grid, &labels, &kept);
             for (k, &d) in drowned.iter().enumerate() {
                 kept[k] &= !d;
                 apart[k] = if d {
@@ -642,53 +794,8 @@ pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> R
             }
         }
     }
-    let left_out = left_out_parts(&grid, &labels, &in_box, &kept, &apart, scene.metres_per_unit);
-    let mut navigable: Vec<bool> = labels.iter().map(|&l| l != NONE && kept[l as usize]).collect();
-    // Flying, paths glide where probes fly; walking, see below.
-    let mut glide = Vec::new();
-
-    let mut walk_stats = None;
-    let walk = if walking {
-        let floors = floors.as_ref().expect("computed when walking");
-        let (w, band, stats) = walk::walk_space(&grid, &navigable, floors, rays, eye, scene.metres_per_unit);
-        ray_count += stats.rays;
-        if band.iter().all(|&b| !b) {
-            return Err(FreeSpaceError::Nothing("walkable", near, "no floor a person can reach and stand on at eye height; try --fly"));
-        }
-        if let Some(p) = params.start {
-            if !band[grid.index(grid.cell(p).expect("checked above"))] {
-                return Err(FreeSpaceError::StartNotNavigable(p, "walkable"));
-            }
-        }
-        glide = std::mem::replace(&mut navigable, band);
-        walk_stats = Some(stats);
-        Some(w)
-    } else {
-        None
-    };
-
-    let stats = FreeSpaceStats {
-        dims: grid.dims,
-        voxel: grid.voxel,
-        near,
-        occupied: occupied.iter().filter(|&&o| o).count(),
-        open: open.iter().filter(|&&o| o).count(),
-        solid: (0..grid.len()).filter(|&i| free_in_box[i] && !open[i]).count(),
-        components: sizes.len(),
-        components_kept: kept.iter().filter(|&&k| k).count(),
-        left_out,
-        navigable: navigable.iter().filter(|&&n| n).count(),
-        enclosure: solids.enclosure,
-        facing_out,
-        space: space.name(),
-        space_reason,
-        height: if walking { "walk" } else { "fly" },
-        height_reason,
-        walk: walk_stats,
-        rays: ray_count,
-        seconds: started.elapsed().as_secs_f64(),
-    };
-    Ok((FreeSpace { grid, occupied, clearance, open, navigable, glide, near, space, walk, bounds, navigable_distance: Default::default() }, stats))
+    let left_out = left_out_parts(&vol.grid, &labels, &vol.in_box, &kept, &apart, scene.metres_per_unit);
+    Ok(Parts { labels, kept, left_out })
 }
 
 /// A part of the open space left out of the navigable space.
