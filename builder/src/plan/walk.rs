@@ -402,29 +402,101 @@ pub fn judge_scale(floors: &Floors, metres_per_unit: f32) -> Result<String, Stri
 
 /// Steps 2 to 5: the walkable regions and the eye-height band within `fly`.
 pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, eye: f32, metres_per_unit: f32) -> (Walk, Vec<bool>, WalkStats) {
-    let head = HEAD_ROOM_M / metres_per_unit;
-    let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
-    let half_band = 0.5 * rise + grid.voxel;
-    let step = STEP_M / metres_per_unit;
-    let eye_voxel = |c: &FloorCell| grid.cell(over_column(grid, c.column, c.floor_y + eye));
-    // Step 2: cells a person can stand on.
-    let standing: Vec<FloorCell> =
-        floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
-    // Cells by column, for neighbour look-ups.
-    let mut by_column: Vec<Vec<u32>> = vec![Vec::new(); grid.dims[0] * grid.dims[2]];
-    for (k, c) in standing.iter().enumerate() {
-        by_column[c.column].push(k as u32);
+    let gauge = Gauge::new(grid, eye, metres_per_unit);
+    let standing = Standing::new(grid, fly, floors, &gauge);
+    let (mut joined, bridges, hip_rays) = join_steps(grid, &standing, rays, &gauge);
+    let mut regions = Regions::new(grid, floors, &standing, &mut joined, &gauge);
+    let level_rays = regions.keep(grid, &standing, rays, &gauge);
+    let (band, kept_cells) = eye_band(grid, fly, &standing, &regions, &bridges, &gauge);
+    let mut kept_floors: Vec<(usize, f32)> =
+        standing.cells.iter().zip(&regions.of).filter(|(_, &g)| regions.kept[g as usize]).map(|(c, _)| (c.column, c.floor_y)).collect();
+    kept_floors.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let kept_heights: Vec<f32> = kept_floors.iter().map(|f| f.1).collect();
+    let levels = levels(&kept_heights, 0.25 / metres_per_unit);
+    let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite()).collect();
+    heights.sort_by(f32::total_cmp);
+    let stats = WalkStats {
+        eye_height_m: eye * metres_per_unit,
+        floor_cells: floors.cells.len(),
+        standing_cells: standing.cells.len(),
+        regions: regions.sizes.len(),
+        regions_kept: regions.kept.iter().filter(|&&k| k).count(),
+        roofs: regions.roof.iter().filter(|&&r| r).count(),
+        floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
+        room_height_m: heights.get(heights.len() / 2).copied(),
+        levels,
+        rays: floors.rays + hip_rays + level_rays,
+    };
+    let walk = Walk {
+        eye,
+        head: gauge.head,
+        reach: eye + gauge.half_band + 2.0 * grid.voxel,
+        floors: kept_floors,
+        grid: grid.clone(),
+        half_step: 0.5 * gauge.step,
+        metre: 1.0 / metres_per_unit,
+    };
+    (walk, band, stats)
+}
+
+/// A person's measures in scene units.
+struct Gauge {
+    eye: f32,
+    head: f32,
+    /// The most a stride may rise: a step, and a slope's rise across a voxel.
+    rise: f32,
+    /// Half the eye-height band's thickness.
+    half_band: f32,
+    step: f32,
+    metres_per_unit: f32,
+}
+
+impl Gauge {
+    fn new(grid: &Grid, eye: f32, metres_per_unit: f32) -> Gauge {
+        let rise = STEP_M / metres_per_unit + grid.voxel * (1.0 - SLOPE_COS * SLOPE_COS).sqrt() / SLOPE_COS;
+        Gauge { eye, head: HEAD_ROOM_M / metres_per_unit, rise, half_band: 0.5 * rise + grid.voxel, step: STEP_M / metres_per_unit, metres_per_unit }
     }
-    let centre = |c: &FloorCell, h: f32| over_column(grid, c.column, c.floor_y + h);
-    // Step 3: steps to the next columns along x and z, then, between cells that
-    // are still apart, to the other columns within a stride ahead (half the
-    // disc, so each pair once); each checked by a hip-height ray. The rise is
-    // the same across a stride as between neighbours: a step is a step, and
-    // slopes are followed column by column.
+}
+
+/// Step 2: the floor cells a person can stand on (head room, eyes in the
+/// space), and them by column for neighbour look-ups.
+struct Standing {
+    cells: Vec<FloorCell>,
+    by_column: Vec<Vec<u32>>,
+}
+
+impl Standing {
+    fn new(grid: &Grid, fly: &[bool], floors: &Floors, gauge: &Gauge) -> Standing {
+        let (eye, head) = (gauge.eye, gauge.head);
+        let eye_voxel = |c: &FloorCell| grid.cell(over_column(grid, c.column, c.floor_y + eye));
+        let cells: Vec<FloorCell> =
+            floors.cells.iter().copied().filter(|c| c.headroom >= eye + head && eye_voxel(c).is_some_and(|v| fly[grid.index(v)])).collect();
+        let mut by_column: Vec<Vec<u32>> = vec![Vec::new(); grid.dims[0] * grid.dims[2]];
+        for (k, c) in cells.iter().enumerate() {
+            by_column[c.column].push(k as u32);
+        }
+        Standing { cells, by_column }
+    }
+}
+
+/// The point `h` above a standing cell's floor.
+fn above(grid: &Grid, c: &FloorCell, h: f32) -> Vec3 {
+    over_column(grid, c.column, c.floor_y + h)
+}
+
+/// Step 3: steps to the next columns along x and z, then, between cells that
+/// are still apart, to the other columns within a stride ahead (half the
+/// disc, so each pair once); each checked by a hip-height ray. The rise is
+/// the same across a stride as between neighbours: a step is a step, and
+/// slopes are followed column by column. Returns the cells joined, the
+/// joins across a stride (the band spans them), and the rays cast.
+fn join_steps(grid: &Grid, standing: &Standing, rays: &RayScene, gauge: &Gauge) -> (UnionFind<u32>, Vec<(u32, u32)>, usize) {
+    let (by_column, standing) = (&standing.by_column, &standing.cells);
+    let (rise, step, eye, metres_per_unit) = (gauge.rise, gauge.step, gauge.eye, gauge.metres_per_unit);
+    let centre = |c: &FloorCell, h: f32| above(grid, c, h);
     let (near, far): (Vec<_>, Vec<_>) = stride_offsets(grid.voxel * metres_per_unit).into_iter().partition(|&(dx, dz)| dx * dx + dz * dz == 1);
     let mut parent: UnionFind<u32> = UnionFind::new(standing.len());
     let mut hip_rays = 0;
-    // Joins across a stride: the band spans them.
     let mut bridges: Vec<(u32, u32)> = Vec::new();
     for (pass, offsets) in [near, far].iter().enumerate() {
         let mut pairs: Vec<(u32, u32)> = Vec::new();
@@ -481,72 +553,107 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             }
         }
     }
-    // Step 4: regions, roofs, and which are kept.
-    let roots: Vec<u32> = (0..standing.len() as u32).map(|k| parent.find_mut(k)).collect();
-    let mut region_of = vec![u32::MAX; standing.len()];
-    let mut sizes: Vec<usize> = Vec::new();
-    let mut roofish: Vec<usize> = Vec::new();
-    let mut sky: Vec<usize> = Vec::new();
-    let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
-    for k in 0..standing.len() {
-        let r = roots[k] as usize;
-        if region_of[r] == u32::MAX {
-            region_of[r] = sizes.len() as u32;
-            sizes.push(0);
-            roofish.push(0);
-            sky.push(0);
-        }
-        let g = region_of[r] as usize;
-        region_of[k] = g as u32;
-        sizes[g] += 1;
-        let c = &standing[k];
-        sky[g] += c.headroom.is_infinite() as usize;
-        if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - rise {
-            roofish[g] += 1;
-        }
-    }
-    let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
-    let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
-    let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
-    let ledges = ledges(grid, &standing, &by_column, &region_of, step, 1.0 / metres_per_unit, eye, rays);
-    let outdoors: Vec<bool> = (0..sizes.len()).map(|g| 2 * sky[g] > sizes[g]).collect();
-    let furniture = furniture(&ledges, &sizes, &outdoors, cell_m2);
-    let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && !furniture[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
-    // Smaller room-sized regions: kept when enclosed, judged by 16 level rays
-    // from the eyes of up to 16 of their cells (spread through the region).
-    let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !furniture[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
-    let mut cells_of: Vec<Vec<usize>> = vec![Vec::new(); sizes.len()];
-    for (k, &g) in region_of.iter().enumerate() {
-        if rooms.binary_search(&(g as usize)).is_ok() {
-            cells_of[g as usize].push(k);
-        }
-    }
-    let mut level_rays = Vec::new();
-    for &g in &rooms {
-        let cells = &cells_of[g];
-        for i in 0..16.min(cells.len()) {
-            let eye_at = centre(&standing[cells[i * cells.len() / 16.min(cells.len())]], eye);
-            for d in 0..16 {
-                let a = d as f32 * std::f32::consts::TAU / 16.0;
-                level_rays.push(Ray::new(eye_at, Vec3::new(a.cos(), 0.0, a.sin())));
+    (parent, bridges, hip_rays)
+}
+
+/// Step 4: standing cells joined into regions; roofs, what is outdoors, and
+/// which regions are kept.
+struct Regions {
+    /// Per standing cell.
+    of: Vec<u32>,
+    /// Per region, in standing cells.
+    sizes: Vec<usize>,
+    roof: Vec<bool>,
+    outdoors: Vec<bool>,
+    kept: Vec<bool>,
+}
+
+impl Regions {
+    fn new(grid: &Grid, floors: &Floors, standing: &Standing, joined: &mut UnionFind<u32>, gauge: &Gauge) -> Regions {
+        let standing = &standing.cells;
+        let roots: Vec<u32> = (0..standing.len() as u32).map(|k| joined.find_mut(k)).collect();
+        let mut region_of = vec![u32::MAX; standing.len()];
+        let mut sizes: Vec<usize> = Vec::new();
+        let mut roofish: Vec<usize> = Vec::new();
+        let mut sky: Vec<usize> = Vec::new();
+        let lowest: Vec<f32> = by_column_lowest(floors, grid.dims[0] * grid.dims[2]);
+        for k in 0..standing.len() {
+            let r = roots[k] as usize;
+            if region_of[r] == u32::MAX {
+                region_of[r] = sizes.len() as u32;
+                sizes.push(0);
+                roofish.push(0);
+                sky.push(0);
+            }
+            let g = region_of[r] as usize;
+            region_of[k] = g as u32;
+            sizes[g] += 1;
+            let c = &standing[k];
+            sky[g] += c.headroom.is_infinite() as usize;
+            if c.headroom.is_infinite() && lowest[c.column] < c.floor_y - gauge.rise {
+                roofish[g] += 1;
             }
         }
+        let roof: Vec<bool> = (0..sizes.len()).map(|g| roofish[g] as f32 >= ROOF_SHARE * sizes[g] as f32).collect();
+        let outdoors: Vec<bool> = (0..sizes.len()).map(|g| 2 * sky[g] > sizes[g]).collect();
+        Regions { of: region_of, kept: vec![false; sizes.len()], sizes, roof, outdoors }
     }
-    let met = rays.occluded_batch(&level_rays, Packing::Single);
-    let mut at = 0;
-    for &g in &rooms {
-        let n = 16 * 16.min(sizes[g]);
-        kept[g] = met[at..at + n].iter().filter(|&&m| m).count() as f32 >= ENCLOSED_SHARE * n as f32;
-        at += n;
+
+    /// Keeps the large regions that are no roof and no furniture, smaller
+    /// room-sized ones when enclosed (16 level rays from the eyes of up to 16
+    /// of their cells, spread through the region), and terraces a ledge away
+    /// from a kept region. Returns the rays cast.
+    fn keep(&mut self, grid: &Grid, standing: &Standing, rays: &RayScene, gauge: &Gauge) -> usize {
+        let (sizes, roof, region_of) = (&self.sizes, &self.roof, &self.of);
+        let (eye, metres_per_unit) = (gauge.eye, gauge.metres_per_unit);
+        let largest = (0..sizes.len()).filter(|&g| !roof[g]).map(|g| sizes[g]).max().unwrap_or(0);
+        let cell_m2 = (grid.voxel * metres_per_unit).powi(2);
+        let ledges = ledges(grid, standing, region_of, gauge, rays);
+        let furniture = furniture(&ledges, sizes, &self.outdoors, cell_m2);
+        let mut kept: Vec<bool> = (0..sizes.len()).map(|g| !roof[g] && !furniture[g] && sizes[g] as f32 >= REGION_SHARE * largest as f32).collect();
+        let rooms: Vec<usize> = (0..sizes.len()).filter(|&g| !roof[g] && !furniture[g] && !kept[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+        let mut cells_of: Vec<Vec<usize>> = vec![Vec::new(); sizes.len()];
+        for (k, &g) in region_of.iter().enumerate() {
+            if rooms.binary_search(&(g as usize)).is_ok() {
+                cells_of[g as usize].push(k);
+            }
+        }
+        let mut level_rays = Vec::new();
+        for &g in &rooms {
+            let cells = &cells_of[g];
+            for i in 0..16.min(cells.len()) {
+                let eye_at = above(grid, &standing.cells[cells[i * cells.len() / 16.min(cells.len())]], eye);
+                for d in 0..16 {
+                    let a = d as f32 * std::f32::consts::TAU / 16.0;
+                    level_rays.push(Ray::new(eye_at, Vec3::new(a.cos(), 0.0, a.sin())));
+                }
+            }
+        }
+        let met = rays.occluded_batch(&level_rays, Packing::Single);
+        let mut at = 0;
+        for &g in &rooms {
+            let n = 16 * 16.min(sizes[g]);
+            kept[g] = met[at..at + n].iter().filter(|&&m| m).count() as f32 >= ENCLOSED_SHARE * n as f32;
+            at += n;
+        }
+        let candidates: Vec<bool> = (0..sizes.len()).map(|g| !kept[g] && !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
+        let radius = (TERRACE_WIDTH_M / (2.0 * grid.voxel * metres_per_unit)).ceil() as isize;
+        let wide = wide_regions(grid, standing, region_of, &candidates, radius);
+        keep_terraces(&mut kept, &ledges, |g| candidates[g] && wide[g]);
+        self.kept = kept;
+        level_rays.len()
     }
-    let candidates: Vec<bool> = (0..sizes.len()).map(|g| !kept[g] && !roof[g] && !furniture[g] && sizes[g] as f32 * cell_m2 >= ROOM_M2).collect();
-    let wide =
-        wide_regions(grid, &standing, &by_column, &region_of, &candidates, (TERRACE_WIDTH_M / (2.0 * grid.voxel * metres_per_unit)).ceil() as isize);
-    keep_terraces(&mut kept, &ledges, |g| candidates[g] && wide[g]);
-    // Step 5: the band.
+}
+
+/// Step 5: the eye-height band over the kept regions' cells, and along each
+/// kept join across a stride; with the count of kept cells.
+fn eye_band(grid: &Grid, fly: &[bool], standing: &Standing, regions: &Regions, bridges: &[(u32, u32)], gauge: &Gauge) -> (Vec<bool>, usize) {
+    let (eye, half_band) = (gauge.eye, gauge.half_band);
+    let (kept, region_of) = (&regions.kept, &regions.of);
+    let centre = |c: &FloorCell, h: f32| above(grid, c, h);
     let mut band = vec![false; grid.len()];
     let mut kept_cells = 0usize;
-    for (k, c) in standing.iter().enumerate() {
+    for (k, c) in standing.cells.iter().enumerate() {
         if !kept[region_of[k] as usize] {
             continue;
         }
@@ -562,7 +669,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
     // the band above and below it.
     let reach = (half_band / grid.voxel).ceil() as usize;
     for &(a, b) in bridges.iter().filter(|&&(a, _)| kept[region_of[a as usize] as usize]) {
-        let (a, b) = (&standing[a as usize], &standing[b as usize]);
+        let (a, b) = (&standing.cells[a as usize], &standing.cells[b as usize]);
         grid.walk_segment(centre(a, eye), centre(b, eye), |i| {
             let [x, y, z] = grid.coords(i);
             for y in y.saturating_sub(reach)..=(y + reach).min(grid.dims[1] - 1) {
@@ -572,35 +679,7 @@ pub fn walk_space(grid: &Grid, fly: &[bool], floors: &Floors, rays: &RayScene, e
             true
         });
     }
-    let mut kept_floors: Vec<(usize, f32)> =
-        standing.iter().zip(&region_of).filter(|(_, &g)| kept[g as usize]).map(|(c, _)| (c.column, c.floor_y)).collect();
-    kept_floors.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    let kept_heights: Vec<f32> = kept_floors.iter().map(|f| f.1).collect();
-    let levels = levels(&kept_heights, 0.25 / metres_per_unit);
-    let mut heights: Vec<f32> = floors.cells.iter().map(|c| c.headroom * metres_per_unit).filter(|h| h.is_finite()).collect();
-    heights.sort_by(f32::total_cmp);
-    let stats = WalkStats {
-        eye_height_m: eye * metres_per_unit,
-        floor_cells: floors.cells.len(),
-        standing_cells: standing.len(),
-        regions: sizes.len(),
-        regions_kept: kept.iter().filter(|&&k| k).count(),
-        roofs: roof.iter().filter(|&&r| r).count(),
-        floor_area_m2: kept_cells as f64 * (grid.voxel * metres_per_unit) as f64 * (grid.voxel * metres_per_unit) as f64,
-        room_height_m: heights.get(heights.len() / 2).copied(),
-        levels,
-        rays: floors.rays + hip_rays + level_rays.len(),
-    };
-    let walk = Walk {
-        eye,
-        head,
-        reach: eye + half_band + 2.0 * grid.voxel,
-        floors: kept_floors,
-        grid: grid.clone(),
-        half_step: 0.5 * step,
-        metre: 1.0 / metres_per_unit,
-    };
-    (walk, band, stats)
+    (band, kept_cells)
 }
 
 /// The point at height `y` over the centre of grid column `column`.
@@ -619,16 +698,9 @@ struct Ledge {
 
 /// The ledges between regions, keyed (higher region, lower region).
 #[allow(clippy::too_many_arguments)] // the walking grid's parts, as walk_space holds them
-fn ledges(
-    grid: &Grid,
-    standing: &[FloorCell],
-    by_column: &[Vec<u32>],
-    region_of: &[u32],
-    step: f32,
-    metre: f32,
-    eye: f32,
-    rays: &RayScene,
-) -> BTreeMap<(u32, u32), Ledge> {
+fn ledges(grid: &Grid, standing: &Standing, region_of: &[u32], gauge: &Gauge, rays: &RayScene) -> BTreeMap<(u32, u32), Ledge> {
+    let (by_column, standing) = (&standing.by_column, &standing.cells);
+    let (step, metre, eye) = (gauge.step, 1.0 / gauge.metres_per_unit, gauge.eye);
     /// Column pairs tried a ledge for openness.
     const TRIED: usize = 8;
     let mut samples: BTreeMap<(u32, u32), Vec<(usize, usize)>> = BTreeMap::new();
@@ -695,7 +767,8 @@ const TERRACE_WIDTH_M: f32 = 1.0;
 /// Of the `candidates`, the regions with a cell whose square of `radius`
 /// cells around it is all theirs: somewhere a person's footprint fits with
 /// room to turn.
-fn wide_regions(grid: &Grid, standing: &[FloorCell], by_column: &[Vec<u32>], region_of: &[u32], candidates: &[bool], radius: isize) -> Vec<bool> {
+fn wide_regions(grid: &Grid, standing: &Standing, region_of: &[u32], candidates: &[bool], radius: isize) -> Vec<bool> {
+    let (by_column, standing) = (&standing.by_column, &standing.cells);
     let mut wide = vec![false; candidates.len()];
     let theirs = |x: isize, z: isize, g: u32| {
         (0..grid.dims[0] as isize).contains(&x)
