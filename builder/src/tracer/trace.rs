@@ -284,6 +284,7 @@ impl<'a> Tracer<'a> {
             .zip(bands(history, rows, band_count))
             .enumerate()
             .collect();
+        let job = FrameJob { params, eye, size: (width, height), image, project: &project, field: field.as_ref(), reuse };
         bands.into_par_iter().for_each(|(band, (((((color, albedo), normal), steady), points), history))| {
             let _mode = FlushDenormals::new();
             let y0 = band as u32 * TILE;
@@ -296,7 +297,7 @@ impl<'a> Tracer<'a> {
                     })
                     .filter(|&(x, y)| x < width && y < height && traced(x, y))
                     .collect();
-                for p in self.render_tile(params, eye, (width, height), image, &pixels, &project, field.as_ref(), reuse, None) {
+                for p in self.render_tile(&job, &pixels, None) {
                     let i = p.index - band * rows;
                     color[i] = p.color;
                     albedo[i] = p.albedo;
@@ -318,7 +319,7 @@ impl<'a> Tracer<'a> {
             }
         });
         if antialias {
-            self.antialias(params, eye, image, &project, field.as_ref(), reuse, &steady, &mut frame);
+            self.antialias(&job, &steady, &mut frame);
         }
         (frame, lit)
     }
@@ -329,18 +330,7 @@ impl<'a> Tracer<'a> {
     /// pixels (4 % of the sunroom, far more on checkered floors) get four more samples on a
     /// rotated grid, lit as the centre was (the same gather field, the same key
     /// frames), and keep the mean of the five; flat regions cost nothing more.
-    #[allow(clippy::too_many_arguments)]
-    fn antialias(
-        &self,
-        params: &TraceParams,
-        eye: Vec3,
-        image: u64,
-        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
-        field: Option<&Field>,
-        reuse: Reuse,
-        steady: &[Vec3],
-        frame: &mut Frame,
-    ) {
+    fn antialias<P: Fn(f32, f32) -> Vec3 + Sync>(&self, job: &FrameJob<P>, steady: &[Vec3], frame: &mut Frame) {
         const GRID: [(f32, f32); 4] = [(0.375, 0.125), (0.875, 0.375), (0.625, 0.875), (0.125, 0.625)];
         let (width, height) = (frame.width, frame.height);
         let edges = contrast_edges(steady, width, height);
@@ -356,8 +346,9 @@ impl<'a> Tracer<'a> {
                 let _mode = FlushDenormals::new();
                 let pixels: Vec<(u32, u32)> = chunk.iter().map(|j| j.0).collect();
                 let jitter: Vec<(f32, f32)> = chunk.iter().map(|j| j.1).collect();
-                let single = TraceParams { samples: 1, ..*params };
-                self.render_tile(&single, eye, (width, height), image, &pixels, project, field, reuse, Some((&jitter, n + 64 * c as u64)))
+                let single = TraceParams { samples: 1, ..*job.params };
+                let job = FrameJob { params: &single, ..*job };
+                self.render_tile(&job, &pixels, Some((&jitter, n + 64 * c as u64)))
             })
             .collect();
         for p in more.into_iter().flatten() {
@@ -370,190 +361,282 @@ impl<'a> Tracer<'a> {
 
     /// `jitter`: where in each pixel its one sample goes, and the random
     /// stream of the first (the rest follow), instead of pixel centres.
-    #[allow(clippy::too_many_arguments)]
-    fn render_tile(
+    fn render_tile<P: Fn(f32, f32) -> Vec3 + Sync>(
         &self,
-        params: &TraceParams,
-        eye: Vec3,
-        (width, height): (u32, u32),
-        image: u64,
+        job: &FrameJob<P>,
         pixels: &[(u32, u32)],
-        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
-        field: Option<&Field>,
-        reuse: Reuse,
         jitter: Option<(&[(f32, f32)], u64)>,
     ) -> Vec<Pixel> {
         // Antialiasing's extra samples (jittered) keep nothing.
-        let keep = matches!(reuse, Reuse::Key { .. }) && jitter.is_none();
-        let spp = params.samples.max(1);
-        // Each pixel's random stream, made when first drawn from (frames
-        // between video keys draw only where neither key saw the point).
-        let stream = |k: usize| match jitter {
-            None => sampler(params.seed, Work::Pixels, image, (pixels[k].1 * width + pixels[k].0) as u64),
-            Some((_, first)) => sampler(params.seed, Work::Pixels, image, first + k as u64),
-        };
-        let mut rngs: Vec<Option<Pcg32>> = vec![None; pixels.len()];
-        // Colour, albedo, normal, and the colour without rouletted lamps.
-        let mut sums = vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); pixels.len()];
-        let mut rays = Vec::with_capacity(pixels.len());
-        let mut at = Vec::with_capacity(pixels.len());
-        let mut hits = vec![None; pixels.len()];
-        let mut surfaces = Vec::with_capacity(pixels.len());
-        // Shadow rays by light (suns first, then point lights), so each packet
-        // of 8 shares a light (a coherent frustum): (pixel, ray, irradiance,
-        // whether the ray won a roulette).
-        let mut shadows: Vec<Vec<(usize, Ray, Vec3, bool)>> = vec![Vec::new(); self.lighting.suns.len() + self.lighting.points.len()];
-        // Direct light, and the part of it rouletted lamps brought.
-        let mut direct = vec![(Vec3::ZERO, Vec3::ZERO); pixels.len()];
-        let mut reused: Vec<Option<Vec3>> = vec![None; pixels.len()];
-        let mut last_hit = vec![None; pixels.len()];
+        let keep = matches!(job.reuse, Reuse::Key { .. }) && jitter.is_none();
+        let mut tile = Tile::new(self, job, pixels, jitter);
+        for sample in 0..tile.spp {
+            self.first_hits(job, &mut tile, sample);
+            // The keys' light, four pixels at a time, in a loop of its own
+            // (a lookup is a long chain of dependent arithmetic, which the
+            // next pixels' can overlap here).
+            if let Reuse::Between(b) = job.reuse {
+                for (r, s) in tile.reused.chunks_mut(4).zip(tile.surfaces.chunks(4)) {
+                    let found = b.irradiance(std::array::from_fn(|j| s.get(j).and_then(Option::as_ref)));
+                    r.copy_from_slice(&found[..r.len()]);
+                }
+            }
+            self.direct_light(job.params, &mut tile);
+            self.shade(job, &mut tile, keep);
+        }
+        tile.finish(job.size.0)
+    }
+
+    /// A sample through every pixel of the tile, its first hit and the
+    /// surface there (the sky where it hits nothing).
+    fn first_hits<P: Fn(f32, f32) -> Vec3 + Sync>(&self, job: &FrameJob<P>, tile: &mut Tile, sample: u32) {
+        let (width, height) = job.size;
+        let (spp, streams) = (tile.spp, tile.streams);
+        tile.rays.clear();
+        tile.at.clear();
+        for (k, &(x, y)) in tile.pixels.iter().enumerate() {
+            // Stratified in rows of the pixel when there are several samples.
+            let (jx, jy) = match tile.jitter {
+                Some(at) => at[k],
+                None if spp == 1 => (0.5, 0.5),
+                None => {
+                    let rng = tile.rngs[k].get_or_insert_with(|| streams.of(k));
+                    (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32)
+                }
+            };
+            let d = (job.project)((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
+            tile.rays.push(Ray::new(job.eye, d));
+            tile.at.push((x as f32 + jx, y as f32 + jy));
+        }
+        for (r8, h8) in tile.rays.chunks(8).zip(tile.hits.chunks_mut(8)) {
+            self.rays.intersect8(r8, h8, true);
+        }
+        tile.surfaces.clear();
+        for i in 0..tile.pixels.len() {
+            let mut ray = tile.rays[i];
+            let hit = tile.hits[i].and_then(|h| self.through_holes(&mut ray, h));
+            // The field's tolerances need the distance along the ray.
+            tile.hits[i] = hit;
+            let s = hit.map(|h| self.materials.surface_seen(&ray, &h, tile.spread));
+            match &s {
+                None => {
+                    let sky = self.lighting.sky.radiance(ray.dir);
+                    tile.sums[i].0 += sky;
+                    tile.sums[i].3 += sky;
+                    tile.last_hit[i] = None;
+                }
+                Some(s) => {
+                    tile.sums[i].1 += s.albedo;
+                    tile.sums[i].2 += s.normal;
+                }
+            }
+            tile.surfaces.push(s);
+        }
+    }
+
+    /// Direct light at the first hits the keys lent none, by shadow rays
+    /// sorted by light so that each packet of 8 shares one (a coherent
+    /// frustum).
+    fn direct_light(&self, params: &TraceParams, tile: &mut Tile) {
         let which = if params.baked_points && params.bounces == 0 && self.cache.is_some() { Which::Suns } else { Which::All };
         let lamps = self.cache.as_ref().filter(|_| which == Which::All);
         let suns = self.lighting.suns.len();
+        let streams = tile.streams;
+        let Tile { shadows, surfaces, reused, rngs, direct, .. } = tile;
+        shadows.iter_mut().for_each(Vec::clear);
+        for i in 0..surfaces.len() {
+            let (Some(s), None) = (&surfaces[i], reused[i]) else { continue };
+            let rng = rngs[i].get_or_insert_with(|| streams.of(i));
+            let u = Vec2::new(rng.random(), rng.random());
+            let seen = lamps.and_then(|c| c.lamps_seen(s.position, s.geometric));
+            self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| match (&seen, k.checked_sub(suns)) {
+                // Russian roulette on a lamp no cache point nearby saw (most are in
+                // other rooms): traced at odds UNSEEN_LAMP_ODDS, carrying its light
+                // over them, so the mean stays exact wherever the cache was wrong.
+                (Some(seen), Some(lamp)) if !seen.sees(lamp) => {
+                    if rng.random::<f32>() < UNSEEN_LAMP_ODDS {
+                        shadows[k].push((i, r, e / UNSEEN_LAMP_ODDS, true));
+                    }
+                }
+                _ => shadows[k].push((i, r, e, false)),
+            });
+        }
+        direct.iter_mut().for_each(|d| *d = (Vec3::ZERO, Vec3::ZERO));
+        let mut add = |(i, _, e, won): &(usize, Ray, Vec3, bool)| {
+            direct[*i].0 += *e;
+            if *won {
+                direct[*i].1 += *e;
+            }
+        };
+        // Light by light, in each pixel's order of lights.
+        if self.materials.has_cutouts {
+            for c in shadows.iter().flatten() {
+                if self.visible(&c.1) {
+                    add(c);
+                }
+            }
+        } else {
+            let mut blocked = [false; 8];
+            for chunk in shadows.iter().flat_map(|light| light.chunks(8)) {
+                let r8: smallvec::SmallVec<[Ray; 8]> = chunk.iter().map(|c| c.1).collect();
+                self.rays.occluded8(&r8, &mut blocked, true);
+                for (c, &b) in chunk.iter().zip(&blocked) {
+                    if !b {
+                        add(c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Each first hit's colour: its emission and its albedo times the light
+    /// reaching it (the keys' or its own direct and indirect light); a key
+    /// frame keeps what it saw.
+    fn shade<P: Fn(f32, f32) -> Vec3 + Sync>(&self, job: &FrameJob<P>, tile: &mut Tile, keep: bool) {
+        let streams = tile.streams;
+        for i in 0..tile.pixels.len() {
+            let Some(s) = &tile.surfaces[i] else { continue };
+            let field_at = job.field.zip(tile.hits[i]).map(|(f, h)| (f, tile.at[i].0, tile.at[i].1, h.t * tile.rays[i].dir.length()));
+            let (e, history) = match tile.reused[i] {
+                Some(e) => (e, Vec4::ZERO),
+                None => {
+                    let own = self.indirect(job.params, s, field_at, tile.rngs[i].get_or_insert_with(|| streams.of(i)));
+                    // A running mean over keys (up to HISTORY) where the previous key saw this point.
+                    let history = match job.reuse {
+                        Reuse::Key { history: Some(before) } => before.history(s).map(|h| {
+                            let keys = (h.w + 1.0).min(HISTORY);
+                            (h.truncate() + (own - h.truncate()) / keys).extend(keys)
+                        }),
+                        _ => None,
+                    };
+                    let history = history.unwrap_or(own.extend(1.0));
+                    (tile.direct[i].0 + history.truncate(), history)
+                }
+            };
+            if keep {
+                tile.last_hit[i] = Some((Seen { position: s.position, normal: s.normal, irradiance: e }, history));
+            }
+            let c = s.emission + s.albedo / PI * e;
+            // A stray NaN or infinity must not poison a pixel (or a denoiser).
+            if c.is_finite() {
+                tile.sums[i].0 += c;
+                tile.sums[i].3 += c - s.albedo / PI * tile.direct[i].1;
+            }
+        }
+    }
+}
+
+/// What every tile of a frame shares: how it is traced, from where, its size
+/// and random streams, its projection, the gather field and the light it
+/// reuses (the per-frame context of [`Tracer::render_tile`]).
+struct FrameJob<'a, P> {
+    params: &'a TraceParams,
+    eye: Vec3,
+    size: (u32, u32),
+    image: u64,
+    project: &'a P,
+    field: Option<&'a Field>,
+    reuse: Reuse<'a>,
+}
+
+/// Where each pixel's random stream comes from: its place in the image, or
+/// (antialiasing's extra samples) its place after the first.
+#[derive(Clone, Copy)]
+struct Streams<'p> {
+    seed: u64,
+    image: u64,
+    width: u32,
+    pixels: &'p [(u32, u32)],
+    first: Option<u64>,
+}
+
+impl Streams<'_> {
+    fn of(&self, k: usize) -> Pcg32 {
+        match self.first {
+            None => sampler(self.seed, Work::Pixels, self.image, (self.pixels[k].1 * self.width + self.pixels[k].0) as u64),
+            Some(first) => sampler(self.seed, Work::Pixels, self.image, first + k as u64),
+        }
+    }
+}
+
+/// One tile's pixels in flight through [`Tracer::render_tile`]'s phases.
+struct Tile<'p> {
+    pixels: &'p [(u32, u32)],
+    /// Where in each pixel its one sample goes, instead of the centre.
+    jitter: Option<&'p [(f32, f32)]>,
+    streams: Streams<'p>,
+    spp: u32,
+    /// The angle one pixel spans, for reading textures over its footprint.
+    spread: f32,
+    /// Each pixel's random stream, made when first drawn from (frames
+    /// between video keys draw only where neither key saw the point).
+    rngs: Vec<Option<Pcg32>>,
+    /// Colour, albedo, normal, and the colour without rouletted lamps.
+    sums: Vec<(Vec3, Vec3, Vec3, Vec3)>,
+    rays: Vec<Ray>,
+    /// Each sample's image position, pixels.
+    at: Vec<(f32, f32)>,
+    hits: Vec<Option<Hit>>,
+    surfaces: Vec<Option<Surface>>,
+    /// Shadow rays by light (suns first, then point lights): (pixel, ray,
+    /// irradiance, whether the ray won a roulette).
+    shadows: Vec<Vec<(usize, Ray, Vec3, bool)>>,
+    /// Direct light, and the part of it rouletted lamps brought.
+    direct: Vec<(Vec3, Vec3)>,
+    /// The keys' light, between video keys.
+    reused: Vec<Option<Vec3>>,
+    last_hit: Vec<Option<(Seen, Vec4)>>,
+}
+
+impl<'p> Tile<'p> {
+    fn new<P: Fn(f32, f32) -> Vec3 + Sync>(
+        tracer: &Tracer,
+        job: &FrameJob<P>,
+        pixels: &'p [(u32, u32)],
+        jitter: Option<(&'p [(f32, f32)], u64)>,
+    ) -> Tile<'p> {
+        let (width, height) = job.size;
+        let spp = job.params.samples.max(1);
         // One sample through a pixel stands for all of it: its texture is
         // read over the pixel's footprint, the angle from the tile's first
         // pixel to the one below (in an equirectangular frame, the rows'
         // spacing, which its thinned rows keep; on a cube face it changes
         // by under a percent across a tile).
         let spread = match (spp, pixels.first()) {
-            (1, Some(&(x, y))) if self.materials.has_textures() => {
+            (1, Some(&(x, y))) if tracer.materials.has_textures() => {
                 let (x, y) = (x as f32 + 0.5, y as f32 + 0.5);
                 let (w, h) = (width as f32, height as f32);
-                (project(x / w, (y + 1.0) / h).normalize_or_zero() - project(x / w, y / h).normalize_or_zero()).length()
+                ((job.project)(x / w, (y + 1.0) / h).normalize_or_zero() - (job.project)(x / w, y / h).normalize_or_zero()).length()
             }
             _ => 0.0,
         };
-        for sample in 0..spp {
-            rays.clear();
-            at.clear();
-            for (k, &(x, y)) in pixels.iter().enumerate() {
-                // Stratified in rows of the pixel when there are several samples.
-                let (jx, jy) = match jitter {
-                    Some((at, _)) => at[k],
-                    None if spp == 1 => (0.5, 0.5),
-                    None => {
-                        let rng = rngs[k].get_or_insert_with(|| stream(k));
-                        (rng.random::<f32>(), (sample as f32 + rng.random::<f32>()) / spp as f32)
-                    }
-                };
-                let d = project((x as f32 + jx) / width as f32, (y as f32 + jy) / height as f32);
-                rays.push(Ray::new(eye, d));
-                at.push((x as f32 + jx, y as f32 + jy));
-            }
-            for (r8, h8) in rays.chunks(8).zip(hits.chunks_mut(8)) {
-                self.rays.intersect8(r8, h8, true);
-            }
-            // First hits; direct light at them with shadow rays in packets.
-            surfaces.clear();
-            shadows.iter_mut().for_each(Vec::clear);
-            for i in 0..pixels.len() {
-                let mut ray = rays[i];
-                let hit = hits[i].and_then(|h| self.through_holes(&mut ray, h));
-                // The field's tolerances need the distance along the ray.
-                hits[i] = hit;
-                let s = hit.map(|h| self.materials.surface_seen(&ray, &h, spread));
-                match &s {
-                    None => {
-                        let sky = self.lighting.sky.radiance(ray.dir);
-                        sums[i].0 += sky;
-                        sums[i].3 += sky;
-                        last_hit[i] = None;
-                    }
-                    Some(s) => {
-                        sums[i].1 += s.albedo;
-                        sums[i].2 += s.normal;
-                    }
-                }
-                surfaces.push(s);
-            }
-            // The keys' light, four pixels at a time, in a loop of its own
-            // (a lookup is a long chain of dependent arithmetic, which the
-            // next pixels' can overlap here).
-            if let Reuse::Between(b) = reuse {
-                for (r, s) in reused.chunks_mut(4).zip(surfaces.chunks(4)) {
-                    let found = b.irradiance(std::array::from_fn(|j| s.get(j).and_then(Option::as_ref)));
-                    r.copy_from_slice(&found[..r.len()]);
-                }
-            }
-            // Direct light by shadow rays where the keys gave none.
-            for i in 0..pixels.len() {
-                let (Some(s), None) = (&surfaces[i], reused[i]) else { continue };
-                let rng = rngs[i].get_or_insert_with(|| stream(i));
-                let u = Vec2::new(rng.random(), rng.random());
-                let seen = lamps.and_then(|c| c.lamps_seen(s.position, s.geometric));
-                self.lighting.shadow_rays(s, u, which, params.sun_rays, |k, r, e| match (&seen, k.checked_sub(suns)) {
-                    // Russian roulette on a lamp no cache point nearby saw (most are in
-                    // other rooms): traced at odds UNSEEN_LAMP_ODDS, carrying its light
-                    // over them, so the mean stays exact wherever the cache was wrong.
-                    (Some(seen), Some(lamp)) if !seen.sees(lamp) => {
-                        if rng.random::<f32>() < UNSEEN_LAMP_ODDS {
-                            shadows[k].push((i, r, e / UNSEEN_LAMP_ODDS, true));
-                        }
-                    }
-                    _ => shadows[k].push((i, r, e, false)),
-                });
-            }
-            direct.iter_mut().for_each(|d| *d = (Vec3::ZERO, Vec3::ZERO));
-            let mut add = |(i, _, e, won): &(usize, Ray, Vec3, bool)| {
-                direct[*i].0 += *e;
-                if *won {
-                    direct[*i].1 += *e;
-                }
-            };
-            // Light by light, in each pixel's order of lights.
-            if self.materials.has_cutouts {
-                for c in shadows.iter().flatten() {
-                    if self.visible(&c.1) {
-                        add(c);
-                    }
-                }
-            } else {
-                let mut blocked = [false; 8];
-                for chunk in shadows.iter().flat_map(|light| light.chunks(8)) {
-                    let r8: smallvec::SmallVec<[Ray; 8]> = chunk.iter().map(|c| c.1).collect();
-                    self.rays.occluded8(&r8, &mut blocked, true);
-                    for (c, &b) in chunk.iter().zip(&blocked) {
-                        if !b {
-                            add(c);
-                        }
-                    }
-                }
-            }
-            for i in 0..pixels.len() {
-                let Some(s) = &surfaces[i] else { continue };
-                let field_at = field.zip(hits[i]).map(|(f, h)| (f, at[i].0, at[i].1, h.t * rays[i].dir.length()));
-                let (e, history) = match reused[i] {
-                    Some(e) => (e, Vec4::ZERO),
-                    None => {
-                        let own = self.indirect(params, s, field_at, rngs[i].get_or_insert_with(|| stream(i)));
-                        // A running mean over keys (up to HISTORY) where the previous key saw this point.
-                        let history = match reuse {
-                            Reuse::Key { history: Some(before) } => before.history(s).map(|h| {
-                                let keys = (h.w + 1.0).min(HISTORY);
-                                (h.truncate() + (own - h.truncate()) / keys).extend(keys)
-                            }),
-                            _ => None,
-                        };
-                        let history = history.unwrap_or(own.extend(1.0));
-                        (direct[i].0 + history.truncate(), history)
-                    }
-                };
-                if keep {
-                    last_hit[i] = Some((Seen { position: s.position, normal: s.normal, irradiance: e }, history));
-                }
-                let c = s.emission + s.albedo / PI * e;
-                // A stray NaN or infinity must not poison a pixel (or a denoiser).
-                if c.is_finite() {
-                    sums[i].0 += c;
-                    sums[i].3 += c - s.albedo / PI * direct[i].1;
-                }
-            }
+        let n = pixels.len();
+        Tile {
+            pixels,
+            jitter: jitter.map(|j| j.0),
+            streams: Streams { seed: job.params.seed, image: job.image, width, pixels, first: jitter.map(|j| j.1) },
+            spp,
+            spread,
+            rngs: vec![None; n],
+            sums: vec![(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); n],
+            rays: Vec::with_capacity(n),
+            at: Vec::with_capacity(n),
+            hits: vec![None; n],
+            surfaces: Vec::with_capacity(n),
+            shadows: vec![Vec::new(); tracer.lighting.suns.len() + tracer.lighting.points.len()],
+            direct: vec![(Vec3::ZERO, Vec3::ZERO); n],
+            reused: vec![None; n],
+            last_hit: vec![None; n],
         }
-        let inv = 1.0 / spp as f32;
-        pixels
+    }
+
+    /// The pixels' means over their samples.
+    fn finish(self, width: u32) -> Vec<Pixel> {
+        let inv = 1.0 / self.spp as f32;
+        self.pixels
             .iter()
-            .zip(sums)
-            .zip(last_hit)
+            .zip(self.sums)
+            .zip(self.last_hit)
             .map(|((&(x, y), (c, a, n, steady)), hit)| Pixel {
                 index: (y * width + x) as usize,
                 color: c * inv,
