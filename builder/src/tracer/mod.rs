@@ -91,18 +91,10 @@ pub struct Settings {
     pub max_cells: usize,
     /// Frames from one video key frame to the next; the frames between reuse
     /// the keys' lighting ([`Renderer::path_frames`]); 1 renders every frame in full.
-    /// `final` takes 32 with 16 rays at every pixel of a key: the quality
-    /// bench's frame farthest from both keys scores 0.0777 FLIP on the Crytek
-    /// Sponza (24 with 4 rays: 0.0955; 24 with 16: 0.0772; 48 with 16:
-    /// 0.0807) at about 0.17 s a frame over a long path, keys included
-    /// (0.124 s before); hits neither key saw on two gallery paths were
-    /// 0.41-0.46 % of a frame at 24 and 0.53-0.65 % at 32. Keys after a
-    /// path's first gather 9 rays and average with the keys before
-    /// (`GatherParams::history_rays`): on the bench's walk four keys long,
-    /// 0.0777 at 0.20 s a frame against 0.0782 at 0.23 s with 16 rays alone
-    /// (4 rays and history: 0.0900 at 0.17 s). Those figures predate the
-    /// wider passes near the eye (`GatherParams::widen`), which took the
-    /// frame between keys to 0.0742.
+    /// `final` takes 32, with 16 rays at every pixel of a key: on the
+    /// quality bench, the frame farthest from both keys scores about the
+    /// same FLIP as at 24 (Crytek Sponza 0.0777 against 0.0772) for fewer
+    /// keys to gather; the trials are in docs/RENDER_QUALITY.md.
     pub video_keys: u32,
     pub seed: u64,
 }
