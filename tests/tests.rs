@@ -185,6 +185,12 @@ fn plan_writes_a_valid_bundle_with_coverage_and_pictures() {
     let coverage: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
     assert!(coverage["fraction"].as_f64().unwrap() > 0.98, "{coverage}");
     assert_eq!(coverage["baselines"].as_array().unwrap().len(), 2);
+    // SCHEMA.md describes every field of coverage.json.
+    let schema = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("format/SCHEMA.md")).unwrap();
+    let section = schema.split("## `coverage.json`").nth(1).expect("SCHEMA.md has a coverage.json section");
+    for field in coverage.as_object().unwrap().keys() {
+        assert!(section.contains(&format!("`{field}`")), "SCHEMA.md's coverage.json section lacks `{field}`");
+    }
     for picture in ["coverage_curve.png", "coverage_top.png", "coverage_view_0.png"] {
         let img = image::open(out.join(picture)).unwrap_or_else(|e| panic!("{picture}: {e}"));
         assert!(img.width() >= 200, "{picture}");
