@@ -1,6 +1,7 @@
 //! The command line: every subcommand and flag, with the help text users see.
 
 use clap::{Args, Parser, Subcommand};
+use exploremaps_format::record::PlanRecord;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -350,12 +351,50 @@ fn parse_fraction(text: &str) -> Result<(usize, usize), String> {
     Ok((i, n))
 }
 
+/// What `plan` records in graph.json (`stats.plan`), so that `render` and
+/// `coverage` load the scene and measure as it did.
+pub fn plan_record(scene: &SceneArgs, planning: &PlanArgs, seed: u64) -> PlanRecord {
+    PlanRecord {
+        seed,
+        up: scene.up.clone(),
+        metres_per_unit: scene.metres_per_unit,
+        max_triangles: scene.max_triangles,
+        space: format!("{:?}", planning.space).to_lowercase(),
+        strategy: format!("{:?}", planning.strategy).to_lowercase(),
+        coverage_target: planning.coverage,
+        near_m: planning.near_m,
+        max_cells: planning.max_cells,
+        cluster: !planning.no_cluster,
+        height: (if planning.walk {
+            "walk"
+        } else if planning.fly {
+            "fly"
+        } else {
+            "auto"
+        })
+        .into(),
+        eye_height_m: planning.eye_height_m,
+    }
+}
+
+/// The scene as `plan` loaded it.
+pub fn recorded_scene(record: &PlanRecord, source: &str) -> SceneArgs {
+    SceneArgs { scene: source.to_string(), up: record.up.clone(), metres_per_unit: record.metres_per_unit, max_triangles: record.max_triangles }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
         move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn a_bundle_that_does_not_record_its_plan_is_taken_as_planned_with_the_defaults() {
+        let cli = Cli::try_parse_from(["exploremaps", "plan", "gallery"]).unwrap();
+        let Command::Plan { job } = cli.command else { panic!("not a plan") };
+        assert_eq!(plan_record(&job.scene, &job.planning, cli.seed), PlanRecord::default());
     }
 
     #[test]
@@ -378,80 +417,5 @@ mod tests {
         assert!(shard_from_env(Some(4), env(&[("JOB_COMPLETION_INDEX", "4")])).unwrap_err().contains("out of range"));
         assert!(shard_from_env(None, env(&[("SLURM_ARRAY_TASK_ID", "x")])).unwrap_err().contains("not a number"));
         assert!(shard_from_env(None, env(&[])).unwrap_err().contains("neither"));
-    }
-}
-
-/// What `plan` records in graph.json (`stats.plan`), so that `render` and
-/// `coverage` load the scene and measure as it did. Missing fields (older
-/// bundles) take the command line's defaults.
-#[derive(serde::Serialize, serde::Deserialize, Debug, Clone, PartialEq)]
-#[serde(default)]
-pub struct Recorded {
-    pub seed: u64,
-    pub up: String,
-    pub metres_per_unit: Option<f32>,
-    pub max_triangles: u64,
-    pub space: String,
-    pub strategy: String,
-    pub coverage_target: f64,
-    pub near_m: Option<f32>,
-    pub max_cells: usize,
-    pub cluster: bool,
-    pub height: String,
-    pub eye_height_m: f32,
-    /// Moved to timings.json when the bundle is written.
-    #[serde(skip_deserializing)]
-    pub seconds: f64,
-}
-
-impl Default for Recorded {
-    fn default() -> Self {
-        Recorded {
-            seed: 1,
-            up: "y".into(),
-            metres_per_unit: None,
-            max_triangles: exploremaps_builder::scene_io::MAX_TRIANGLES,
-            space: "auto".into(),
-            strategy: "greedy".into(),
-            coverage_target: exploremaps_builder::plan::explore::DEFAULT_COVERAGE_TARGET,
-            near_m: None,
-            max_cells: 256,
-            cluster: true,
-            height: "auto".into(),
-            eye_height_m: 1.6,
-            seconds: 0.0,
-        }
-    }
-}
-
-impl Recorded {
-    pub fn new(scene: &SceneArgs, planning: &PlanArgs, seed: u64, seconds: f64) -> Recorded {
-        Recorded {
-            seed,
-            up: scene.up.clone(),
-            metres_per_unit: scene.metres_per_unit,
-            max_triangles: scene.max_triangles,
-            space: format!("{:?}", planning.space).to_lowercase(),
-            strategy: format!("{:?}", planning.strategy).to_lowercase(),
-            coverage_target: planning.coverage,
-            near_m: planning.near_m,
-            max_cells: planning.max_cells,
-            cluster: !planning.no_cluster,
-            height: (if planning.walk {
-                "walk"
-            } else if planning.fly {
-                "fly"
-            } else {
-                "auto"
-            })
-            .into(),
-            eye_height_m: planning.eye_height_m,
-            seconds,
-        }
-    }
-
-    /// The scene as `plan` loaded it.
-    pub fn scene(&self, source: &str) -> SceneArgs {
-        SceneArgs { scene: source.to_string(), up: self.up.clone(), metres_per_unit: self.metres_per_unit, max_triangles: self.max_triangles }
     }
 }

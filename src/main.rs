@@ -16,6 +16,7 @@ use exploremaps_builder::plan::{self, PlanParams};
 use exploremaps_builder::render::{Quality, Settings};
 use exploremaps_builder::scene_io::{self, LoadError, LoadOptions};
 use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
+use exploremaps_format::record::PlanRecord;
 use exploremaps_format::{Graph, GRAPH_FILE};
 use glam::Vec3;
 use std::path::Path;
@@ -270,8 +271,7 @@ fn plan(job: &PlanJob, seed: u64) -> Result<(Graph, Scene)> {
     spinner.finish_and_clear();
     let mut plan = result?;
     // What `exploremaps coverage` and `render` need to load the scene again.
-    let recorded = cli::Recorded::new(scene_args, planning, seed, plan.seconds);
-    plan.graph.stats.insert("plan".into(), serde_json::to_value(recorded).unwrap_or_default());
+    plan.graph.stats.plan = Some(cli::plan_record(scene_args, planning, seed));
     exploremaps_builder::bundle::write_plan(output, &plan)?;
     print_plan(&scene, output, &plan);
     Ok((plan.graph, scene))
@@ -287,15 +287,11 @@ fn read_graph(bundle: &Path) -> Result<Graph> {
 }
 
 /// A planned bundle's graph and its scene, loaded as `plan` loaded it.
-fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, cli::Recorded)> {
+fn open_bundle(bundle: &Path) -> Result<(Graph, Scene, PlanRecord)> {
     let graph = read_graph(bundle)?;
-    let recorded: cli::Recorded = match graph.stats.get("plan") {
-        Some(entry) => serde_json::from_value(entry.clone())
-            .map_err(|e| BadInput(format!("{}: its stats.plan entry: {e}", bundle.join(GRAPH_FILE).display())))?,
-        None => cli::Recorded::default(),
-    };
-    let (mut scene, _) =
-        load_scene(&recorded.scene(&graph.scene.source), recorded.seed).with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
+    let recorded = graph.stats.plan.clone().unwrap_or_default();
+    let (mut scene, _) = load_scene(&cli::recorded_scene(&recorded, &graph.scene.source), recorded.seed)
+        .with_context(|| format!("the bundle's scene {}", graph.scene.source))?;
     // A scale the plan measured from the scene's heights is the bundle's.
     if scene.scale_source == ScaleSource::Guessed && graph.scene.scale_source == "measured" {
         scene.metres_per_unit = graph.scene.metres_per_unit;
@@ -500,7 +496,7 @@ fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
         println!("  left out    {} part(s) of the open space, the largest: {}", f.left_out.len(), largest.join("; "));
     }
     if let Some(w) = &f.walk {
-        let levels: Vec<String> = w.levels.iter().map(|(y, share)| format!("{} ({:.0} %)", num(*y as f64), 100.0 * share)).collect();
+        let levels: Vec<String> = w.levels.iter().map(|l| format!("{} ({:.0} %)", num(l.height as f64), 100.0 * l.share)).collect();
         println!(
             "  walk        eye {} m above {} m² of floor in {} region(s) ({} roof(s) left out); floor levels at {}",
             num(w.eye_height_m as f64),

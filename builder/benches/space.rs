@@ -113,7 +113,7 @@ fn main() {
                         })
                         .fold(0.0f32, f32::max);
                     let with_probe =
-                        stats.levels.iter().filter(|(y, _)| probes.iter().any(|p| (p.y - y - w.eye).abs() < 0.3 / scene.metres_per_unit)).count();
+                        stats.levels.iter().filter(|l| probes.iter().any(|p| (p.y - l.height - w.eye).abs() < 0.3 / scene.metres_per_unit)).count();
                     (format!("{:.1} cm", 100.0 * err), format!("{with_probe}/{}", stats.levels.len()))
                 }
                 _ => ("-".into(), "-".into()),

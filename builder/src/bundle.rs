@@ -7,7 +7,7 @@
 
 use crate::files::write_atomic;
 use crate::plan::Plan;
-use exploremaps_format::GRAPH_FILE;
+use exploremaps_format::{record::Timings, GRAPH_FILE};
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
@@ -118,32 +118,26 @@ pub fn write_plan(dir: &Path, plan: &Plan) -> Result<(), BundleError> {
     }
     let coverage = serde_json::to_string_pretty(&coverage_json(plan)).expect("JSON of plain values");
     write(dir, "coverage.json", coverage.as_bytes())?;
-    write_graph(dir, &plan.graph)
+    write_graph(dir, &plan.graph, plan.timings.clone())
 }
 
 /// What varies from run to run, kept out of graph.json.
 pub const TIMINGS_FILE: &str = "timings.json";
 
-/// Writes graph.json without the stages' timings (`seconds`, `seconds_*`),
-/// which are merged into timings.json (written first).
-pub(crate) fn write_graph(dir: &Path, graph: &exploremaps_format::Graph) -> Result<(), BundleError> {
-    let mut graph = graph.clone();
-    let mut timings: serde_json::Map<String, serde_json::Value> =
-        std::fs::read_to_string(dir.join(TIMINGS_FILE)).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or_default();
-    let mut moved = false;
-    for (stage, value) in graph.stats.iter_mut() {
-        let Some(fields) = value.as_object_mut() else { continue };
-        let keys: Vec<String> = fields.keys().filter(|k| *k == "seconds" || k.starts_with("seconds_")).cloned().collect();
-        for key in keys {
-            let entry = timings.entry(stage.clone()).or_insert_with(|| serde_json::json!({}));
-            if let (Some(entry), Some(v)) = (entry.as_object_mut(), fields.remove(&key)) {
-                entry.insert(key, v);
-                moved = true;
-            }
-        }
-    }
-    if moved {
-        write(dir, TIMINGS_FILE, serde_json::to_string_pretty(&timings).expect("JSON of plain values").as_bytes())?;
+/// Writes graph.json, after merging this run's `timings` into timings.json
+/// (a plan's times stay when the render adds its own).
+pub(crate) fn write_graph(dir: &Path, graph: &exploremaps_format::Graph, timings: Timings) -> Result<(), BundleError> {
+    if !timings.0.is_empty() {
+        let path = dir.join(TIMINGS_FILE);
+        let earlier = match std::fs::read_to_string(&path) {
+            Ok(text) => serde_json::from_str(&text).unwrap_or_else(|e| {
+                tracing::warn!("{}: not timings ({e}); written anew", path.display());
+                Timings::default()
+            }),
+            Err(_) => Timings::default(),
+        };
+        let all = timings.merged_over(earlier);
+        write(dir, TIMINGS_FILE, serde_json::to_string_pretty(&all).expect("JSON of plain values").as_bytes())?;
     }
     write(dir, GRAPH_FILE, graph.to_json().as_bytes())
 }

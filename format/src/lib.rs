@@ -7,11 +7,11 @@
 //! and pitch (radians, + up); asset names are relative paths inside the bundle.
 
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
 pub mod depthmap;
 pub mod edgebreaker;
 pub mod meshcode;
+pub mod record;
 pub mod seen;
 pub mod splits;
 pub mod timing;
@@ -41,9 +41,10 @@ pub struct Graph {
     /// A light 3D stand-in of the scene (absent until rendered).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub proxy: Option<Proxy>,
-    /// Per-stage statistics (times, counts), free-form per stage.
+    /// What the stages recorded: the plan's and the render's settings, and
+    /// each planning stage's figures (no times: timings.json has them).
     #[serde(default)]
-    pub stats: BTreeMap<String, serde_json::Value>,
+    pub stats: record::Stats,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -485,7 +486,7 @@ impl Graph {
             bar_order: Vec::new(),
             coverage: None,
             proxy: None,
-            stats: BTreeMap::new(),
+            stats: record::Stats::default(),
         }
     }
 
@@ -519,6 +520,7 @@ impl Graph {
         if !(all_finite(&s.bounds_min) && all_finite(&s.bounds_max) && s.metres_per_unit.is_finite() && s.metres_per_unit > 0.0) {
             return bad("scene bounds or metres_per_unit are not finite and positive".into());
         }
+        self.stats.floors().map_err(FormatError::Invalid)?;
         if s.near_distance.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
             return bad("scene.near_distance must be finite and positive".into());
         }
@@ -819,7 +821,7 @@ mod tests {
             per_group: vec![],
             curve: vec![(1, 0.5), (3, 0.99)],
         });
-        g.stats.insert("explore".into(), serde_json::json!({ "seconds": 1.5 }));
+        g.stats.stages.insert("explore".into(), serde_json::json!({ "probes": 3 }));
         g
     }
 
@@ -837,7 +839,7 @@ mod tests {
         g.paths.clear();
         g.bar_order.clear();
         g.coverage = None;
-        g.stats.clear();
+        g.stats = Default::default();
         g.probes.iter_mut().for_each(|p| p.cluster = None);
         let mut v: serde_json::Value = serde_json::from_str(&g.to_json()).unwrap();
         for key in ["clusters", "paths", "bar_order", "coverage", "stats"] {

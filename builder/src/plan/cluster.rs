@@ -58,6 +58,7 @@ pub struct SynthesisStats {
     pub candidate_coverage: f64,
     pub final_coverage: f64,
     pub rays: usize,
+    #[serde(skip)]
     pub seconds: f64,
 }
 

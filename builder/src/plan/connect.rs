@@ -82,6 +82,7 @@ pub struct ConnectStats {
     /// probe bar and map still jump there.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub islands: Vec<Vec<usize>>,
+    #[serde(skip)]
     pub seconds: f64,
 }
 

@@ -147,10 +147,14 @@ pub struct ExploreStats {
     /// taken elsewhere (for surface no standpoint in the open sees).
     pub open_candidates: usize,
     pub probes_not_in_the_open: usize,
+    #[serde(skip)]
     pub seconds: f64,
     /// Seconds in cube-map ray casting, in masking, in relaxation.
+    #[serde(skip)]
     pub seconds_views: f64,
+    #[serde(skip)]
     pub seconds_masking: f64,
+    #[serde(skip)]
     pub seconds_relax: f64,
 }
 
@@ -643,7 +647,7 @@ mod tests {
         assert_eq!(walk.regions_kept, 1, "the staircase joins the storeys and the garden: {walk:?}");
         assert_eq!(walk.levels.len(), 2, "{walk:?}");
         let (probes, _) = explore(&scene, &rays, &space, &ExploreParams::default());
-        for &(floor, _) in &walk.levels {
+        for floor in walk.levels.iter().map(|l| l.height) {
             assert!(probes.iter().any(|p| (p.position.y - floor - 1.6).abs() < 0.3), "no probe on the floor at {floor}: {probes:?}");
         }
         assert!(probes.iter().all(|p| p.position.y < 6.0), "a probe on the roof: {probes:?}");
@@ -656,7 +660,7 @@ mod tests {
         let (space, stats) = free_space(&scene, &rays, &FreeSpaceParams::default()).unwrap();
         let walk = stats.walk.as_ref().expect("the cathedral is walked by default");
         assert_eq!(walk.regions_kept, 1, "the stair joins the gallery to the nave and the square: {walk:?}");
-        assert!(walk.levels.iter().any(|l| (l.0 - 9.4).abs() < 0.1), "{walk:?}");
+        assert!(walk.levels.iter().any(|l| (l.height - 9.4).abs() < 0.1), "{walk:?}");
         assert!(!space.is_navigable(Vec3::new(-23.0, 1.6, 8.0)), "inside a tower");
         let (probes, _) = explore(&scene, &rays, &space, &ExploreParams::default());
         assert!(probes.iter().any(|p| (p.position.y - 11.0).abs() < 0.05), "no probe in the galleries: {probes:?}");

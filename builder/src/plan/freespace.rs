@@ -324,6 +324,7 @@ pub struct FreeSpaceStats {
     pub height_reason: String,
     pub walk: Option<WalkStats>,
     pub rays: usize,
+    #[serde(skip)]
     pub seconds: f64,
 }
 

@@ -29,6 +29,7 @@ use coverage::{coverage, coverage_like, CoverageParams, CoverageReport};
 use explore::{explore, Candidate, ExploreParams, ExploreStats};
 use exploremaps_format as format;
 use exploremaps_scenes::{ScaleSource, Scene};
+use format::record::Timings;
 use freespace::{free_space, FreeSpace, FreeSpaceError, FreeSpaceParams, FreeSpaceStats, SpaceMode};
 use glam::Vec3;
 use image::{Rgb, RgbImage};
@@ -77,10 +78,12 @@ pub struct Plan {
     /// The whole plan, and of it the report (coverage, baselines, pictures).
     pub seconds: f64,
     pub report_seconds: f64,
+    /// The stages' times, for timings.json.
+    pub timings: Timings,
 }
 
 /// What the planning stages report, one entry each in graph.json's `stats`
-/// (their `seconds` go to timings.json).
+/// (their `seconds` go to timings.json, by [`PlanStats::timings`]).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct PlanStats {
     pub scale: ScaleStats,
@@ -96,6 +99,32 @@ pub struct PlanStats {
     pub coverage: CoverageStats,
 }
 
+impl PlanStats {
+    /// Each stage's time.
+    fn timings(&self) -> Timings {
+        let mut timings = Timings::default();
+        let mut set = |stage: &str, step: &str, seconds: f64| timings.set(stage, step, format::record::Seconds::Total(seconds));
+        set("scale", "seconds", self.scale.seconds);
+        set("free_space", "seconds", self.free_space.seconds);
+        let e = &self.explore;
+        for (step, seconds) in
+            [("seconds", e.seconds), ("seconds_views", e.seconds_views), ("seconds_masking", e.seconds_masking), ("seconds_relax", e.seconds_relax)]
+        {
+            set("explore", step, seconds);
+        }
+        if let Some(cluster) = &self.cluster {
+            set("cluster", "seconds", cluster.seconds);
+        }
+        set("orient", "seconds", self.orient.seconds);
+        set("connect", "seconds", self.connect.seconds);
+        set("smooth", "seconds", self.smooth.seconds);
+        set("smooth", "seconds_per_path", self.smooth.seconds_per_path);
+        set("order", "seconds", self.order.seconds);
+        set("coverage", "seconds", self.coverage.seconds);
+        timings
+    }
+}
+
 /// The scale planning used, and where it came from.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct ScaleStats {
@@ -107,11 +136,13 @@ pub struct ScaleStats {
     /// What the scene's heights said, when the file did not state a scale.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub measured: Option<ScaleGuess>,
+    #[serde(skip)]
     pub seconds: f64,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Seconds {
+    #[serde(skip)]
     pub seconds: f64,
 }
 
@@ -119,7 +150,9 @@ pub struct Seconds {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SmoothStats {
     pub paths: usize,
+    #[serde(skip)]
     pub seconds: f64,
+    #[serde(skip)]
     pub seconds_per_path: f64,
     pub iterations_max: usize,
     pub blocked_segments: usize,
@@ -133,11 +166,13 @@ pub struct SmoothStats {
 pub struct OrderSummary {
     #[serde(flatten)]
     pub stats: OrderStats,
+    #[serde(skip)]
     pub seconds: f64,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct CoverageStats {
+    #[serde(skip)]
     pub seconds: f64,
     pub rays: usize,
     pub fraction: f64,
@@ -163,7 +198,10 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     let measured = measure(scene, &rays, &space, &probes.probes, params);
     let stats = PlanStats { scale, free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
     let graph = assemble(scene, source, &space, &probes, directions, paths, bar_order, &measured, &stats);
-    Ok(measured.into_plan(graph, stats, started))
+    let timings = stats.timings();
+    let mut plan = measured.into_plan(graph, stats, timings, started);
+    plan.timings.set("plan", "seconds", format::record::Seconds::Total(plan.seconds));
+    Ok(plan)
 }
 
 /// Greedy exploration: candidate probes until the coverage target.
@@ -304,8 +342,12 @@ pub fn remeasure(scene: &Scene, mut graph: format::Graph, params: &PlanParams) -
     let measured = measure(scene, &rays, &space, &probes, params);
     let stats = PlanStats { free_space, coverage: measured.stats(), ..Default::default() };
     graph.coverage = Some(measured.entry());
-    graph.stats.insert("coverage".into(), serde_json::to_value(&stats.coverage).unwrap_or_default());
-    Ok(measured.into_plan(graph, stats, started))
+    graph.stats.stages.insert("coverage".into(), serde_json::to_value(&stats.coverage).expect("JSON of plain values"));
+    let mut timings = Timings::default();
+    for (stage, seconds) in [("free_space", stats.free_space.seconds), ("coverage", stats.coverage.seconds)] {
+        timings.set(stage, "seconds", format::record::Seconds::Total(seconds));
+    }
+    Ok(measured.into_plan(graph, stats, timings, started))
 }
 
 fn ray_scene(scene: &Scene) -> Result<RayScene, PlanError> {
@@ -430,7 +472,7 @@ impl Measured {
         }
     }
 
-    fn into_plan(self, graph: format::Graph, stats: PlanStats, started: Instant) -> Plan {
+    fn into_plan(self, graph: format::Graph, stats: PlanStats, timings: Timings, started: Instant) -> Plan {
         let Measured { report, baselines, images, per_material, per_object, seconds } = self;
         Plan {
             graph,
@@ -442,6 +484,7 @@ impl Measured {
             per_object,
             seconds: started.elapsed().as_secs_f64(),
             report_seconds: seconds,
+            timings,
         }
     }
 }
@@ -559,8 +602,8 @@ fn assemble(
     graph.paths = paths;
     graph.bar_order = bar_order;
     graph.coverage = Some(measured.entry());
-    if let Ok(serde_json::Value::Object(entries)) = serde_json::to_value(stats) {
-        graph.stats.extend(entries);
+    if let serde_json::Value::Object(entries) = serde_json::to_value(stats).expect("JSON of plain values") {
+        graph.stats.stages.extend(entries);
     }
     graph
 }

@@ -296,7 +296,7 @@ pub struct WalkStats {
     /// Storeys: (floor height in scene units, share of the kept floor area), for
     /// heights holding at least 5 % of it (bins of 0.25 m, neighbours merged).
     /// A landscape's rolling ground may show no level at all.
-    pub levels: Vec<(f32, f32)>,
+    pub levels: Vec<exploremaps_format::record::Floor>,
     pub rays: usize,
 }
 
@@ -834,7 +834,7 @@ fn stride_offsets(voxel_m: f32) -> Vec<(isize, isize)> {
 
 /// Floor heights holding at least 5 % of the cells, in bins of `bin` units,
 /// neighbouring bins merged: (mean height, share of the cells).
-fn levels(heights: &[f32], bin: f32) -> Vec<(f32, f32)> {
+fn levels(heights: &[f32], bin: f32) -> Vec<exploremaps_format::record::Floor> {
     if heights.is_empty() {
         return Vec::new();
     }
@@ -853,7 +853,7 @@ fn levels(heights: &[f32], bin: f32) -> Vec<(f32, f32)> {
             _ => out.push((k, sum, count)),
         }
     }
-    out.into_iter().map(|(_, sum, count)| ((sum / count as f64) as f32, count as f32 / n)).collect()
+    out.into_iter().map(|(_, sum, count)| ((sum / count as f64) as f32, count as f32 / n).into()).collect()
 }
 
 /// Per column, the lowest floor height (infinite where there is none).

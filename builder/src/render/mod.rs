@@ -24,6 +24,7 @@ pub use shards::{finalize, Shard};
 
 use crate::bundle::{write, write_graph, BundleError};
 use crate::tracer::Renderer;
+use exploremaps_format::record::{RenderRecord, Seconds, ShardManifest, Timings};
 use exploremaps_format::Graph;
 use exploremaps_scenes::Scene;
 use glam::Vec3;
@@ -144,7 +145,8 @@ pub fn render_missing(
     // manifest): a run killed after its last asset but before that file
     // leaves them to the next run.
     let split = shard.count > 1;
-    let stated = if split { dir.join(shard.manifest()).exists() } else { graph.stats.contains_key("render") };
+    let stated = if split { dir.join(shard.manifest()).exists() } else { graph.stats.render.is_some() };
+    let mut timings = Timings::default();
     if !todo.is_empty() || !stated {
         let setup_started = Instant::now();
         let rays = crate::raycast::RayScene::new(&scene.positions, &scene.triangles, 0)?;
@@ -176,43 +178,42 @@ pub fn render_missing(
             job_seconds.push(job_started.elapsed().as_secs_f64());
         }
         progress(todo.len(), todo.len());
-        let mut stats = stats(settings, &renderer, &report);
+        let record = record(settings, &renderer, &report);
         if split {
-            let manifest = serde_json::json!({ "shard": shard.index, "count": shard.count, "levels": levels, "render": stats });
-            write(dir, &shard.manifest(), serde_json::to_string_pretty(&manifest).expect("JSON of plain values").as_bytes())?;
+            let manifest = ShardManifest { shard: shard.index, count: shard.count, levels: levels.clone(), render: record };
+            write(dir, &shard.manifest(), manifest.to_json().as_bytes())?;
         } else {
-            // Timings (moved to timings.json): the renderer's set-up, which
-            // every shard repeats, and each job's time by its number, for
-            // planning shards.
+            // The renderer's set-up, which every shard repeats, and each
+            // job's time by its number, for planning shards.
             let jobs: Vec<(usize, f64)> = todo.iter().map(|&(k, _)| k).zip(job_seconds).collect();
-            stats["seconds_setup"] = seconds_setup.into();
-            stats["seconds_jobs"] = serde_json::json!(jobs);
-            graph.stats.insert("render".into(), stats);
+            timings.set("render", "seconds_setup", Seconds::Total(seconds_setup));
+            timings.set("render", "seconds_jobs", Seconds::PerJob(jobs));
+            graph.stats.render = Some(record);
         }
     }
     if !split {
         list_assets(dir, graph, &levels);
         graph.validate()?;
-        write_graph(dir, graph)?;
+        write_graph(dir, graph, timings)?;
     }
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
 }
 
-/// What a render was made with: graph.json's `render` entry (a shard's
-/// manifest carries the same; `finalize` checks that every shard's agree).
-fn stats(settings: &Settings, renderer: &Renderer, report: &RenderReport) -> serde_json::Value {
-    serde_json::json!({
-        "quality": settings.trace.quality.name(),
-        "lighting": renderer.tracer.lighting.description,
-        "exposure": renderer.exposure,
-        "cache_cells": renderer.tracer.cache.as_ref().map(|c| c.stats.cells),
-        "video_encoder": report.video_encoder,
-        "samples_per_pixel": settings.trace.panorama.samples,
-        "bounces": settings.trace.panorama.bounces,
-        "denoised": settings.denoise,
-        "seed": settings.trace.seed,
-    })
+/// What a render was made with (a shard's manifest carries the same;
+/// `finalize` checks that every shard's agree).
+fn record(settings: &Settings, renderer: &Renderer, report: &RenderReport) -> RenderRecord {
+    RenderRecord {
+        quality: settings.trace.quality.name().to_string(),
+        lighting: renderer.tracer.lighting.description.clone(),
+        exposure: renderer.exposure,
+        cache_cells: renderer.tracer.cache.as_ref().map(|c| c.stats.cells),
+        video_encoder: report.video_encoder.clone(),
+        samples_per_pixel: settings.trace.panorama.samples,
+        bounces: settings.trace.panorama.bounces,
+        denoised: settings.denoise,
+        seed: settings.trace.seed,
+    }
 }
 
 /// Lists in graph.json every asset whose files exist.

@@ -33,25 +33,6 @@ pub(super) fn files(proxy: &exploremaps_format::Proxy) -> Vec<String> {
     listed.cloned().chain(proxy.stream.iter().flat_map(|s| s.files().into_iter().map(|(file, _)| file))).collect()
 }
 
-/// Storey floor heights the free-space stage found (its `walk.levels` in
-/// graph.json), for the dollhouse's floor cut; none when probes fly.
-fn floors(graph: &exploremaps_format::Graph) -> Vec<f32> {
-    #[derive(serde::Deserialize)]
-    struct FreeSpace {
-        walk: Option<Walk>,
-    }
-    #[derive(serde::Deserialize)]
-    struct Walk {
-        /// (height, share of the floor); a non-finite height is written as null.
-        levels: Vec<(Option<f32>, Option<f32>)>,
-    }
-    let stats = graph.stats.get("free_space").and_then(|f| serde_json::from_value::<FreeSpace>(f.clone()).ok());
-    let levels = stats.and_then(|f| f.walk).map(|w| w.levels).unwrap_or_default();
-    let mut floors: Vec<f32> = levels.into_iter().filter_map(|(h, _)| h).filter(|h| h.is_finite()).collect();
-    floors.sort_by(f32::total_cmp);
-    floors
-}
-
 /// The proxy's levels simplified from the scene, coloured by the renderer's
 /// lighting, coded into `proxy/<level>.emmc` with its point-to-go table in
 /// `proxy/<level>.seen`, the finest also as a GLB, then listed in
@@ -65,7 +46,9 @@ pub(super) fn render(
 ) -> Result<(), BundleError> {
     use exploremaps_format::{meshcode, seen, Proxy, ProxyChunk, ProxyLevel, ProxyStream};
     let started = std::time::Instant::now();
-    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors: floors(graph), depth_maps: Vec::new(), stream: None };
+    // The storeys the dollhouse can cut at (graph.json is validated when read, so an error here is a bug).
+    let floors = graph.stats.floors().map_err(exploremaps_format::FormatError::Invalid)?.iter().map(|f| f.height).collect();
+    let mut proxy = Proxy { levels: Vec::new(), glb: None, floors, depth_maps: Vec::new(), stream: None };
     let probes: Vec<glam::Vec3> = graph.probes.iter().map(|p| glam::Vec3::from(p.position)).collect();
     // Point-to-go from panoramas: a 32² depth cube a probe (a few KB), from
     // the near distance to twice the scene's size.

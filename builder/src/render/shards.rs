@@ -4,6 +4,7 @@
 
 use super::{list_assets, path, probe::ProbeFiles, proxy};
 use crate::bundle::{write_graph, BundleError};
+use exploremaps_format::record::{ShardManifest, Timings};
 use std::path::Path;
 
 /// Which assets a shard renders: job `k` (probes first, then paths, then the
@@ -32,38 +33,32 @@ impl Shard {
 /// checked.
 pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usize, BundleError> {
     let incomplete = |problems: Vec<String>| BundleError::Incomplete { dir: dir.display().to_string(), problems };
-    let mut manifests: Vec<serde_json::Value> = Vec::new();
-    for entry in std::fs::read_dir(dir.join("shards")).into_iter().flatten().flatten() {
-        let path = entry.path();
-        if path.extension().is_some_and(|e| e == "json") {
-            let parsed = std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
-            manifests.push(
-                parsed.ok_or_else(|| incomplete(vec![format!("{}: not a shard manifest; delete it and run its shard again", path.display())]))?,
-            );
-        }
+    let mut manifests: Vec<ShardManifest> = Vec::new();
+    let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(dir.join("shards")).into_iter().flatten().flatten().map(|e| e.path()).collect();
+    paths.sort();
+    for path in paths.into_iter().filter(|p| p.extension().is_some_and(|e| e == "json")) {
+        manifests.push(ShardManifest::read(&path).map_err(|e| incomplete(vec![e]))?);
     }
     let Some(first) = manifests.first() else {
         return Err(incomplete(vec!["no shard has finished (shards/ holds no manifest)".into()]));
     };
-    let count = first["count"].as_u64().unwrap_or(0) as usize;
-    let (render, levels) = (first["render"].clone(), first["levels"].clone());
+    let count = first.count;
     let mut problems = Vec::new();
-    if let Some(odd) = manifests.iter().find(|m| m["count"] != first["count"] || m["render"] != render || m["levels"] != levels) {
+    if let Some(odd) = manifests.iter().find(|m| m.count != first.count || m.render != first.render || m.levels != first.levels) {
         problems.push(format!(
             "shard {}/{} rendered with other settings or another shard count than shard {}/{count}; render every shard with the same options",
-            odd["shard"], odd["count"], first["shard"]
+            odd.shard, odd.count, first.shard
         ));
     }
-    let levels: Vec<u32> = serde_json::from_value(levels).unwrap_or_default();
-    let finished: std::collections::BTreeSet<u64> = manifests.iter().filter_map(|m| m["shard"].as_u64()).collect();
-    for index in (0..count as u64).filter(|i| !finished.contains(i)) {
+    let finished: std::collections::BTreeSet<usize> = manifests.iter().map(|m| m.shard).collect();
+    for index in (0..count).filter(|i| !finished.contains(i)) {
         problems.push(format!("shard {index}/{count} has not finished (no shards/{index}-of-{count}.json)"));
     }
     // Every expected file, with its owner.
     let probes = graph.probes.len();
     let mut expected: Vec<(String, usize)> = Vec::new();
     for id in 0..probes {
-        expected.extend(ProbeFiles::new(id, &levels).all().into_iter().map(|f| (f, id)));
+        expected.extend(ProbeFiles::new(id, &first.levels).all().into_iter().map(|f| (f, id)));
     }
     for id in 0..graph.paths.len() {
         let (video, poster) = path::files(id);
@@ -96,10 +91,10 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     if !problems.is_empty() {
         return Err(incomplete(problems));
     }
-    graph.stats.insert("render".into(), render);
-    list_assets(dir, graph, &levels);
+    graph.stats.render = Some(first.render.clone());
+    list_assets(dir, graph, &first.levels);
     graph.validate()?;
-    write_graph(dir, graph)?;
+    write_graph(dir, graph, Timings::default())?;
     Ok(expected.len())
 }
 
