@@ -316,4 +316,14 @@ mod tests {
         assert_eq!(mine.len(), 4);
         assert_eq!(todo, vec![(0, Job::Probe(0)), (2, Job::Path(0)), (3, Job::Proxy)]);
     }
+
+    #[test]
+    fn finalizing_with_a_damaged_manifest_names_it_and_writes_no_graph() {
+        let mut g = graph(2, 1);
+        let dir = tempfile::tempdir().unwrap();
+        crate::files::write_atomic(&dir.path().join("shards/1-of-2.json"), b"{\"shard\": 1, \"count\":").unwrap();
+        let e = exploremaps_format::error_chain(&shards::finalize(dir.path(), &mut g).unwrap_err());
+        assert!(e.contains("1-of-2.json: not a shard manifest") && e.contains("run its shard again"), "{e}");
+        assert!(!dir.path().join(exploremaps_format::GRAPH_FILE).exists());
+    }
 }
