@@ -173,6 +173,11 @@ const MAX_POINTS: usize = 4;
 /// no round coordinate lands on.
 const GRID_OFFSET: Vec3 = Vec3::splat(0.3719);
 
+/// The cell that holds `p`, for cells of size `cell`.
+fn grid_cell(p: Vec3, cell: f32) -> IVec3 {
+    (p / cell + GRID_OFFSET).floor().as_ivec3()
+}
+
 impl RadianceCache {
     /// `p` in units of cells, on a grid shifted off round coordinates: walls
     /// at whole metres (or any multiple of the cell) would otherwise lie on
@@ -184,7 +189,7 @@ impl RadianceCache {
     }
 
     fn cell_of(&self, p: Vec3) -> IVec3 {
-        self.grid(p).floor().as_ivec3()
+        grid_cell(p, self.cell)
     }
 
     fn find(&self, p: Vec3, n: Vec3) -> Option<u32> {
@@ -194,161 +199,34 @@ impl RadianceCache {
     /// Builds the cache from surfaces seen from `viewpoints`.
     pub fn build(tracer: &Tracer, viewpoints: &[Vec3], params: &CacheParams) -> RadianceCache {
         let started = std::time::Instant::now();
-        let mut cache = RadianceCache {
-            cell: params.cell,
-            index: HashMap::default(),
-            corners: Default::default(),
-            irradiance: Vec::new(),
-            points: Vec::new(),
-            lamps: Vec::new(),
-            lamp_words: 0,
-            total: Vec::new(),
-            mean: Vec3::ZERO,
-            stats: CacheStats::default(),
-        };
-        let mut cells: Vec<Cell> = Vec::new();
-        let add = |cache: &mut RadianceCache, cells: &mut Vec<Cell>, p: Vec3, n: Vec3, create: bool| -> Option<u32> {
-            let k = key(cache.cell_of(p), normal_bin(n));
-            if let Some(&i) = cache.index.get(&k) {
-                let c = &mut cells[i as usize].points;
-                if c.len() < MAX_POINTS {
-                    c.push((p, n));
-                }
-                return Some(i);
-            }
-            if !create || cells.len() >= params.max_cells {
-                return None;
-            }
-            let i = cells.len() as u32;
-            cache.index.insert(k, i);
-            cells.push(Cell { points: vec![(p, n)] });
-            Some(i)
-        };
-
-        // Seeds: what the viewpoints see.
-        let dirs = fibonacci_sphere(params.seed_rays);
-        let seen: Vec<Vec<Surface>> = viewpoints
-            .par_iter()
-            .map(|&eye| {
-                dirs.iter()
-                    .filter_map(|&d| {
-                        let mut ray = Ray::new(eye, d);
-                        tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h))
-                    })
-                    .collect()
-            })
-            .collect();
-        for s in seen.iter().flatten() {
-            add(&mut cache, &mut cells, s.position, s.geometric, true);
-        }
-
-        // Gather, generation by generation; sequential bookkeeping keeps the
-        // cell numbering independent of the thread count.
-        let mut fixed = Vec::new();
-        let mut links: Vec<Vec<(u32, Vec3)>> = Vec::new();
-        let mut missing_weight: Vec<Vec3> = Vec::new();
-        let mut start = 0;
-        for generation in 0..=params.generations {
-            let end = cells.len();
-            if start == end {
-                break;
-            }
-            let gathered: Vec<Gathered> = (start..end).into_par_iter().map(|c| gather(tracer, &cells[c], c as u64, params)).collect();
-            for g in gathered {
-                let mut row: Vec<(u32, Vec3)> = Vec::new();
-                let mut lost = Vec3::ZERO;
-                for (p, n, weight) in g.hits {
-                    match add(&mut cache, &mut cells, p, n, generation < params.generations) {
-                        Some(t) => row.push((t, weight)),
-                        None => {
-                            lost += weight;
-                            cache.stats.missing += 1;
-                        }
-                    }
-                }
-                row.sort_by_key(|e| e.0);
-                row.dedup_by(|b, a| {
-                    let same = a.0 == b.0;
-                    if same {
-                        a.1 += b.1;
-                    }
-                    same
-                });
-                fixed.push(g.fixed);
-                links.push(row);
-                missing_weight.push(lost);
-            }
-            start = end;
-        }
-        let n = links.len();
-        cache.stats.cells = n;
-        cache.stats.gather_rays = n * params.gather_rays;
-
-        // Solve E = π/K (A + Σ w E_target + lost · mean E) by Jacobi iteration.
-        let scale = PI / params.gather_rays as f32;
-        let mut e: Vec<Vec3> = fixed.iter().map(|&a| a * scale).collect();
-        for iteration in 1..=500 {
-            let mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
-            let next: Vec<Vec3> = (0..n)
-                .into_par_iter()
-                .map(|c| (fixed[c] + links[c].iter().map(|&(t, w)| w * e[t as usize]).sum::<Vec3>() + missing_weight[c] * mean) * scale)
-                .collect();
-            let change = next.iter().zip(&e).map(|(a, b)| (*a - *b).abs().max_element() / (a.max_element() + 1e-6)).fold(0.0f32, f32::max);
-            e = next;
-            cache.stats.iterations = iteration;
-            if change < 1e-5 {
-                break;
-            }
-        }
-        // Direct light per cell, averaged over its points: point lights (for
-        // renders that bake them, with which lights each point saw) and suns
-        // (for a final gather's second hits).
-        let lamps = tracer.lighting.points.len();
-        if lamps > 0 {
-            let words = lamps.div_ceil(64);
-            let suns = tracer.lighting.suns.len();
-            let per_cell: Vec<(Vec3, Vec<u64>)> = cells
-                .par_iter()
-                .map(|cell| {
-                    let (mut sum, mut seen) = (Vec3::ZERO, vec![0u64; words]);
-                    for &(p, n) in &cell.points {
-                        // (Point lights draw no random numbers.)
-                        tracer.lighting.shadow_rays(&cell_surface(p, n), Vec2::ZERO, Which::Points, 1, |k, ray, e| {
-                            if tracer.visible(&ray) {
-                                sum += e;
-                                let lamp = k - suns;
-                                seen[lamp / 64] |= 1 << (lamp % 64);
-                            }
-                        });
-                    }
-                    (sum / cell.points.len() as f32, seen)
-                })
-                .collect();
-            cache.points = per_cell.iter().map(|c| c.0).collect();
-            cache.lamps = per_cell.into_iter().flat_map(|c| c.1).collect();
-            cache.lamp_words = words;
-        }
-        let suns: Vec<Vec3> = if tracer.lighting.suns.is_empty() {
-            Vec::new()
-        } else {
-            cells
-                .par_iter()
-                .enumerate()
-                .map(|(c, cell)| {
-                    let mut rng = sampler(params.seed, Work::CacheSun, image::NONE, c as u64);
-                    cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>()
-                        / cell.points.len() as f32
-                })
-                .collect()
-        };
+        let mut cells = Cells { cell: params.cell, max_cells: params.max_cells, index: HashMap::default(), cells: Vec::new() };
+        cells.seed(tracer, viewpoints, params.seed_rays);
+        let links = cells.gather(tracer, params);
+        let n = links.fixed.len();
+        let (irradiance, iterations) = links.solve(PI / params.gather_rays as f32);
+        let (points, lamps, lamp_words) = point_lights(tracer, &cells.cells);
+        let suns = sunlight(tracer, &cells.cells, params.seed);
         let at = |v: &[Vec3], i: usize| v.get(i).copied().unwrap_or_default();
-        cache.total = (0..n).map(|i| e[i] + at(&cache.points, i) + at(&suns, i)).collect();
-        cache.mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
-        cache.irradiance = e;
-        cache.index.shrink_to_fit();
-        cache.corners = corners(&cache.index);
-        cache.stats.seconds = started.elapsed().as_secs_f64();
-        cache
+        let mut index = cells.index;
+        index.shrink_to_fit();
+        RadianceCache {
+            cell: params.cell,
+            corners: corners(&index),
+            index,
+            total: (0..n).map(|i| irradiance[i] + at(&points, i) + at(&suns, i)).collect(),
+            mean: irradiance.iter().copied().sum::<Vec3>() / n.max(1) as f32,
+            irradiance,
+            points,
+            lamps,
+            lamp_words,
+            stats: CacheStats {
+                cells: n,
+                gather_rays: n * params.gather_rays,
+                missing: links.missing,
+                iterations,
+                seconds: started.elapsed().as_secs_f64(),
+            },
+        }
     }
 
     /// Indirect irradiance at a surface point (plus the point lights' direct
@@ -453,6 +331,179 @@ impl LampsSeen<'_> {
 /// One of a cell's points as a surface to light (its normal both ways).
 fn cell_surface(position: Vec3, normal: Vec3) -> Surface {
     Surface { position, normal, geometric: normal, albedo: Vec3::ZERO, emission: Vec3::ZERO }
+}
+
+/// The cells as they are created: where the viewpoints see surfaces, then
+/// where gather rays land.
+struct Cells {
+    cell: f32,
+    max_cells: usize,
+    index: HashMap<u64, u32>,
+    cells: Vec<Cell>,
+}
+
+impl Cells {
+    /// The cell of a surface point, keeping the point as one of its samples;
+    /// with `create`, a new cell where there is none (up to the limit).
+    fn add(&mut self, p: Vec3, n: Vec3, create: bool) -> Option<u32> {
+        let k = key(grid_cell(p, self.cell), normal_bin(n));
+        if let Some(&i) = self.index.get(&k) {
+            let c = &mut self.cells[i as usize].points;
+            if c.len() < MAX_POINTS {
+                c.push((p, n));
+            }
+            return Some(i);
+        }
+        if !create || self.cells.len() >= self.max_cells {
+            return None;
+        }
+        let i = self.cells.len() as u32;
+        self.index.insert(k, i);
+        self.cells.push(Cell { points: vec![(p, n)] });
+        Some(i)
+    }
+
+    /// The first cells: what the viewpoints see.
+    fn seed(&mut self, tracer: &Tracer, viewpoints: &[Vec3], rays: usize) {
+        let dirs = fibonacci_sphere(rays);
+        let seen: Vec<Vec<Surface>> = viewpoints
+            .par_iter()
+            .map(|&eye| {
+                dirs.iter()
+                    .filter_map(|&d| {
+                        let mut ray = Ray::new(eye, d);
+                        tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h))
+                    })
+                    .collect()
+            })
+            .collect();
+        for s in seen.iter().flatten() {
+            self.add(s.position, s.geometric, true);
+        }
+    }
+
+    /// Gathers, generation by generation (the last creates no cells), into
+    /// the links between cells; sequential bookkeeping keeps the cell
+    /// numbering independent of the thread count.
+    fn gather(&mut self, tracer: &Tracer, params: &CacheParams) -> Links {
+        let mut links = Links::default();
+        let mut start = 0;
+        for generation in 0..=params.generations {
+            let end = self.cells.len();
+            if start == end {
+                break;
+            }
+            let gathered: Vec<Gathered> = (start..end).into_par_iter().map(|c| gather(tracer, &self.cells[c], c as u64, params)).collect();
+            for g in gathered {
+                let mut row: Vec<(u32, Vec3)> = Vec::new();
+                let mut lost = Vec3::ZERO;
+                for (p, n, weight) in g.hits {
+                    match self.add(p, n, generation < params.generations) {
+                        Some(t) => row.push((t, weight)),
+                        None => {
+                            lost += weight;
+                            links.missing += 1;
+                        }
+                    }
+                }
+                row.sort_by_key(|e| e.0);
+                row.dedup_by(|b, a| {
+                    let same = a.0 == b.0;
+                    if same {
+                        a.1 += b.1;
+                    }
+                    same
+                });
+                links.fixed.push(g.fixed);
+                links.to.push(row);
+                links.lost.push(lost);
+            }
+            start = end;
+        }
+        links
+    }
+}
+
+/// The gather graph, per cell: its fixed part, the cells its rays reached
+/// with their weights, and the weight of rays that reached no cell.
+#[derive(Default)]
+struct Links {
+    fixed: Vec<Vec3>,
+    to: Vec<Vec<(u32, Vec3)>>,
+    lost: Vec<Vec3>,
+    /// Hits that reached no cell.
+    missing: usize,
+}
+
+impl Links {
+    /// Solves E = scale · (A + Σ w E_target + lost · mean E) by Jacobi
+    /// iteration; returns E and the iterations taken.
+    fn solve(&self, scale: f32) -> (Vec<Vec3>, usize) {
+        let n = self.fixed.len();
+        let mut e: Vec<Vec3> = self.fixed.iter().map(|&a| a * scale).collect();
+        let mut iterations = 0;
+        for iteration in 1..=500 {
+            let mean = e.iter().copied().sum::<Vec3>() / n.max(1) as f32;
+            let next: Vec<Vec3> = (0..n)
+                .into_par_iter()
+                .map(|c| (self.fixed[c] + self.to[c].iter().map(|&(t, w)| w * e[t as usize]).sum::<Vec3>() + self.lost[c] * mean) * scale)
+                .collect();
+            let change = next.iter().zip(&e).map(|(a, b)| (*a - *b).abs().max_element() / (a.max_element() + 1e-6)).fold(0.0f32, f32::max);
+            e = next;
+            iterations = iteration;
+            if change < 1e-5 {
+                break;
+            }
+        }
+        (e, iterations)
+    }
+}
+
+/// The point lights' direct light per cell, averaged over its points (for
+/// renders that bake them), and which lights each cell saw (bit sets of
+/// `words` words a cell): (light, bits, words); empty without point lights.
+fn point_lights(tracer: &Tracer, cells: &[Cell]) -> (Vec<Vec3>, Vec<u64>, usize) {
+    let lamps = tracer.lighting.points.len();
+    if lamps == 0 {
+        return (Vec::new(), Vec::new(), 0);
+    }
+    let words = lamps.div_ceil(64);
+    let suns = tracer.lighting.suns.len();
+    let per_cell: Vec<(Vec3, Vec<u64>)> = cells
+        .par_iter()
+        .map(|cell| {
+            let (mut sum, mut seen) = (Vec3::ZERO, vec![0u64; words]);
+            for &(p, n) in &cell.points {
+                // (Point lights draw no random numbers.)
+                tracer.lighting.shadow_rays(&cell_surface(p, n), Vec2::ZERO, Which::Points, 1, |k, ray, e| {
+                    if tracer.visible(&ray) {
+                        sum += e;
+                        let lamp = k - suns;
+                        seen[lamp / 64] |= 1 << (lamp % 64);
+                    }
+                });
+            }
+            (sum / cell.points.len() as f32, seen)
+        })
+        .collect();
+    let light = per_cell.iter().map(|c| c.0).collect();
+    (light, per_cell.into_iter().flat_map(|c| c.1).collect(), words)
+}
+
+/// The suns' direct light per cell, averaged over its points (for a final
+/// gather's second hits); empty without suns.
+fn sunlight(tracer: &Tracer, cells: &[Cell], seed: u64) -> Vec<Vec3> {
+    if tracer.lighting.suns.is_empty() {
+        return Vec::new();
+    }
+    cells
+        .par_iter()
+        .enumerate()
+        .map(|(c, cell)| {
+            let mut rng = sampler(seed, Work::CacheSun, image::NONE, c as u64);
+            cell.points.iter().map(|&(p, n)| tracer.direct(&cell_surface(p, n), Which::Suns, &mut rng)).sum::<Vec3>() / cell.points.len() as f32
+        })
+        .collect()
 }
 
 /// A cell's gather: stratified cosine-weighted rays from its points.
