@@ -20,12 +20,45 @@ use std::path::{Path, PathBuf};
 const MAX_EXTERNAL_BYTES: u64 = 4 << 30;
 
 pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scene, LoadError> {
-    let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
-    // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
-    // before checking it exists (mesh.rs:151): that panic is a malformed file.
     let dir = path.parent().unwrap_or(Path::new("."));
+    let (document, buffers) = read(path, dir, bytes, max_triangles)?;
+    let (textures, texture_index) = decode_images(path, dir, &document, &buffers);
+    let (mut materials, uv_maps) = materials(&document, &texture_index);
+    materials.push(Material::diffuse("default", [0.8, 0.8, 0.8]));
+    let mut scene = empty_scene(materials, textures);
+    scene.scale_source = ScaleSource::File;
+    scene.metres_per_unit = 1.0;
+    scene.stats.missing_textures = texture_index.iter().filter(|t| t.is_none()).count();
+    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
+        Some(s) => s.nodes().collect(),
+        None => document.nodes().collect(),
+    };
+    let mut memo = vec![None; document.nodes().len()];
+    let mut count = 0u64;
+    for node in &roots {
+        count = count.saturating_add(instanced_triangles(path, node, 0, &mut memo)?.0);
+    }
+    check_triangle_count(path, count, max_triangles)?;
+    let mut meshes = Meshes { path, buffers: &buffers, uv_maps: &uv_maps, with_normals: true, with_colours: true, scene };
+    meshes.add_nodes(roots)?;
+    let Meshes { mut scene, with_normals, with_colours, .. } = meshes;
+    if !with_normals || scene.normals.len() != scene.positions.len() {
+        scene.normals.clear();
+    }
+    if !with_colours || scene.colours.len() != scene.positions.len() {
+        scene.colours.clear();
+    }
+    Ok(scene)
+}
+
+/// The document and its buffers, the file made plain first where it is
+/// compressed, quantized or instanced.
+fn read(path: &Path, dir: &Path, bytes: &[u8], max_triangles: u64) -> Result<(gltf::Document, Vec<gltf::buffer::Data>), LoadError> {
+    let bad = |e: gltf::Error| LoadError::malformed(path, format!("not a valid glTF file ({e}); it may be truncated or corrupt"));
     let (plain, read) = super::gltf_decode::transcode(path, bytes, dir, max_triangles)?.unzip();
     let bytes = plain.as_deref().unwrap_or(bytes);
+    // gltf-json 1.4.1 validation indexes a primitive's POSITION accessor
+    // before checking it exists (mesh.rs:151): that panic is a malformed file.
     let parsed = std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes)).map_err(|_| {
         LoadError::malformed(path, "not a valid glTF file (an attribute names an accessor that does not exist); it may be truncated or corrupt")
     })?;
@@ -38,55 +71,64 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
     })?;
     check_image_sources(path, &document)?;
     check_external_files(path, dir, &document)?;
-    // A transcoded file's buffers were read already: each must be as long
-    // as declared (as `gltf` checks), and is padded to four bytes as `gltf`
-    // pads them.
     let buffers = match read {
-        Some(read) => {
-            let held = |b: &gltf::Buffer| read.get(b.index()).map_or(0, Vec::len);
-            if let Some(b) = document.buffers().find(|b| held(b) < b.length()) {
-                // (Named by its URI: a transcoded file's buffers are numbered
-                // from one when a first was added for the decoded data.)
-                let what = match b.source() {
-                    gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!(
-                        "buffer {uri} holds {} bytes of the {} it declares; the file beside the scene may be missing or truncated",
-                        held(&b),
-                        b.length()
-                    ),
-                    _ => format!("a buffer's data URI holds {} bytes of the {} it declares", held(&b), b.length()),
-                };
-                return Err(LoadError::malformed(path, what));
-            }
-            read.into_iter()
-                .map(|mut bytes| {
-                    bytes.resize(bytes.len().next_multiple_of(4), 0);
-                    gltf::buffer::Data(bytes)
-                })
-                .collect()
-        }
+        Some(read) => transcoded_buffers(path, &document, read)?,
         None => gltf::import_buffers(&document, Some(dir), blob).map_err(bad)?,
     };
+    Ok((document, buffers))
+}
 
-    // Images are decoded here rather than by `gltf` (PNG and JPEG only, no
-    // size limit), in parallel, each a warning if it fails.
-    let images: Vec<gltf::Image> = document.images().collect();
-    let textures: Vec<Option<Texture>> = images.par_iter().map(|image| decode_gltf_image(path, dir, image, &buffers)).collect();
-    // Keep only decoded images; map glTF image index to scene texture index.
-    let mut texture_index = Vec::new();
-    let mut scene_textures = Vec::new();
-    for t in textures {
-        texture_index.push(t.map(|t| {
-            scene_textures.push(t);
-            scene_textures.len() - 1
-        }));
+/// A transcoded file's buffers, read already: each must be as long as
+/// declared (as `gltf` checks), and is padded to four bytes as `gltf` pads
+/// them.
+fn transcoded_buffers(path: &Path, document: &gltf::Document, read: Vec<Vec<u8>>) -> Result<Vec<gltf::buffer::Data>, LoadError> {
+    let held = |b: &gltf::Buffer| read.get(b.index()).map_or(0, Vec::len);
+    if let Some(b) = document.buffers().find(|b| held(b) < b.length()) {
+        // (Named by its URI: a transcoded file's buffers are numbered
+        // from one when a first was added for the decoded data.)
+        let what = match b.source() {
+            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!(
+                "buffer {uri} holds {} bytes of the {} it declares; the file beside the scene may be missing or truncated",
+                held(&b),
+                b.length()
+            ),
+            _ => format!("a buffer's data URI holds {} bytes of the {} it declares", held(&b), b.length()),
+        };
+        return Err(LoadError::malformed(path, what));
     }
-    let missing = texture_index.iter().filter(|t| t.is_none()).count();
+    Ok(read
+        .into_iter()
+        .map(|mut bytes| {
+            bytes.resize(bytes.len().next_multiple_of(4), 0);
+            gltf::buffer::Data(bytes)
+        })
+        .collect())
+}
 
-    // Each material's colour texture coordinates: the set it reads and its
-    // `KHR_texture_transform` (applied to the coordinates of the primitives
-    // drawn with it, as a material has one texture here).
-    let mut uv_maps: Vec<UvMap> = Vec::new();
-    let mut materials: Vec<Material> = document
+/// The images decoded here rather than by `gltf` (PNG and JPEG only, no
+/// size limit), in parallel, each a warning if it fails: the decoded ones,
+/// and per glTF image its index among them.
+fn decode_images(path: &Path, dir: &Path, document: &gltf::Document, buffers: &[gltf::buffer::Data]) -> (Vec<Texture>, Vec<Option<usize>>) {
+    let images: Vec<gltf::Image> = document.images().collect();
+    let decoded: Vec<Option<Texture>> = images.par_iter().map(|image| decode_gltf_image(path, dir, image, buffers)).collect();
+    let mut textures = Vec::new();
+    let index = decoded
+        .into_iter()
+        .map(|t| {
+            t.map(|t| {
+                textures.push(t);
+                textures.len() - 1
+            })
+        })
+        .collect();
+    (textures, index)
+}
+
+/// The materials, and each one's colour texture coordinates: the set it
+/// reads and its `KHR_texture_transform` (applied to the coordinates of the
+/// primitives drawn with it, as a material has one texture here).
+fn materials(document: &gltf::Document, texture_index: &[Option<usize>]) -> (Vec<Material>, Vec<UvMap>) {
+    document
         .materials()
         .map(|m| {
             // `KHR_materials_pbrSpecularGlossiness`'s diffuse, where given,
@@ -95,9 +137,9 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
                 Some(sg) => (sg.diffuse_factor(), sg.diffuse_texture()),
                 None => (m.pbr_metallic_roughness().base_color_factor(), m.pbr_metallic_roughness().base_color_texture()),
             };
-            uv_maps.push(info.as_ref().map_or(UvMap::default(), UvMap::of));
+            let uv_map = info.as_ref().map_or(UvMap::default(), UvMap::of);
             let texture = info.and_then(|t| texture_index.get(t.texture().source().index()).copied().flatten());
-            Material {
+            let material = Material {
                 name: m.name().map(str::to_string).unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
                 base_color: factor,
                 base_color_texture: texture,
@@ -107,101 +149,97 @@ pub(super) fn load(path: &Path, bytes: &[u8], max_triangles: u64) -> Result<Scen
                     gltf::material::AlphaMode::Blend => AlphaMode::Blend,
                 },
                 emissive: Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0),
-            }
+            };
+            (material, uv_map)
         })
-        .collect();
-    let default_material = materials.len() as u32;
-    materials.push(Material::diffuse("default", [0.8, 0.8, 0.8]));
+        .unzip()
+}
 
-    let mut scene = empty_scene(materials, scene_textures);
-    scene.scale_source = ScaleSource::File;
-    scene.metres_per_unit = 1.0;
-    scene.stats.missing_textures = missing;
-    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(s) => s.nodes().collect(),
-        None => document.nodes().collect(),
-    };
-    let mut memo = vec![None; document.nodes().len()];
-    let mut count = 0u64;
-    for node in &roots {
-        count = count.saturating_add(instanced_triangles(path, node, 0, &mut memo)?.0);
-    }
-    check_triangle_count(path, count, max_triangles)?;
-    let mut with_normals = true;
-    let mut with_colours = true;
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > 64 {
-            return Err(LoadError::malformed(path, "node hierarchy deeper than 64 levels (a cycle?)"));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        if let Some(light) = node.light() {
-            if let Some(l) = punctual_light(path, &light, world) {
-                scene.lights.push(l);
+/// The scene as its nodes' meshes and lights are added to it.
+struct Meshes<'a> {
+    path: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    uv_maps: &'a [UvMap],
+    /// Whether every primitive so far had normals, and vertex colours.
+    with_normals: bool,
+    with_colours: bool,
+    scene: Scene,
+}
+
+impl Meshes<'_> {
+    /// Adds the nodes under `roots`, transformed to the world.
+    fn add_nodes(&mut self, roots: Vec<gltf::Node>) -> Result<(), LoadError> {
+        let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots.into_iter().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+        while let Some((node, parent, depth)) = stack.pop() {
+            if depth > 64 {
+                return Err(LoadError::malformed(self.path, "node hierarchy deeper than 64 levels (a cycle?)"));
             }
-        }
-        if let Some(mesh) = node.mesh() {
-            let object = scene.objects.len() as u32;
-            scene.objects.push(node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node {}", node.index())));
-            for primitive in mesh.primitives() {
-                if primitive.mode() != gltf::mesh::Mode::Triangles {
-                    tracing::warn!(
-                        "{}: skipping a {:?} primitive in mesh {}; only triangles are scenes",
-                        path.display(),
-                        primitive.mode(),
-                        mesh.index()
-                    );
-                    continue;
-                }
-                check_attribute_types(path, &primitive)?;
-                let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let Some(positions) = reader.read_positions() else { continue };
-                let base = scene.positions.len() as u32;
-                scene.positions.extend(positions.map(|p| world.transform_point3(Vec3::from(p))));
-                let count = scene.positions.len() - base as usize;
-                match reader.read_normals() {
-                    Some(normals) if with_normals => {
-                        let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
-                        scene.normals.extend(normals.map(|n| (normal_from_local * Vec3::from(n)).normalize_or_zero()));
-                    }
-                    _ => with_normals = false,
-                }
-                let uv_map = primitive.material().index().and_then(|m| uv_maps.get(m)).copied().unwrap_or_default();
-                match reader.read_tex_coords(uv_map.set) {
-                    Some(uv) => scene.uvs.extend(uv.into_f32().map(|uv| uv_map.apply(Vec2::from(uv)))),
-                    None => scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
-                }
-                // Vertex colours (linear, as glTF states them) where every primitive has them.
-                match reader.read_colors(0) {
-                    Some(c) if with_colours => scene.colours.extend(c.into_rgb_f32().map(Vec3::from)),
-                    _ => with_colours = false,
-                }
-                scene.uvs.truncate(scene.positions.len());
-                scene.uvs.resize(scene.positions.len(), Vec2::ZERO);
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..count as u32).collect(),
-                };
-                if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-                    return Err(LoadError::malformed(path, format!("mesh {} indexes vertex {bad}, but the primitive has {count}", mesh.index())));
-                }
-                let material = primitive.material().index().map_or(default_material, |m| m as u32);
-                for tri in indices.chunks_exact(3) {
-                    scene.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
-                    scene.triangle_material.push(material);
-                    scene.triangle_object.push(object);
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            if let Some(light) = node.light() {
+                if let Some(l) = punctual_light(self.path, &light, world) {
+                    self.scene.lights.push(l);
                 }
             }
+            if let Some(mesh) = node.mesh() {
+                let object = self.scene.objects.len() as u32;
+                self.scene.objects.push(node.name().or(mesh.name()).map(str::to_string).unwrap_or_else(|| format!("node {}", node.index())));
+                for primitive in mesh.primitives() {
+                    self.add_primitive(&mesh, &primitive, world, object)?;
+                }
+            }
+            stack.extend(node.children().map(|c| (c, world, depth + 1)));
         }
-        stack.extend(node.children().map(|c| (c, world, depth + 1)));
+        Ok(())
     }
-    if !with_normals || scene.normals.len() != scene.positions.len() {
-        scene.normals.clear();
+
+    /// Adds a primitive's triangles, with their vertices' attributes.
+    fn add_primitive(&mut self, mesh: &gltf::Mesh, primitive: &gltf::Primitive, world: Mat4, object: u32) -> Result<(), LoadError> {
+        let (path, scene) = (self.path, &mut self.scene);
+        if primitive.mode() != gltf::mesh::Mode::Triangles {
+            tracing::warn!("{}: skipping a {:?} primitive in mesh {}; only triangles are scenes", path.display(), primitive.mode(), mesh.index());
+            return Ok(());
+        }
+        check_attribute_types(path, primitive)?;
+        let reader = primitive.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+        let Some(positions) = reader.read_positions() else { return Ok(()) };
+        let base = scene.positions.len() as u32;
+        scene.positions.extend(positions.map(|p| world.transform_point3(Vec3::from(p))));
+        let count = scene.positions.len() - base as usize;
+        match reader.read_normals() {
+            Some(normals) if self.with_normals => {
+                let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
+                scene.normals.extend(normals.map(|n| (normal_from_local * Vec3::from(n)).normalize_or_zero()));
+            }
+            _ => self.with_normals = false,
+        }
+        let uv_map = primitive.material().index().and_then(|m| self.uv_maps.get(m)).copied().unwrap_or_default();
+        match reader.read_tex_coords(uv_map.set) {
+            Some(uv) => scene.uvs.extend(uv.into_f32().map(|uv| uv_map.apply(Vec2::from(uv)))),
+            None => scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
+        }
+        // Vertex colours (linear, as glTF states them) where every primitive has them.
+        match reader.read_colors(0) {
+            Some(c) if self.with_colours => scene.colours.extend(c.into_rgb_f32().map(Vec3::from)),
+            _ => self.with_colours = false,
+        }
+        scene.uvs.truncate(scene.positions.len());
+        scene.uvs.resize(scene.positions.len(), Vec2::ZERO);
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..count as u32).collect(),
+        };
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
+            return Err(LoadError::malformed(path, format!("mesh {} indexes vertex {bad}, but the primitive has {count}", mesh.index())));
+        }
+        // The default material is the last.
+        let material = primitive.material().index().map_or(self.uv_maps.len() as u32, |m| m as u32);
+        for tri in indices.chunks_exact(3) {
+            scene.triangles.push([base + tri[0], base + tri[1], base + tri[2]]);
+            scene.triangle_material.push(material);
+            scene.triangle_object.push(object);
+        }
+        Ok(())
     }
-    if !with_colours || scene.colours.len() != scene.positions.len() {
-        scene.colours.clear();
-    }
-    Ok(scene)
 }
 
 /// Lumens a watt: `KHR_lights_punctual` gives candela and lux, the renderer
