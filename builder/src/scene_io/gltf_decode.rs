@@ -57,152 +57,183 @@ pub(super) fn transcode(path: &Path, bytes: &[u8], dir: &Path, max_triangles: u6
     if ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|e| used(e)) {
         return Ok(None);
     }
-    let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
     let mut buffers = read_buffers(path, &doc, bin, dir)?;
-
-    // Decoded data goes to the binary chunk, `buffers[0]`: a GLB's own, or
-    // a new first buffer before a `.gltf`'s (every view then moves up one).
-    let glb_chunk = bin.is_some() && doc.get("buffers").and_then(|b| b.get(0)).is_some_and(|b| b.get("uri").is_none());
-    if !glb_chunk {
-        let shift = |at: &mut Value| {
-            if let Some(b) = at.get("buffer").and_then(Value::as_u64) {
-                at["buffer"] = json!(b + 1);
-            }
-        };
-        for v in doc.get_mut("bufferViews").and_then(Value::as_array_mut).into_iter().flatten() {
-            shift(v);
-            for e in MESHOPT {
-                if let Some(x) = v.get_mut("extensions").and_then(|x| x.get_mut(e)) {
-                    shift(x);
-                }
-            }
-        }
-        buffers.insert(0, Vec::new());
-        match doc.get_mut("buffers").and_then(Value::as_array_mut) {
-            Some(list) => list.insert(0, json!({ "byteLength": 0 })),
-            None => doc["buffers"] = json!([{ "byteLength": 0 }]),
-        }
-    }
+    add_decoded_chunk(&mut doc, &mut buffers, bin.is_some());
     decode_meshopt_views(path, &mut doc, &mut buffers, max_triangles)?;
     name_image_sources(&mut doc);
     expand_instances(path, &mut doc, &buffers)?;
-
-    let old_views = doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
-    let mut views: Vec<Value> = Vec::new();
-    let mut accessors = doc.get("accessors").and_then(Value::as_array).cloned().unwrap_or_default();
-    let meshes = doc.get_mut("meshes").and_then(Value::as_array_mut).map(std::mem::take).unwrap_or_default();
-    let mut new_meshes = Vec::with_capacity(meshes.len());
-    for (m, mut mesh) in meshes.into_iter().enumerate() {
+    let mut plain = Plain {
+        old_views: doc.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len),
+        views: Vec::new(),
+        accessors: doc.get("accessors").and_then(Value::as_array).cloned().unwrap_or_default(),
+        buffers,
+    };
+    let mut meshes = doc.get_mut("meshes").and_then(Value::as_array_mut).map(std::mem::take).unwrap_or_default();
+    for (m, mesh) in meshes.iter_mut().enumerate() {
         for (p, primitive) in mesh.get_mut("primitives").and_then(Value::as_array_mut).into_iter().flatten().enumerate() {
-            let Some(ext) = primitive.get_mut("extensions").and_then(Value::as_object_mut).and_then(|e| e.remove(EXTENSION)) else { continue };
-            let at = format!("mesh {m} primitive {p}");
-            let view = ext.get("bufferView").and_then(Value::as_u64).ok_or_else(|| bad(format!("{at} names no bufferView")))?;
-            let compressed =
-                view_bytes(&doc, &buffers, view as usize).ok_or_else(|| bad(format!("{at}'s bufferView {view} lies outside its buffer")))?;
-            let indices = primitive.get("indices").and_then(Value::as_u64);
-            let declared = indices.and_then(|a| accessors.get(a as usize)).and_then(|a| a.get("count")).and_then(Value::as_u64).unwrap_or(0);
-            if declared / 3 > max_triangles {
-                return Err(LoadError::TooLarge { path: path.to_path_buf(), count: declared / 3, limit: max_triangles });
-            }
-            let mesh = decode(compressed).map_err(|e| bad(format!("{at} does not decode: {e}")))?;
-
-            // Indices: u32, one accessor.
-            let faces = mesh.faces();
-            let bytes: Vec<u8> = faces.iter().flat_map(|face| face.iter().flat_map(|corner| corner.0.to_le_bytes())).collect();
-            views.push(append(&mut buffers[0], &bytes));
-            let indices_accessor =
-                json!({ "bufferView": old_views + views.len() - 1, "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
-            match indices {
-                Some(a) if (a as usize) < accessors.len() => accessors[a as usize] = indices_accessor,
-                _ => {
-                    accessors.push(indices_accessor);
-                    primitive["indices"] = json!(accessors.len() - 1);
-                }
-            }
-            // Attributes: f32, each to its accessor, with the components it declares.
-            let ids: Vec<(String, u64)> =
-                ext.get("attributes").and_then(Value::as_object).into_iter().flatten().filter_map(|(k, v)| Some((k.clone(), v.as_u64()?))).collect();
-            for (name, id) in ids {
-                let accessor = primitive.get("attributes").and_then(|a| a.get(&name)).and_then(Value::as_u64);
-                let Some(a) = accessor.filter(|&a| (a as usize) < accessors.len()) else { continue };
-                let kind = accessors[a as usize].get("type").and_then(Value::as_str).unwrap_or("VEC3").to_string();
-                let components = match kind.as_str() {
-                    "SCALAR" => 1,
-                    "VEC2" => 2,
-                    "VEC3" => 3,
-                    "VEC4" => 4,
-                    other => return Err(bad(format!("{at}'s attribute {name} is of type {other}"))),
-                };
-                let attribute = u32::try_from(id)
-                    .ok()
-                    .and_then(|id| mesh.attribute_by_unique_id(id))
-                    .ok_or_else(|| bad(format!("{at} has no attribute {id} for {name}")))?;
-                let mut values = attribute.read_f32s(mesh.num_points(), components);
-                if attribute.normalized() {
-                    let scale = match attribute.data_type() {
-                        draco_core::draco_types::DataType::Uint8 => 255.0,
-                        draco_core::draco_types::DataType::Int8 => 127.0,
-                        draco_core::draco_types::DataType::Uint16 => 65535.0,
-                        draco_core::draco_types::DataType::Int16 => 32767.0,
-                        _ => 1.0,
-                    };
-                    values.iter_mut().for_each(|v| *v = (*v / scale).max(-1.0));
-                }
-                views.push(append(&mut buffers[0], &floats(&values)));
-                let mut plain = json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": mesh.num_points(), "type": kind });
-                // Positions keep their bounds (glTF requires them).
-                for key in ["min", "max"] {
-                    if let Some(b) = accessors[a as usize].get(key) {
-                        plain[key] = b.clone();
-                    }
-                }
-                accessors[a as usize] = plain;
-            }
+            plain.decode_draco(path, &doc, primitive, &format!("mesh {m} primitive {p}"), max_triangles)?;
         }
-        new_meshes.push(mesh);
     }
     if quantized {
-        // Every attribute read that is not already f32 (an accessor shared by
-        // primitives is converted once: it is f32 after).
-        for mesh in &new_meshes {
-            for primitive in mesh.get("primitives").and_then(Value::as_array).into_iter().flatten() {
-                for (name, a) in primitive.get("attributes").and_then(Value::as_object).into_iter().flatten() {
-                    let read = name == "POSITION" || name == "NORMAL" || name.starts_with("TEXCOORD_");
-                    let Some(a) = a.as_u64().map(|a| a as usize).filter(|&a| read && a < accessors.len()) else { continue };
-                    if accessors[a].get("componentType").and_then(Value::as_u64) == Some(5126) {
-                        continue;
-                    }
-                    let (values, kind) = read_accessor(&doc, &buffers, &accessors[a]).ok_or_else(|| {
-                        LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
-                    })?;
-                    views.push(append(&mut buffers[0], &floats(&values)));
-                    let mut plain =
-                        json!({ "bufferView": old_views + views.len() - 1, "componentType": 5126, "count": accessors[a]["count"], "type": kind });
-                    if name == "POSITION" {
-                        // glTF requires a position accessor's bounds: those of the values.
-                        let (lo, hi) = values.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
-                            (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
-                        });
-                        (plain["min"], plain["max"]) = (json!(lo), json!(hi));
-                    }
-                    accessors[a] = plain;
-                }
+        plain.dequantize(path, &doc, &meshes)?;
+    }
+    Ok(Some(plain.into_document(doc, meshes)))
+}
+
+/// Decoded data goes to the binary chunk, `buffers[0]`: a GLB's own, or a
+/// new first buffer before a `.gltf`'s (every view then moves up one).
+fn add_decoded_chunk(doc: &mut Value, buffers: &mut Vec<Vec<u8>>, has_chunk: bool) {
+    if has_chunk && doc.get("buffers").and_then(|b| b.get(0)).is_some_and(|b| b.get("uri").is_none()) {
+        return;
+    }
+    let shift = |at: &mut Value| {
+        if let Some(b) = at.get("buffer").and_then(Value::as_u64) {
+            at["buffer"] = json!(b + 1);
+        }
+    };
+    for v in doc.get_mut("bufferViews").and_then(Value::as_array_mut).into_iter().flatten() {
+        shift(v);
+        for e in MESHOPT {
+            if let Some(x) = v.get_mut("extensions").and_then(|x| x.get_mut(e)) {
+                shift(x);
             }
         }
     }
-
-    let mut all_views = doc.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
-    all_views.extend(views);
-    doc["buffers"][0]["byteLength"] = json!(buffers[0].len());
-    doc["meshes"] = json!(new_meshes);
-    doc["accessors"] = json!(accessors);
-    doc["bufferViews"] = json!(all_views);
-    for list in ["extensionsUsed", "extensionsRequired"] {
-        if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
-            l.retain(|e| ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
-        }
+    buffers.insert(0, Vec::new());
+    match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+        Some(list) => list.insert(0, json!({ "byteLength": 0 })),
+        None => doc["buffers"] = json!([{ "byteLength": 0 }]),
     }
-    Ok(Some((serde_json::to_vec(&doc).expect("a JSON value serializes"), buffers)))
+}
+
+/// The file's accessors and buffers as they are made plain: new views (after
+/// the file's `old_views`) of decoded data appended to `buffers[0]`.
+struct Plain {
+    old_views: usize,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    buffers: Vec<Vec<u8>>,
+}
+
+impl Plain {
+    /// Appends data to the chunk in a new view; returns the view's index.
+    fn push_view(&mut self, bytes: &[u8]) -> usize {
+        self.views.push(append(&mut self.buffers[0], bytes));
+        self.old_views + self.views.len() - 1
+    }
+
+    /// A Draco-compressed primitive (`at` names it) made plain: its indices
+    /// as u32 and each attribute as f32, each in its accessor.
+    fn decode_draco(&mut self, path: &Path, doc: &Value, primitive: &mut Value, at: &str, max_triangles: u64) -> Result<(), LoadError> {
+        let bad = |detail: String| LoadError::malformed(path, format!("{detail} (in its {EXTENSION} data); the file may be truncated or corrupt"));
+        let Some(ext) = primitive.get_mut("extensions").and_then(Value::as_object_mut).and_then(|e| e.remove(EXTENSION)) else { return Ok(()) };
+        let view = ext.get("bufferView").and_then(Value::as_u64).ok_or_else(|| bad(format!("{at} names no bufferView")))?;
+        let compressed =
+            view_bytes(doc, &self.buffers, view as usize).ok_or_else(|| bad(format!("{at}'s bufferView {view} lies outside its buffer")))?;
+        let indices = primitive.get("indices").and_then(Value::as_u64);
+        let declared = indices.and_then(|a| self.accessors.get(a as usize)).and_then(|a| a.get("count")).and_then(Value::as_u64).unwrap_or(0);
+        if declared / 3 > max_triangles {
+            return Err(LoadError::TooLarge { path: path.to_path_buf(), count: declared / 3, limit: max_triangles });
+        }
+        let mesh = decode(compressed).map_err(|e| bad(format!("{at} does not decode: {e}")))?;
+
+        // Indices: u32, one accessor.
+        let faces = mesh.faces();
+        let bytes: Vec<u8> = faces.iter().flat_map(|face| face.iter().flat_map(|corner| corner.0.to_le_bytes())).collect();
+        let indices_accessor = json!({ "bufferView": self.push_view(&bytes), "componentType": 5125, "count": 3 * faces.len(), "type": "SCALAR" });
+        match indices {
+            Some(a) if (a as usize) < self.accessors.len() => self.accessors[a as usize] = indices_accessor,
+            _ => {
+                self.accessors.push(indices_accessor);
+                primitive["indices"] = json!(self.accessors.len() - 1);
+            }
+        }
+        // Attributes: f32, each to its accessor, with the components it declares.
+        let ids: Vec<(String, u64)> =
+            ext.get("attributes").and_then(Value::as_object).into_iter().flatten().filter_map(|(k, v)| Some((k.clone(), v.as_u64()?))).collect();
+        for (name, id) in ids {
+            let accessor = primitive.get("attributes").and_then(|a| a.get(&name)).and_then(Value::as_u64);
+            let Some(a) = accessor.map(|a| a as usize).filter(|&a| a < self.accessors.len()) else { continue };
+            let kind = self.accessors[a].get("type").and_then(Value::as_str).unwrap_or("VEC3").to_string();
+            let components = match kind.as_str() {
+                "SCALAR" => 1,
+                "VEC2" => 2,
+                "VEC3" => 3,
+                "VEC4" => 4,
+                other => return Err(bad(format!("{at}'s attribute {name} is of type {other}"))),
+            };
+            let attribute = u32::try_from(id)
+                .ok()
+                .and_then(|id| mesh.attribute_by_unique_id(id))
+                .ok_or_else(|| bad(format!("{at} has no attribute {id} for {name}")))?;
+            let mut values = attribute.read_f32s(mesh.num_points(), components);
+            if attribute.normalized() {
+                let scale = match attribute.data_type() {
+                    draco_core::draco_types::DataType::Uint8 => 255.0,
+                    draco_core::draco_types::DataType::Int8 => 127.0,
+                    draco_core::draco_types::DataType::Uint16 => 65535.0,
+                    draco_core::draco_types::DataType::Int16 => 32767.0,
+                    _ => 1.0,
+                };
+                values.iter_mut().for_each(|v| *v = (*v / scale).max(-1.0));
+            }
+            let mut plain =
+                json!({ "bufferView": self.push_view(&floats(&values)), "componentType": 5126, "count": mesh.num_points(), "type": kind });
+            // Positions keep their bounds (glTF requires them).
+            for key in ["min", "max"] {
+                if let Some(b) = self.accessors[a].get(key) {
+                    plain[key] = b.clone();
+                }
+            }
+            self.accessors[a] = plain;
+        }
+        Ok(())
+    }
+
+    /// Every attribute read that is not already f32, as f32 (an accessor
+    /// shared by primitives is converted once: it is f32 after).
+    fn dequantize(&mut self, path: &Path, doc: &Value, meshes: &[Value]) -> Result<(), LoadError> {
+        for primitive in meshes.iter().flat_map(|m| m.get("primitives").and_then(Value::as_array).into_iter().flatten()) {
+            for (name, a) in primitive.get("attributes").and_then(Value::as_object).into_iter().flatten() {
+                let read = name == "POSITION" || name == "NORMAL" || name.starts_with("TEXCOORD_");
+                let Some(a) = a.as_u64().map(|a| a as usize).filter(|&a| read && a < self.accessors.len()) else { continue };
+                if self.accessors[a].get("componentType").and_then(Value::as_u64) == Some(5126) {
+                    continue;
+                }
+                let (values, kind) = read_accessor(doc, &self.buffers, &self.accessors[a]).ok_or_else(|| {
+                    LoadError::malformed(path, format!("accessor {a} ({name}) is not a quantized attribute {QUANTIZATION} allows, or lies outside its buffer; the file may be truncated or corrupt"))
+                })?;
+                let count = self.accessors[a]["count"].clone();
+                let mut plain = json!({ "bufferView": self.push_view(&floats(&values)), "componentType": 5126, "count": count, "type": kind });
+                if name == "POSITION" {
+                    // glTF requires a position accessor's bounds: those of the values.
+                    let (lo, hi) = values.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+                        (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
+                    });
+                    (plain["min"], plain["max"]) = (json!(lo), json!(hi));
+                }
+                self.accessors[a] = plain;
+            }
+        }
+        Ok(())
+    }
+
+    /// The plain document's JSON, with its buffers; the extensions made
+    /// plain are no longer used.
+    fn into_document(self, mut doc: Value, meshes: Vec<Value>) -> Transcoded {
+        let mut all_views = doc.get("bufferViews").and_then(Value::as_array).cloned().unwrap_or_default();
+        all_views.extend(self.views);
+        doc["buffers"][0]["byteLength"] = json!(self.buffers[0].len());
+        doc["meshes"] = json!(meshes);
+        doc["accessors"] = json!(self.accessors);
+        doc["bufferViews"] = json!(all_views);
+        for list in ["extensionsUsed", "extensionsRequired"] {
+            if let Some(l) = doc.get_mut(list).and_then(Value::as_array_mut) {
+                l.retain(|e| ![EXTENSION, QUANTIZATION, INSTANCING].iter().chain(&MESHOPT).chain(&IMAGE_SOURCES).any(|x| e == x));
+            }
+        }
+        (serde_json::to_vec(&doc).expect("a JSON value serializes"), self.buffers)
+    }
 }
 
 /// Decodes every meshoptimizer-compressed buffer view into the chunk
