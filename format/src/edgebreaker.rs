@@ -362,66 +362,109 @@ impl Loops {
 /// Codes `triangles` (indices into `vertex_count` vertices).
 pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity, Order), CodingError> {
     let closed = close(triangles, vertex_count)?;
-    let Closed { corners, opposite, source, real_triangles } = &closed;
-    let vertex_total = source.len();
-    let triangle_total = corners.len() / 3;
-    let mut visited = vec![false; triangle_total];
-    // Closed vertex -> decoded index.
-    let mut decoded = vec![NONE; vertex_total];
-    let mut emitted: Vec<u32> = Vec::with_capacity(vertex_total);
-    let mut triangle_order: Vec<u32> = Vec::with_capacity(triangle_total);
-    let mut out = Connectivity::default();
-    let mut loops = Loops::default();
-    let mut head = vec![NONE; vertex_total];
-    let mut loop_len: Vec<u32> = Vec::new();
-    let mut stack: Vec<(u32, u32)> = Vec::new(); // (gate node, loop id)
-
-    let emit = |v: u32, decoded: &mut Vec<u32>, emitted: &mut Vec<u32>| {
-        decoded[v as usize] = emitted.len() as u32;
-        emitted.push(v);
-    };
-    // Node bookkeeping for the per-vertex lists.
-    fn attach(loops: &mut Loops, head: &mut [u32], n: u32) {
-        let v = loops.vertex(n) as usize;
-        loops.nodes[n as usize].same = head[v];
-        head[v] = n;
-    }
-    fn detach(loops: &mut Loops, head: &mut [u32], n: u32) {
-        let v = loops.vertex(n) as usize;
-        let after = loops.nodes[n as usize].same;
-        if head[v] == n {
-            head[v] = after;
-            return;
-        }
-        let mut k = head[v];
-        while loops.nodes[k as usize].same != n {
-            k = loops.nodes[k as usize].same;
-        }
-        loops.nodes[k as usize].same = after;
-    }
-    fn relabel(loops: &mut Loops, start: u32, id: u32) {
-        let mut n = start;
-        loop {
-            loops.nodes[n as usize].loop_id = id;
-            n = loops.next(n);
-            if n == start {
-                break;
-            }
-        }
-    }
-
+    let mut encoder = Encoder::new(&closed);
     // Components with a boundary first, each from the first of its loops of
     // three edges or more, then the others from a triangle. A dummy triangle
     // is (w, u, d), its boundary edge w -> u; the triangle across u -> d is
     // the loop's next, (u, y, d).
-    let starts = (*real_triangles..triangle_total as u32).chain(0..*real_triangles);
-    let (mut v, mut facing, mut fan) = (Vec::new(), Vec::new(), Vec::new());
-    for start in starts {
-        if visited[start as usize] {
-            continue;
+    let real = closed.real_triangles;
+    for start in (real..encoder.visited.len() as u32).chain(0..real) {
+        if let Some(gate) = encoder.first_loop(start) {
+            encoder.traverse(gate);
         }
-        // The first loop's vertices, the corners facing its edges, and the
-        // triangles it closes (its dummy fan, or the first triangle).
+    }
+    Ok(encoder.finish(vertex_count))
+}
+
+/// The encoder's state as it walks the closed mesh.
+struct Encoder<'a> {
+    closed: &'a Closed,
+    visited: Vec<bool>,
+    /// Closed vertex -> decoded index.
+    decoded: Vec<u32>,
+    /// Closed vertices in decoded order, and triangles in visiting order.
+    emitted: Vec<u32>,
+    triangle_order: Vec<u32>,
+    out: Connectivity,
+    loops: Loops,
+    /// Per vertex, the first of its nodes (the rest follow by `same`).
+    head: Vec<u32>,
+    loop_len: Vec<u32>,
+    /// Loops waiting after a split: (gate node, loop id).
+    stack: Vec<(u32, u32)>,
+    /// The loop being walked.
+    current: u32,
+    /// A first loop's vertices, the corners facing its edges, and the
+    /// triangles it closes (kept to reuse their memory).
+    ring: (Vec<u32>, Vec<u32>, Vec<u32>),
+}
+
+impl<'a> Encoder<'a> {
+    fn new(closed: &'a Closed) -> Encoder<'a> {
+        let (vertex_total, triangle_total) = (closed.source.len(), closed.corners.len() / 3);
+        Encoder {
+            closed,
+            visited: vec![false; triangle_total],
+            decoded: vec![NONE; vertex_total],
+            emitted: Vec::with_capacity(vertex_total),
+            triangle_order: Vec::with_capacity(triangle_total),
+            out: Connectivity::default(),
+            loops: Loops::default(),
+            head: vec![NONE; vertex_total],
+            loop_len: Vec::new(),
+            stack: Vec::new(),
+            current: 0,
+            ring: Default::default(),
+        }
+    }
+
+    fn emit(&mut self, v: u32) {
+        self.decoded[v as usize] = self.emitted.len() as u32;
+        self.emitted.push(v);
+    }
+
+    /// Adds node `n` to its vertex's list.
+    fn attach(&mut self, n: u32) {
+        let v = self.loops.vertex(n) as usize;
+        self.loops.nodes[n as usize].same = self.head[v];
+        self.head[v] = n;
+    }
+
+    /// Removes node `n` from its vertex's list.
+    fn detach(&mut self, n: u32) {
+        let v = self.loops.vertex(n) as usize;
+        let after = self.loops.nodes[n as usize].same;
+        if self.head[v] == n {
+            self.head[v] = after;
+            return;
+        }
+        let mut k = self.head[v];
+        while self.loops.nodes[k as usize].same != n {
+            k = self.loops.nodes[k as usize].same;
+        }
+        self.loops.nodes[k as usize].same = after;
+    }
+
+    /// Gives the nodes from `from` round to `to` the loop id `id`.
+    fn relabel(&mut self, from: u32, to: u32, id: u32) {
+        let mut k = from;
+        loop {
+            self.loops.nodes[k as usize].loop_id = id;
+            if k == to {
+                break;
+            }
+            k = self.loops.next(k);
+        }
+    }
+
+    /// A component's first loop, from triangle `start` (a dummy's fan of
+    /// three or more, or a real triangle), not yet visited; returns its gate.
+    fn first_loop(&mut self, start: u32) -> Option<u32> {
+        let Closed { corners, opposite, real_triangles, .. } = self.closed;
+        if self.visited[start as usize] {
+            return None;
+        }
+        let (mut v, mut facing, mut fan) = std::mem::take(&mut self.ring);
         v.clear();
         facing.clear();
         fan.clear();
@@ -435,195 +478,234 @@ pub fn encode(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(Connectivity
                 }
             }
             if fan.len() < 3 {
-                continue;
+                self.ring = (v, facing, fan);
+                return None;
             }
             for &t in &fan {
-                visited[t as usize] = true;
+                self.visited[t as usize] = true;
                 v.push(corners[3 * t as usize]);
                 facing.push(3 * t + 2);
             }
-            out.start_loops.push(fan.len() as u32);
+            self.out.start_loops.push(fan.len() as u32);
         } else {
             let c0 = 3 * start;
-            visited[start as usize] = true;
+            self.visited[start as usize] = true;
             fan.push(start);
             v.extend([corners[c0 as usize], corners[c0 as usize + 1], corners[c0 as usize + 2]]);
             facing.extend([c0 + 2, c0, c0 + 1]);
         }
-        triangle_order.extend_from_slice(&fan);
+        self.triangle_order.extend_from_slice(&fan);
         for &x in &v {
-            emit(x, &mut decoded, &mut emitted);
+            self.emit(x);
         }
-        let mut current = loop_len.len() as u32;
-        loop_len.push(v.len() as u32);
-        let first = loops.ring(&v, &facing, current);
+        self.current = self.loop_len.len() as u32;
+        self.loop_len.push(v.len() as u32);
+        let first = self.loops.ring(&v, &facing, self.current);
         for n in first..first + v.len() as u32 {
-            attach(&mut loops, &mut head, n);
+            self.attach(n);
         }
-        let mut gate = first;
+        self.ring = (v, facing, fan);
+        Some(first)
+    }
+
+    /// Codes the component from `gate`, a symbol a triangle, until its
+    /// loops are all closed.
+    fn traverse(&mut self, mut gate: u32) {
+        let Closed { corners, opposite, .. } = self.closed;
         loop {
             let a = gate;
-            let b = loops.next(a);
-            let c = opposite[loops.nodes[a as usize].facing as usize];
+            let b = self.loops.next(a);
+            let c = opposite[self.loops.nodes[a as usize].facing as usize];
             let t = c / 3;
-            visited[t as usize] = true;
-            triangle_order.push(t);
+            self.visited[t as usize] = true;
+            self.triangle_order.push(t);
             let w = corners[c as usize];
-            if decoded[w as usize] == NONE {
-                emit(w, &mut decoded, &mut emitted);
-                out.symbols.push(if source[w as usize] == NONE { D } else { C });
-                loops.nodes[a as usize].facing = next(c);
-                let nw = loops.add(w, a, b, prev(c), current);
-                attach(&mut loops, &mut head, nw);
-                loop_len[current as usize] += 1;
-                gate = nw;
+            if self.decoded[w as usize] == NONE {
+                gate = self.new_vertex(a, b, c, w);
                 continue;
             }
-            let p = loops.prev(a);
-            let q = loops.next(b);
-            let left = opposite[loops.nodes[p as usize].facing as usize] / 3 == t;
-            let right = opposite[loops.nodes[b as usize].facing as usize] / 3 == t;
-            match (left, right) {
-                (true, true) => {
-                    // Across both sides: the loop is (w, a, b). (A loop that
-                    // touches itself at w cannot get here: each of w's nodes
-                    // bounds its own wedge of unvisited triangles.)
-                    debug_assert_eq!(p, q);
-                    out.symbols.push(E);
-                    for n in [p, a, b] {
-                        detach(&mut loops, &mut head, n);
-                    }
-                    match stack.pop() {
-                        Some((g, id)) => {
-                            gate = g;
-                            current = id;
-                        }
-                        None => break,
-                    }
-                }
-                (true, false) => {
-                    out.symbols.push(L);
-                    detach(&mut loops, &mut head, a);
-                    loops.link(p, b);
-                    loops.nodes[p as usize].facing = prev(c);
-                    loop_len[current as usize] -= 1;
-                    gate = p;
-                }
-                (false, true) => {
-                    out.symbols.push(R);
-                    detach(&mut loops, &mut head, b);
-                    loops.link(a, q);
-                    loops.nodes[a as usize].facing = next(c);
-                    loop_len[current as usize] -= 1;
-                    gate = a;
-                }
+            let p = self.loops.prev(a);
+            let q = self.loops.next(b);
+            let left = opposite[self.loops.nodes[p as usize].facing as usize] / 3 == t;
+            let right = opposite[self.loops.nodes[b as usize].facing as usize] / 3 == t;
+            gate = match (left, right) {
+                (true, true) => match self.close_loop(p, a, b, q) {
+                    Some(g) => g,
+                    None => break,
+                },
+                (true, false) => self.left(p, a, b, c),
+                (false, true) => self.right(a, b, q, c),
                 (false, false) => {
-                    // The tip's node: the one whose unvisited wedge holds t.
-                    let mut nw = head[w as usize];
-                    if loops.nodes[nw as usize].same != NONE {
-                        let mut k = c;
-                        let x = loop {
-                            let k2 = prev(opposite[prev(k) as usize]);
-                            if visited[(k2 / 3) as usize] {
-                                break corners[next(k) as usize];
-                            }
-                            k = k2;
-                        };
-                        while loops.vertex(loops.prev(nw)) != x {
-                            nw = loops.nodes[nw as usize].same;
-                        }
-                    }
-                    let other = loops.nodes[nw as usize].loop_id;
-                    if other == current {
-                        out.symbols.push(S);
-                        // Walk both ways from the gate to find the shorter part.
-                        let (mut f, mut g, mut steps) = (b, a, 0u32);
-                        let right_shorter = loop {
-                            if f == nw {
-                                break true;
-                            }
-                            if g == nw {
-                                break false;
-                            }
-                            f = loops.next(f);
-                            g = loops.prev(g);
-                            steps += 1;
-                        };
-                        let len = loop_len[current as usize];
-                        let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
-                        let w2 = loops.splice(a, nw, next(c), prev(c));
-                        attach(&mut loops, &mut head, w2);
-                        let fresh = loop_len.len() as u32;
-                        if right_shorter {
-                            relabel(&mut loops, nw, fresh);
-                            loop_len.push(l1);
-                            loop_len[current as usize] = l2;
-                            stack.push((a, current));
-                            current = fresh;
-                        } else {
-                            relabel(&mut loops, a, fresh);
-                            loop_len.push(l2);
-                            loop_len[current as usize] = l1;
-                            stack.push((a, fresh));
-                        }
-                        gate = nw;
+                    let tip = self.tip_node(w, c);
+                    if self.loops.nodes[tip as usize].loop_id == self.current {
+                        self.split(a, b, c, tip)
                     } else {
-                        out.symbols.push(M);
-                        let position = stack.iter().rposition(|&(_, id)| id == other).expect("a loop other than the current one is on the stack");
-                        let (other_gate, _) = stack.remove(position);
-                        let mut offset = 0;
-                        let mut k = other_gate;
-                        while k != nw {
-                            k = loops.next(k);
-                            offset += 1;
-                        }
-                        let length = loop_len[other as usize];
-                        out.merges.push(Merge { depth: (stack.len() - position) as u32, offset, length });
-                        let w2 = loops.splice(a, nw, next(c), prev(c));
-                        attach(&mut loops, &mut head, w2);
-                        let total = loop_len[current as usize] + length + 1;
-                        // Relabel the shorter part (the waiting loop's nodes run
-                        // from w2 to nw, the current one's from b round to a):
-                        // walking the whole merged loop would be quadratic.
-                        let (keep, from, to) = if loop_len[current as usize] >= length { (current, w2, nw) } else { (other, b, a) };
-                        let mut k = from;
-                        loop {
-                            loops.nodes[k as usize].loop_id = keep;
-                            if k == to {
-                                break;
-                            }
-                            k = loops.next(k);
-                        }
-                        loop_len[keep as usize] = total;
-                        current = keep;
-                        gate = nw;
+                        self.merge(a, b, c, tip)
                     }
                 }
+            };
+        }
+    }
+
+    /// C (or D for a dummy): the tip `w` is new; the gate moves to it.
+    fn new_vertex(&mut self, a: u32, b: u32, c: u32, w: u32) -> u32 {
+        self.emit(w);
+        self.out.symbols.push(if self.closed.source[w as usize] == NONE { D } else { C });
+        self.loops.nodes[a as usize].facing = next(c);
+        let nw = self.loops.add(w, a, b, prev(c), self.current);
+        self.attach(nw);
+        self.loop_len[self.current as usize] += 1;
+        nw
+    }
+
+    /// E: across both sides, the loop is (w, a, b) and closes; the next gate
+    /// is the last waiting loop's, if any. (A loop that touches itself at w
+    /// cannot get here: each of w's nodes bounds its own wedge of unvisited
+    /// triangles.)
+    fn close_loop(&mut self, p: u32, a: u32, b: u32, q: u32) -> Option<u32> {
+        debug_assert_eq!(p, q);
+        self.out.symbols.push(E);
+        for n in [p, a, b] {
+            self.detach(n);
+        }
+        let (gate, id) = self.stack.pop()?;
+        self.current = id;
+        Some(gate)
+    }
+
+    /// L: the triangle closes the edge before the gate.
+    fn left(&mut self, p: u32, a: u32, b: u32, c: u32) -> u32 {
+        self.out.symbols.push(L);
+        self.detach(a);
+        self.loops.link(p, b);
+        self.loops.nodes[p as usize].facing = prev(c);
+        self.loop_len[self.current as usize] -= 1;
+        p
+    }
+
+    /// R: the triangle closes the edge after the gate.
+    fn right(&mut self, a: u32, b: u32, q: u32, c: u32) -> u32 {
+        self.out.symbols.push(R);
+        self.detach(b);
+        self.loops.link(a, q);
+        self.loops.nodes[a as usize].facing = next(c);
+        self.loop_len[self.current as usize] -= 1;
+        a
+    }
+
+    /// The node of the tip `w` (of corner `c`) whose unvisited wedge holds
+    /// the triangle.
+    fn tip_node(&self, w: u32, c: u32) -> u32 {
+        let Closed { corners, opposite, .. } = self.closed;
+        let mut nw = self.head[w as usize];
+        if self.loops.nodes[nw as usize].same != NONE {
+            let mut k = c;
+            let x = loop {
+                let k2 = prev(opposite[prev(k) as usize]);
+                if self.visited[(k2 / 3) as usize] {
+                    break corners[next(k) as usize];
+                }
+                k = k2;
+            };
+            while self.loops.vertex(self.loops.prev(nw)) != x {
+                nw = self.loops.nodes[nw as usize].same;
             }
         }
+        nw
     }
-    debug_assert_eq!(triangle_order.len(), triangle_total);
 
-    // The start loops' fans are not decoded.
-    out.triangle_count = triangle_total as u32 - out.start_loops.iter().sum::<u32>();
-    out.vertex_count = emitted.len() as u32;
-    // Of the copies of an input vertex, the first decoded is kept.
-    let mut first = vec![NONE; vertex_count as usize];
-    let mut order = Order::default();
-    for (i, &v) in emitted.iter().enumerate() {
-        let s = source[v as usize];
-        if s == NONE {
-            continue; // a dummy, marked by its D
-        }
-        if first[s as usize] != NONE {
-            out.copies.push([i as u32, first[s as usize]]);
+    /// S: the tip is on the current loop, which splits in two; the shorter
+    /// part is walked first, the other waits on the stack.
+    fn split(&mut self, a: u32, b: u32, c: u32, nw: u32) -> u32 {
+        self.out.symbols.push(S);
+        // Walk both ways from the gate to find the shorter part.
+        let (mut f, mut g, mut steps) = (b, a, 0u32);
+        let right_shorter = loop {
+            if f == nw {
+                break true;
+            }
+            if g == nw {
+                break false;
+            }
+            f = self.loops.next(f);
+            g = self.loops.prev(g);
+            steps += 1;
+        };
+        let current = self.current;
+        let len = self.loop_len[current as usize];
+        let (l1, l2) = if right_shorter { (steps + 1, len + 1 - (steps + 1)) } else { (len + 1 - (steps + 1), steps + 1) };
+        let w2 = self.loops.splice(a, nw, next(c), prev(c));
+        self.attach(w2);
+        let fresh = self.loop_len.len() as u32;
+        let start = if right_shorter { nw } else { a };
+        self.relabel(start, self.loops.prev(start), fresh);
+        if right_shorter {
+            self.loop_len.push(l1);
+            self.loop_len[current as usize] = l2;
+            self.stack.push((a, current));
+            self.current = fresh;
         } else {
-            first[s as usize] = i as u32;
-            order.vertices.push(s);
+            self.loop_len.push(l2);
+            self.loop_len[current as usize] = l1;
+            self.stack.push((a, fresh));
         }
+        nw
     }
-    order.triangles = triangle_order.into_iter().filter(|&t| t < *real_triangles).collect();
-    Ok((out, order))
+
+    /// M: the tip is on a waiting loop, which joins the current one.
+    fn merge(&mut self, a: u32, b: u32, c: u32, nw: u32) -> u32 {
+        self.out.symbols.push(M);
+        let other = self.loops.nodes[nw as usize].loop_id;
+        let position = self.stack.iter().rposition(|&(_, id)| id == other).expect("a loop other than the current one is on the stack");
+        let (other_gate, _) = self.stack.remove(position);
+        let mut offset = 0;
+        let mut k = other_gate;
+        while k != nw {
+            k = self.loops.next(k);
+            offset += 1;
+        }
+        let length = self.loop_len[other as usize];
+        self.out.merges.push(Merge { depth: (self.stack.len() - position) as u32, offset, length });
+        let w2 = self.loops.splice(a, nw, next(c), prev(c));
+        self.attach(w2);
+        let current = self.current;
+        let total = self.loop_len[current as usize] + length + 1;
+        // Relabel the shorter part (the waiting loop's nodes run from w2 to
+        // nw, the current one's from b round to a): walking the whole merged
+        // loop would be quadratic.
+        let (keep, from, to) = if self.loop_len[current as usize] >= length { (current, w2, nw) } else { (other, b, a) };
+        self.relabel(from, to, keep);
+        self.loop_len[keep as usize] = total;
+        self.current = keep;
+        nw
+    }
+
+    /// The connectivity and the order of the input's vertices and triangles.
+    fn finish(self, vertex_count: u32) -> (Connectivity, Order) {
+        let Encoder { closed, emitted, triangle_order, mut out, .. } = self;
+        let triangle_total = closed.corners.len() / 3;
+        debug_assert_eq!(triangle_order.len(), triangle_total);
+        // The start loops' fans are not decoded.
+        out.triangle_count = triangle_total as u32 - out.start_loops.iter().sum::<u32>();
+        out.vertex_count = emitted.len() as u32;
+        // Of the copies of an input vertex, the first decoded is kept.
+        let mut first = vec![NONE; vertex_count as usize];
+        let mut order = Order::default();
+        for (i, &v) in emitted.iter().enumerate() {
+            let s = closed.source[v as usize];
+            if s == NONE {
+                continue; // a dummy, marked by its D
+            }
+            if first[s as usize] != NONE {
+                out.copies.push([i as u32, first[s as usize]]);
+            } else {
+                first[s as usize] = i as u32;
+                order.vertices.push(s);
+            }
+        }
+        order.triangles = triangle_order.into_iter().filter(|&t| t < closed.real_triangles).collect();
+        (out, order)
+    }
 }
 
 /// Per decoded vertex, its index among kept vertices (copies take their
