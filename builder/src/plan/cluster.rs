@@ -106,7 +106,7 @@ pub fn synthesize(
             groups[group_of_label[l]].push(k);
         }
     }
-    let diagonal = scene.bounds().diagonal();
+    let annealing = Annealing { rays, space, targets: &targets, seen: &seen, candidates, diagonal: scene.bounds().diagonal(), params };
     let results: Vec<(Vec3, usize)> = groups
         .par_iter()
         .enumerate()
@@ -116,7 +116,7 @@ pub fn synthesize(
                 return (candidates[members[0]].position, 0);
             }
             let seed = crate::seeds::substream(crate::seeds::Stream::Anneal.seed(params.seed), g as u64);
-            anneal(rays, space, &targets, &seen, candidates, members, diagonal, params, seed)
+            annealing.probe(members, seed)
         })
         .collect();
     stats.rays += results.iter().map(|r| r.1).sum::<usize>();
@@ -211,58 +211,64 @@ fn prune(out: &mut Synthesized, views: &mut Vec<Vec<u64>>, floor: usize) -> usiz
     dropped
 }
 
-/// Simulated annealing of one cluster's probe: from the member that sees most
-/// of the cluster's surface, random moves shrinking from the cluster's spread
-/// to a voxel, accepted by the Metropolis rule; the best position wins.
-#[allow(clippy::too_many_arguments)]
-fn anneal(
-    rays: &RayScene,
-    space: &FreeSpace,
-    targets: &Targets,
-    seen: &[Vec<u64>],
-    candidates: &[Candidate],
-    members: &[usize],
+/// What annealing a cluster's probe needs: the candidates and which target
+/// samples each sees.
+struct Annealing<'a> {
+    rays: &'a RayScene,
+    space: &'a FreeSpace,
+    targets: &'a Targets,
+    seen: &'a [Vec<u64>],
+    candidates: &'a [Candidate],
+    /// The scene's diagonal, for the goodness of views.
     diagonal: f32,
-    params: &SynthesisParams,
-    seed: u64,
-) -> (Vec3, usize) {
-    let mut union = vec![0u64; targets.words()];
-    for &k in members {
-        union.iter_mut().zip(&seen[k]).for_each(|(u, s)| *u |= s);
-    }
-    let size = count_bits(&union).max(1) as f32;
-    let mut cast = 0usize;
-    let mut score = |p: Vec3| -> f32 {
-        let (bits, n) = targets.seen_by(rays, p, Some(&union));
-        let best_view = orient::goodness(rays, p, space.near, diagonal).iter().map(|g| g.1).fold(0.0f32, f32::max);
-        cast += n + 5 * 6 * 24 * 24;
-        count_bits(&bits) as f32 / size + params.goodness_weight * best_view
-    };
-    let start = *members.iter().max_by_key(|&&k| count_bits(&seen[k])).expect("clusters are not empty");
-    let mut current = candidates[start].position;
-    let mut current_score = score(current);
-    let (mut best, mut best_score) = (current, current_score);
-    let centre = members.iter().map(|&k| candidates[k].position).sum::<Vec3>() / members.len() as f32;
-    let spread = members.iter().map(|&k| (candidates[k].position - centre).length()).fold(0.0f32, f32::max).max(4.0 * space.grid.voxel);
-    let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let steps = params.anneal_steps.max(1);
-    for step in 0..steps {
-        let progress = step as f32 / steps as f32;
-        let temperature = 0.05 * (0.02f32).powf(progress);
-        let radius = spread * (1.0 - progress) + space.grid.voxel;
-        let offset = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * radius;
-        let Some(proposal) = space.stand(rays, current + offset) else { continue };
-        let s = score(proposal);
-        if s >= current_score || rng.random::<f32>() < ((s - current_score) / temperature).exp() {
-            current = proposal;
-            current_score = s;
-            if s > best_score {
-                best = proposal;
-                best_score = s;
+    params: &'a SynthesisParams,
+}
+
+impl Annealing<'_> {
+    /// Simulated annealing of one cluster's probe: from the member that sees
+    /// most of the cluster's surface, random moves shrinking from the
+    /// cluster's spread to a voxel, accepted by the Metropolis rule; the best
+    /// position wins. Returns it and the rays cast.
+    fn probe(&self, members: &[usize], seed: u64) -> (Vec3, usize) {
+        let Annealing { rays, space, targets, seen, candidates, diagonal, params } = *self;
+        let mut union = vec![0u64; targets.words()];
+        for &k in members {
+            union.iter_mut().zip(&seen[k]).for_each(|(u, s)| *u |= s);
+        }
+        let size = count_bits(&union).max(1) as f32;
+        let mut cast = 0usize;
+        let mut score = |p: Vec3| -> f32 {
+            let (bits, n) = targets.seen_by(rays, p, Some(&union));
+            let best_view = orient::goodness(rays, p, space.near, diagonal).iter().map(|g| g.1).fold(0.0f32, f32::max);
+            cast += n + 5 * 6 * 24 * 24;
+            count_bits(&bits) as f32 / size + params.goodness_weight * best_view
+        };
+        let start = *members.iter().max_by_key(|&&k| count_bits(&seen[k])).expect("clusters are not empty");
+        let mut current = candidates[start].position;
+        let mut current_score = score(current);
+        let (mut best, mut best_score) = (current, current_score);
+        let centre = members.iter().map(|&k| candidates[k].position).sum::<Vec3>() / members.len() as f32;
+        let spread = members.iter().map(|&k| (candidates[k].position - centre).length()).fold(0.0f32, f32::max).max(4.0 * space.grid.voxel);
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let steps = params.anneal_steps.max(1);
+        for step in 0..steps {
+            let progress = step as f32 / steps as f32;
+            let temperature = 0.05 * (0.02f32).powf(progress);
+            let radius = spread * (1.0 - progress) + space.grid.voxel;
+            let offset = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * radius;
+            let Some(proposal) = space.stand(rays, current + offset) else { continue };
+            let s = score(proposal);
+            if s >= current_score || rng.random::<f32>() < ((s - current_score) / temperature).exp() {
+                current = proposal;
+                current_score = s;
+                if s > best_score {
+                    best = proposal;
+                    best_score = s;
+                }
             }
         }
+        (best, cast)
     }
-    (best, cast)
 }
 
 use crate::plan::explore::Candidate;

@@ -108,23 +108,72 @@ pub fn segment_clear(rays: &RayScene, space: &FreeSpace, a: Vec3, b: Vec3) -> bo
 pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &ConnectParams) -> (Vec<RawPath>, ConnectStats) {
     let started = Instant::now();
     let mut stats = ConnectStats::default();
-    let navigable = space.navigable_points();
-    let mut rng = crate::seeds::Stream::Connect.rng(params.seed);
-    // Enough witnesses for each probe to share some with its neighbours however many probes there are.
-    let count = params.witness_points.max(WITNESSES_PER_PROBE * probes.len());
-    let witnesses: Vec<Vec3> =
-        if navigable.is_empty() { Vec::new() } else { (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
-    let seen: Vec<Vec<bool>> = probes
-        .par_iter()
-        .map(|&p| {
-            let segments: Vec<Ray> = witnesses.iter().map(|&w| Ray::segment(p, w)).collect();
-            rays.occluded_batch(&segments, Packing::Packets8).into_iter().map(|b| !b).collect()
-        })
-        .collect();
+    let witnesses = Witnesses::new(rays, space, probes, params);
     let pairs: Vec<(usize, usize)> = (0..probes.len()).flat_map(|i| (i + 1..probes.len()).map(move |j| (i, j))).collect();
     stats.pairs_tested = pairs.len();
-    // Phase 1, in parallel: the straight segment, or two legs through a shared point.
-    let shares = |i: usize, j: usize| (0..witnesses.len()).any(|k| seen[i][k] && seen[j][k]);
+    let (mut paths, searches) = direct_routes(rays, space, probes, &witnesses, &pairs, &mut stats);
+    // A* between parts of the navigable space that never touch would search
+    // all of one part before giving up: such pairs are refused at once.
+    let part = if searches.is_empty() && components(probes.len(), &paths) == 1 {
+        Vec::new()
+    } else {
+        crate::plan::freespace::components_26(&space.grid, &space.navigable).0
+    };
+    let routing = Routing { rays, space, probes, part };
+    routing.search(&searches, params.prune_ratio, &mut paths, &mut stats);
+    routing.join_groups(&mut paths, &mut stats);
+    let before = paths.len();
+    let paths = prune(probes.len(), paths, params.prune_ratio);
+    stats.pruned += before - paths.len();
+    stats.paths = paths.len();
+    stats.components = components(probes.len(), &paths);
+    stats.islands = islands(probes.len(), &paths);
+    stats.seconds = started.elapsed().as_secs_f64();
+    (paths, stats)
+}
+
+/// Random navigable points, and which of them each probe sees: two probes
+/// that see a point in common share a view.
+struct Witnesses {
+    points: Vec<Vec3>,
+    seen: Vec<Vec<bool>>,
+}
+
+impl Witnesses {
+    fn new(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &ConnectParams) -> Witnesses {
+        let navigable = space.navigable_points();
+        let mut rng = crate::seeds::Stream::Connect.rng(params.seed);
+        // Enough witnesses for each probe to share some with its neighbours however many probes there are.
+        let count = params.witness_points.max(WITNESSES_PER_PROBE * probes.len());
+        let points: Vec<Vec3> =
+            if navigable.is_empty() { Vec::new() } else { (0..count).map(|_| navigable[rng.random_range(0..navigable.len())]).collect() };
+        let seen = probes
+            .par_iter()
+            .map(|&p| {
+                let segments: Vec<Ray> = points.iter().map(|&w| Ray::segment(p, w)).collect();
+                rays.occluded_batch(&segments, Packing::Packets8).into_iter().map(|b| !b).collect()
+            })
+            .collect();
+        Witnesses { points, seen }
+    }
+
+    /// The points probes `i` and `j` both see.
+    fn shared(&self, i: usize, j: usize) -> impl Iterator<Item = Vec3> + '_ {
+        (0..self.points.len()).filter(move |&k| self.seen[i][k] && self.seen[j][k]).map(|k| self.points[k])
+    }
+}
+
+/// Phase 1, in parallel: the straight segment, or two legs through a shared
+/// point; returns those routes, and the pairs that share a view but got
+/// neither (to search).
+fn direct_routes(
+    rays: &RayScene,
+    space: &FreeSpace,
+    probes: &[Vec3],
+    witnesses: &Witnesses,
+    pairs: &[(usize, usize)],
+    stats: &mut ConnectStats,
+) -> (Vec<RawPath>, Vec<(usize, usize)>) {
     let cheap: Vec<Option<RawPath>> = pairs
         .par_iter()
         .map(|&(i, j)| {
@@ -132,7 +181,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
             if segment_clear(rays, space, a, b) {
                 return Some(RawPath { from: i, to: j, polyline: vec![a, b] });
             }
-            let mut shared: Vec<Vec3> = (0..witnesses.len()).filter(|&k| seen[i][k] && seen[j][k]).map(|k| witnesses[k]).collect();
+            let mut shared: Vec<Vec3> = witnesses.shared(i, j).collect();
             shared.sort_by(|x, y| ((*x - a).length() + (*x - b).length()).total_cmp(&((*y - a).length() + (*y - b).length())));
             shared.into_iter().take(8).find(|&w| segment_clear(rays, space, a, w) && segment_clear(rays, space, w, b)).map(|w| RawPath {
                 from: i,
@@ -144,7 +193,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
     let mut paths = Vec::new();
     let mut searches = Vec::new();
     for (&(i, j), route) in pairs.iter().zip(cheap) {
-        let share = shares(i, j);
+        let share = witnesses.shared(i, j).next().is_some();
         stats.pairs_sharing_view += share as usize;
         match route {
             Some(path) => {
@@ -159,81 +208,91 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
             None => {}
         }
     }
-    // Phase 2, nearest pairs first: A* only where no two-arc detour already
-    // beats the pruning bound (an A* route is never shorter than the straight line).
-    searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
-    // A* between parts of the navigable space that never touch would search
-    // all of one part before giving up: such pairs are refused at once.
-    let (part, _) = if searches.is_empty() && components(probes.len(), &paths) == 1 {
-        (Vec::new(), Vec::new())
-    } else {
-        crate::plan::freespace::components_26(&space.grid, &space.navigable)
-    };
-    let part_of = |p: Vec3| space.grid.cell(p).map(|c| part[space.grid.index(c)]);
-    // In batches of a fixed size, whatever the thread count: a batch's pairs
-    // are checked for detours against the paths found before it, then
-    // searched in parallel.
-    for batch in searches.chunks(SEARCH_BATCH) {
-        let mut wanted = Vec::with_capacity(batch.len());
-        for &(i, j) in batch {
-            if part_of(probes[i]) != part_of(probes[j]) {
-                stats.unroutable += 1;
-                continue;
-            }
-            let bound = params.prune_ratio * (probes[i] - probes[j]).length();
-            let arc =
-                |x: usize, y: usize| paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline));
-            let detour =
-                (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));
-            if detour {
-                stats.pruned += 1;
-            } else {
-                wanted.push((i, j));
-            }
-        }
-        let routes: Vec<Option<Vec<Vec3>>> = wanted.par_iter().map(|&(i, j)| a_star(space, probes[i], probes[j])).collect();
-        for (&(i, j), route) in wanted.iter().zip(routes) {
-            match route {
-                Some(polyline) => {
-                    stats.a_star += 1;
-                    paths.push(RawPath { from: i, to: j, polyline });
+    (paths, searches)
+}
+
+/// What the later phases route with: `part` gives each navigable voxel its
+/// 26-connected part (empty when no phase needs it).
+struct Routing<'a> {
+    rays: &'a RayScene,
+    space: &'a FreeSpace,
+    probes: &'a [Vec3],
+    part: Vec<u32>,
+}
+
+impl Routing<'_> {
+    fn part_of(&self, p: Vec3) -> Option<u32> {
+        self.space.grid.cell(p).map(|c| self.part[self.space.grid.index(c)])
+    }
+
+    /// Phase 2, nearest pairs first: A* only where no two-arc detour
+    /// already beats the pruning bound (an A* route is never shorter than
+    /// the straight line). In batches of a fixed size, whatever the thread
+    /// count: a batch's pairs are checked for detours against the paths
+    /// found before it, then searched in parallel.
+    fn search(&self, searches: &[(usize, usize)], prune_ratio: f32, paths: &mut Vec<RawPath>, stats: &mut ConnectStats) {
+        let probes = self.probes;
+        let mut searches = searches.to_vec();
+        searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
+        for batch in searches.chunks(SEARCH_BATCH) {
+            let mut wanted = Vec::with_capacity(batch.len());
+            for &(i, j) in batch {
+                if self.part_of(probes[i]) != self.part_of(probes[j]) {
+                    stats.unroutable += 1;
+                    continue;
                 }
-                None => stats.unroutable += 1,
+                let bound = prune_ratio * (probes[i] - probes[j]).length();
+                let arc = |x: usize, y: usize| {
+                    paths.iter().find(|p: &&RawPath| (p.from, p.to) == (x.min(y), x.max(y))).map(|p| polyline_length(&p.polyline))
+                };
+                let detour =
+                    (0..probes.len()).filter(|&m| m != i && m != j).any(|m| matches!((arc(i, m), arc(m, j)), (Some(a), Some(b)) if a + b <= bound));
+                if detour {
+                    stats.pruned += 1;
+                } else {
+                    wanted.push((i, j));
+                }
+            }
+            let routes: Vec<Option<Vec<Vec3>>> = wanted.par_iter().map(|&(i, j)| a_star(self.space, probes[i], probes[j])).collect();
+            for (&(i, j), route) in wanted.iter().zip(routes) {
+                match route {
+                    Some(polyline) => {
+                        stats.a_star += 1;
+                        paths.push(RawPath { from: i, to: j, polyline });
+                    }
+                    None => stats.unroutable += 1,
+                }
             }
         }
     }
-    // Phase 3: groups of probes that share no view with each other but stand
-    // in one part of the navigable space (hundreds of probes in a labyrinth
-    // left 80 groups) are joined where the walk between them is shortest.
-    // (Nearest in a straight line was tried first: probes 2 m apart through
-    // a wall got routes of up to 1.7 km.)
-    if components(probes.len(), &paths) > 1 {
-        let parts: Vec<Option<u32>> = probes.iter().map(|&p| part_of(p)).collect();
-        for (i, j, polyline) in walks_between_groups(space, &space.navigable, probes, &parts, &paths) {
-            stats.joined += 1;
-            paths.push(RawPath { from: i, to: j, polyline });
+
+    /// Phases 3 and 4: groups of probes that share no view with each other
+    /// but stand in one part of the navigable space (hundreds of probes in a
+    /// labyrinth left 80 groups) are joined where the walk between them is
+    /// shortest. (Nearest in a straight line was tried first: probes 2 m
+    /// apart through a wall got routes of up to 1.7 km.) Where walking
+    /// cannot join groups (a ledge, terraces a metre apart, a room reached
+    /// over a sill), a path glides through the fly space between them,
+    /// straightened.
+    fn join_groups(&self, paths: &mut Vec<RawPath>, stats: &mut ConnectStats) {
+        let (space, probes) = (self.space, self.probes);
+        if components(probes.len(), paths) > 1 {
+            let parts: Vec<Option<u32>> = probes.iter().map(|&p| self.part_of(p)).collect();
+            for (i, j, polyline) in walks_between_groups(space, &space.navigable, probes, &parts, paths) {
+                stats.joined += 1;
+                paths.push(RawPath { from: i, to: j, polyline });
+            }
+        }
+        if !space.glide.is_empty() && components(probes.len(), paths) > 1 {
+            let (glide_part, _) = crate::plan::freespace::components_26(&space.grid, &space.glide);
+            let parts: Vec<Option<u32>> =
+                probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
+            for (i, j, polyline) in walks_between_groups(space, &space.glide, probes, &parts, paths) {
+                stats.glided += 1;
+                paths.push(RawPath { from: i, to: j, polyline: straighten(self.rays, space, &polyline) });
+            }
         }
     }
-    // Phase 4: where walking cannot join groups (a ledge, terraces a metre
-    // apart, a room reached over a sill), a path glides through the fly
-    // space between them, straightened.
-    if !space.glide.is_empty() && components(probes.len(), &paths) > 1 {
-        let (glide_part, _) = crate::plan::freespace::components_26(&space.grid, &space.glide);
-        let parts: Vec<Option<u32>> =
-            probes.iter().map(|&p| space.grid.cell(p).map(|c| glide_part[space.grid.index(c)]).filter(|&l| l != u32::MAX)).collect();
-        for (i, j, polyline) in walks_between_groups(space, &space.glide, probes, &parts, &paths) {
-            stats.glided += 1;
-            paths.push(RawPath { from: i, to: j, polyline: straighten(rays, space, &polyline) });
-        }
-    }
-    let before = paths.len();
-    let paths = prune(probes.len(), paths, params.prune_ratio);
-    stats.pruned += before - paths.len();
-    stats.paths = paths.len();
-    stats.components = components(probes.len(), &paths);
-    stats.islands = islands(probes.len(), &paths);
-    stats.seconds = started.elapsed().as_secs_f64();
-    (paths, stats)
 }
 
 /// The probes of each connected group, largest first, when there are several.

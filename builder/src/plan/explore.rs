@@ -173,94 +173,22 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
     let seed = crate::seeds::Stream::Greedy.seed(params.seed);
     let (targets, reach_rays) = Targets::new(scene, rays, space, params.selection_samples, MIN_SAMPLES_PER_OBJECT, seed);
     stats.rays += reach_rays;
-
-    // Candidates: user probes, then seeded random navigable voxel centres.
-    let navigable = space.navigable_points();
-    let mut rng = crate::seeds::Stream::Candidates.rng(params.seed);
-    let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
-    let mut rank: Vec<Standpoint> = vec![Standpoint::Open; positions.len()];
-    if !navigable.is_empty() {
-        let half = Vec3::splat(0.5 * space.grid.voxel);
-        // Several candidates for each probe the budget allows, however large the scene.
-        let count = params.candidates.max(4 * params.max_probes);
-        // Where a visitor would stand (in the open part of a room), and
-        // elsewhere where one can stand (near a wall, in a niche). Where the
-        // open is scarce (corridors, small furnished rooms), more batches
-        // are drawn for open standpoints alone, so that coverage need not
-        // fall back on standing by a wall.
-        let mut open = 0;
-        for batch in 0..OPEN_BATCHES {
-            let drawn: Vec<Vec3> = (0..count)
-                .map(|_| {
-                    let c = navigable[rng.random_range(0..navigable.len())];
-                    // Jitter inside the voxel so candidates are not locked to the grid.
-                    c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
-                })
-                .collect();
-            let standing: Vec<(Vec3, Standpoint)> = drawn
-                .par_iter()
-                .filter_map(|&c| {
-                    space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open }))
-                })
-                .filter(|s| batch == 0 || s.1 == Standpoint::Open)
-                .collect();
-            open += standing.iter().filter(|s| s.1 == Standpoint::Open).count();
-            rank.extend(standing.iter().map(|s| s.1));
-            positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
-            if !params.prefer_open || 2 * open >= count {
-                break;
-            }
-        }
-    }
+    let (positions, rank) = candidates(rays, space, params);
     let t = Instant::now();
-    let words = targets.words();
     // Which reachable samples each candidate sees.
     let visibility: Vec<(Vec<u64>, usize)> = positions.par_iter().map(|&(c, _)| targets.seen_by(rays, c, None)).collect();
     stats.rays += visibility.iter().map(|v| v.1).sum::<usize>();
     stats.seconds_views = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    // Per object: reachable samples, and how many are seen so far.
-    let object_of: Vec<usize> = targets.index.iter().map(|&i| scene.triangle_object[targets.samples.triangles[i] as usize] as usize).collect();
-    let mut object_total = vec![0usize; scene.objects.len()];
-    object_of.iter().for_each(|&o| object_total[o] += 1);
-    let mut object_seen = vec![0usize; scene.objects.len()];
-    let mut covered = vec![0u64; words];
-    let mut covered_count = 0usize;
-    let mut probes = Vec::new();
-    let take = |k: usize, covered: &mut Vec<u64>, probes: &mut Vec<Candidate>, covered_count: &mut usize, object_seen: &mut Vec<usize>| {
-        for (w, (c, b)) in covered.iter_mut().zip(&visibility[k].0).enumerate() {
-            let mut fresh = b & !*c;
-            *covered_count += fresh.count_ones() as usize;
-            while fresh != 0 {
-                object_seen[object_of[w * 64 + fresh.trailing_zeros() as usize]] += 1;
-                fresh &= fresh - 1;
-            }
-            *c |= b;
-        }
-        probes.push(Candidate { position: positions[k].0, user_placed: positions[k].1 });
-    };
-    for k in 0..params.user_probes.len() {
-        take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen);
-    }
+    let mut cover = Cover::new(scene, &targets);
+    // The candidates taken, user probes first.
+    let mut chosen: Vec<usize> = (0..params.user_probes.len()).collect();
+    chosen.iter().for_each(|&k| cover.add(&visibility[k].0));
     let object_target = params.coverage_target - OBJECT_SLACK;
-    while probes.len() < params.max_probes {
-        // Once the whole is covered enough, only objects still short of their share count.
-        let overall_met = covered_count as f64 >= params.coverage_target * targets.len() as f64;
-        let mut focus = vec![!0u64; words];
-        if overall_met {
-            let lagging: Vec<bool> = (0..object_total.len()).map(|o| (object_seen[o] as f64) < object_target * object_total[o] as f64).collect();
-            if !lagging.contains(&true) {
-                break;
-            }
-            focus = vec![0u64; words];
-            for (k, &o) in object_of.iter().enumerate() {
-                if lagging[o] {
-                    focus[k / 64] |= 1 << (k % 64);
-                }
-            }
-        }
-        let gain = |bits: &[u64]| bits.iter().zip(&covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
+    while chosen.len() < params.max_probes {
+        let Some(focus) = cover.focus(params.coverage_target, object_target) else { break };
+        let gain = |bits: &[u64]| bits.iter().zip(&cover.covered).zip(&focus).map(|((b, c), f)| (b & !c & f).count_ones() as usize).sum::<usize>();
         // Highest gain; ties go to the lowest index, so the choice is deterministic.
         // Standpoints in the open while any gains; then, for a niche seen
         // only from beside a wall, clear ones (unless one anywhere sees twice
@@ -273,7 +201,7 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
                 .map(|k| (gain(&visibility[k].0), k))
                 .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)))
         };
-        let short = (covered_count as f64) < (params.coverage_target - NICHE_SLACK) * targets.len() as f64;
+        let short = (cover.count as f64) < (params.coverage_target - NICHE_SLACK) * cover.total as f64;
         let gains = |o: &(usize, usize)| o.0 > 0;
         let fallback = || {
             let (clear, any) = (best_of(Standpoint::Clear), best_of(Standpoint::Cramped));
@@ -284,19 +212,127 @@ fn explore_greedy(scene: &Scene, rays: &RayScene, space: &FreeSpace, params: &Ex
         match best {
             Some((g, k)) if g > 0 => {
                 stats.probes_not_in_the_open += usize::from(rank[k] != Standpoint::Open);
-                take(k, &mut covered, &mut probes, &mut covered_count, &mut object_seen)
+                cover.add(&visibility[k].0);
+                chosen.push(k);
             }
             _ => break,
         }
     }
+    let probes: Vec<Candidate> = chosen.into_iter().map(|k| Candidate { position: positions[k].0, user_placed: positions[k].1 }).collect();
     stats.seconds_masking = t.elapsed().as_secs_f64();
     stats.open_candidates = rank.iter().filter(|&&r| r == Standpoint::Open).count();
     stats.samples_created = targets.len();
-    stats.samples_left = targets.len() - covered_count;
+    stats.samples_left = targets.len() - cover.count;
     stats.probes = probes.len();
-    stats.capped = probes.len() >= params.max_probes && (covered_count as f64) < params.coverage_target * targets.len() as f64;
+    stats.capped = probes.len() >= params.max_probes && (cover.count as f64) < params.coverage_target * targets.len() as f64;
     stats.seconds = started.elapsed().as_secs_f64();
     (probes, stats)
+}
+
+/// The candidates: user probes, then seeded random navigable voxel centres
+/// moved to where one stands, with how open each standpoint is.
+fn candidates(rays: &RayScene, space: &FreeSpace, params: &ExploreParams) -> (Vec<(Vec3, bool)>, Vec<Standpoint>) {
+    let navigable = space.navigable_points();
+    let mut rng = crate::seeds::Stream::Candidates.rng(params.seed);
+    let mut positions: Vec<(Vec3, bool)> = params.user_probes.iter().map(|&p| (p, true)).collect();
+    let mut rank: Vec<Standpoint> = vec![Standpoint::Open; positions.len()];
+    if navigable.is_empty() {
+        return (positions, rank);
+    }
+    let half = Vec3::splat(0.5 * space.grid.voxel);
+    // Several candidates for each probe the budget allows, however large the scene.
+    let count = params.candidates.max(4 * params.max_probes);
+    // Where a visitor would stand (in the open part of a room), and
+    // elsewhere where one can stand (near a wall, in a niche). Where the
+    // open is scarce (corridors, small furnished rooms), more batches
+    // are drawn for open standpoints alone, so that coverage need not
+    // fall back on standing by a wall.
+    let mut open = 0;
+    for batch in 0..OPEN_BATCHES {
+        let drawn: Vec<Vec3> = (0..count)
+            .map(|_| {
+                let c = navigable[rng.random_range(0..navigable.len())];
+                // Jitter inside the voxel so candidates are not locked to the grid.
+                c + (Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0) * half
+            })
+            .collect();
+        let standing: Vec<(Vec3, Standpoint)> = drawn
+            .par_iter()
+            .filter_map(|&c| {
+                space.stand_anywhere(rays, c).map(|s| (s, if params.prefer_open { space.standpoint_rank(rays, s) } else { Standpoint::Open }))
+            })
+            .filter(|s| batch == 0 || s.1 == Standpoint::Open)
+            .collect();
+        open += standing.iter().filter(|s| s.1 == Standpoint::Open).count();
+        rank.extend(standing.iter().map(|s| s.1));
+        positions.extend(standing.into_iter().map(|(c, _)| (c, false)));
+        if !params.prefer_open || 2 * open >= count {
+            break;
+        }
+    }
+    (positions, rank)
+}
+
+/// The reachable samples seen so far, overall and per object.
+struct Cover {
+    /// Bit sets over the samples.
+    covered: Vec<u64>,
+    count: usize,
+    total: usize,
+    object_of: Vec<usize>,
+    object_total: Vec<usize>,
+    object_seen: Vec<usize>,
+}
+
+impl Cover {
+    fn new(scene: &Scene, targets: &Targets) -> Cover {
+        let object_of: Vec<usize> = targets.index.iter().map(|&i| scene.triangle_object[targets.samples.triangles[i] as usize] as usize).collect();
+        let mut object_total = vec![0usize; scene.objects.len()];
+        object_of.iter().for_each(|&o| object_total[o] += 1);
+        Cover {
+            covered: vec![0u64; targets.words()],
+            count: 0,
+            total: targets.len(),
+            object_of,
+            object_total,
+            object_seen: vec![0usize; scene.objects.len()],
+        }
+    }
+
+    /// Counts in the samples a probe sees.
+    fn add(&mut self, seen: &[u64]) {
+        for (w, (c, b)) in self.covered.iter_mut().zip(seen).enumerate() {
+            let mut fresh = b & !*c;
+            self.count += fresh.count_ones() as usize;
+            while fresh != 0 {
+                self.object_seen[self.object_of[w * 64 + fresh.trailing_zeros() as usize]] += 1;
+                fresh &= fresh - 1;
+            }
+            *c |= b;
+        }
+    }
+
+    /// The samples still worth a probe: all, until the whole is covered to
+    /// `target`; then those of objects short of `object_target`; `None`
+    /// when none is.
+    fn focus(&self, target: f64, object_target: f64) -> Option<Vec<u64>> {
+        let words = self.covered.len();
+        if (self.count as f64) < target * self.total as f64 {
+            return Some(vec![!0u64; words]);
+        }
+        let lagging: Vec<bool> =
+            (0..self.object_total.len()).map(|o| (self.object_seen[o] as f64) < object_target * self.object_total[o] as f64).collect();
+        if !lagging.contains(&true) {
+            return None;
+        }
+        let mut focus = vec![0u64; words];
+        for (k, &o) in self.object_of.iter().enumerate() {
+            if lagging[o] {
+                focus[k / 64] |= 1 << (k % 64);
+            }
+        }
+        Some(focus)
+    }
 }
 
 /// The paper's strategy: places probes until every occluded-space sample is seen.

@@ -197,7 +197,8 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     let (bar_order, order) = order_stage(&probes.probes, &paths, seed);
     let measured = measure(scene, &rays, &space, &probes.probes, params);
     let stats = PlanStats { scale, free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
-    let graph = assemble(scene, source, &space, &probes, directions, paths, bar_order, &measured, &stats);
+    let routes = Routes { directions, paths, bar_order };
+    let graph = assemble(scene, source, &space, &probes, routes, &measured, &stats);
     let timings = stats.timings();
     let mut plan = measured.into_plan(graph, stats, timings, started);
     plan.timings.set("plan", "seconds", format::record::Seconds::Total(plan.seconds));
@@ -550,18 +551,14 @@ pub fn baselines(rays: &RayScene, space: &FreeSpace, count: usize, seed: u64, ba
         .collect()
 }
 
-/// The bundle's graph from the stages' results: the scene's description, the
-/// probes (with their clusters and view directions), paths, bar order,
-/// coverage and stats.
-#[allow(clippy::too_many_arguments)]
+/// The bundle's graph: the scene, the probes with their directions and
+/// clusters, the paths in bar order, the coverage and the stages' figures.
 fn assemble(
     scene: &Scene,
     source: &str,
     space: &FreeSpace,
     probes: &Synthesized,
-    directions: Vec<Vec<format::ViewDirection>>,
-    paths: Vec<format::Path>,
-    bar_order: Vec<u32>,
+    routes: Routes,
     measured: &Measured,
     stats: &PlanStats,
 ) -> format::Graph {
@@ -582,7 +579,7 @@ fn assemble(
     graph.probes = probes
         .probes
         .iter()
-        .zip(directions)
+        .zip(routes.directions)
         .enumerate()
         .map(|(i, (p, preferred_directions))| format::Probe {
             id: i as u32,
@@ -599,13 +596,21 @@ fn assemble(
         .enumerate()
         .map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 })
         .collect();
-    graph.paths = paths;
-    graph.bar_order = bar_order;
+    graph.paths = routes.paths;
+    graph.bar_order = routes.bar_order;
     graph.coverage = Some(measured.entry());
     if let serde_json::Value::Object(entries) = serde_json::to_value(stats).expect("JSON of plain values") {
         graph.stats.stages.extend(entries);
     }
     graph
+}
+
+/// How the probes are seen and joined: each one's preferred directions, the
+/// paths, and the thumbnail bar's order.
+struct Routes {
+    directions: Vec<Vec<format::ViewDirection>>,
+    paths: Vec<format::Path>,
+    bar_order: Vec<u32>,
 }
 
 #[cfg(test)]
