@@ -197,8 +197,8 @@ pub fn plan(scene: &Scene, source: &str, params: &PlanParams) -> Result<Plan, Pl
     let (bar_order, order) = order_stage(&probes.probes, &paths, seed);
     let measured = measure(scene, &rays, &space, &probes.probes, params);
     let stats = PlanStats { scale, free_space, explore, cluster, orient, connect, smooth, order, coverage: measured.stats() };
-    let routes = Routes { directions, paths, bar_order };
-    let graph = assemble(scene, source, &space, &probes, routes, &measured, &stats);
+    let map = Map { probes, directions, paths, bar_order };
+    let graph = assemble(scene, source, &space, map, &measured, &stats);
     let timings = stats.timings();
     let mut plan = measured.into_plan(graph, stats, timings, started);
     plan.timings.set("plan", "seconds", format::record::Seconds::Total(plan.seconds));
@@ -553,15 +553,8 @@ pub fn baselines(rays: &RayScene, space: &FreeSpace, count: usize, seed: u64, ba
 
 /// The bundle's graph: the scene, the probes with their directions and
 /// clusters, the paths in bar order, the coverage and the stages' figures.
-fn assemble(
-    scene: &Scene,
-    source: &str,
-    space: &FreeSpace,
-    probes: &Synthesized,
-    routes: Routes,
-    measured: &Measured,
-    stats: &PlanStats,
-) -> format::Graph {
+fn assemble(scene: &Scene, source: &str, space: &FreeSpace, map: Map, measured: &Measured, stats: &PlanStats) -> format::Graph {
+    let Map { probes, directions, paths, bar_order } = map;
     let b = scene.bounds();
     let mut graph = format::Graph::new(format::SceneInfo {
         name: scene.name.clone(),
@@ -579,7 +572,7 @@ fn assemble(
     graph.probes = probes
         .probes
         .iter()
-        .zip(routes.directions)
+        .zip(directions)
         .enumerate()
         .map(|(i, (p, preferred_directions))| format::Probe {
             id: i as u32,
@@ -596,8 +589,8 @@ fn assemble(
         .enumerate()
         .map(|(i, &(probe, merged))| format::Cluster { id: i as u32, probe: probe as u32, candidates: merged as u32 })
         .collect();
-    graph.paths = routes.paths;
-    graph.bar_order = routes.bar_order;
+    graph.paths = paths;
+    graph.bar_order = bar_order;
     graph.coverage = Some(measured.entry());
     if let serde_json::Value::Object(entries) = serde_json::to_value(stats).expect("JSON of plain values") {
         graph.stats.stages.extend(entries);
@@ -605,9 +598,10 @@ fn assemble(
     graph
 }
 
-/// How the probes are seen and joined: each one's preferred directions, the
-/// paths, and the thumbnail bar's order.
-struct Routes {
+/// The map the stages made: the probes, each one's preferred directions,
+/// the paths, and the thumbnail bar's order.
+struct Map {
+    probes: Synthesized,
     directions: Vec<Vec<format::ViewDirection>>,
     paths: Vec<format::Path>,
     bar_order: Vec<u32>,
