@@ -512,109 +512,144 @@ impl Graph {
 
     /// Checks every invariant a reader relies on; the first violation is returned.
     pub fn validate(&self) -> Result<(), FormatError> {
-        let bad = |m: String| Err(FormatError::Invalid(m));
         if self.format_version != FORMAT_VERSION {
             return Err(FormatError::Version { found: self.format_version, expected: FORMAT_VERSION });
         }
+        self.check().map_err(FormatError::Invalid)
+    }
+
+    fn check(&self) -> Result<(), String> {
         let s = &self.scene;
         if !(all_finite(&s.bounds_min) && all_finite(&s.bounds_max) && s.metres_per_unit.is_finite() && s.metres_per_unit > 0.0) {
-            return bad("scene bounds or metres_per_unit are not finite and positive".into());
+            return Err("scene bounds or metres_per_unit are not finite and positive".into());
         }
-        self.stats.floors().map_err(FormatError::Invalid)?;
+        self.stats.floors()?;
         if s.near_distance.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
-            return bad("scene.near_distance must be finite and positive".into());
+            return Err("scene.near_distance must be finite and positive".into());
         }
         let n = self.probes.len() as u32;
         for (i, p) in self.probes.iter().enumerate() {
-            if p.id != i as u32 {
-                return bad(format!("probe at index {i} has id {}", p.id));
-            }
-            if !all_finite(&p.position) {
-                return bad(format!("probe {i} has a non-finite position"));
-            }
-            if p.preferred_directions.iter().any(|d| !(d.yaw.is_finite() && d.pitch.is_finite() && d.goodness.is_finite())) {
-                return bad(format!("probe {i} has a non-finite preferred direction"));
-            }
-            if p.cluster.is_some_and(|c| c as usize >= self.clusters.len()) {
-                return bad(format!("probe {i} names cluster {}, but there are {}", p.cluster.unwrap(), self.clusters.len()));
-            }
-            let a = &p.assets;
-            if let Some(t) = &a.tiles {
-                // Tiles of at least 64 pixels (or the whole face) bound the
-                // count a hostile graph can make readers walk.
-                if !(16..=16384).contains(&t.size)
-                    || !(64.min(t.size)..=4096).contains(&t.tile)
-                    || !(1..=15).contains(&t.levels)
-                    || t.size.div_ceil(1 << (t.levels - 1)) > t.tile
-                    || t.preview_size > 4096
-                {
-                    return bad(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
-                }
-            }
-            let tiles = a.tiles.iter().flat_map(|t| [&t.path, &t.preview]);
-            let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail).chain(tiles);
-            for name in names {
-                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("probe {i}: {m}")))?;
-            }
+            p.check(i, self.clusters.len())?;
         }
         for (i, c) in self.clusters.iter().enumerate() {
             if c.id != i as u32 || c.probe >= n {
-                return bad(format!("cluster {i} has id {} or names probe {} (of {n})", c.id, c.probe));
+                return Err(format!("cluster {i} has id {} or names probe {} (of {n})", c.id, c.probe));
             }
         }
         for (i, p) in self.paths.iter().enumerate() {
-            if p.id != i as u32 {
-                return bad(format!("path at index {i} has id {}", p.id));
-            }
-            if p.from >= n || p.to >= n || p.from == p.to {
-                return bad(format!("path {i} joins probes {} and {}, but there are {n} probes", p.from, p.to));
-            }
-            if p.polyline.len() < 2 || !p.polyline.iter().all(all_finite) {
-                return bad(format!("path {i} needs a finite polyline of at least two points"));
-            }
-            if !(p.length.is_finite() && p.length >= 0.0 && p.duration_s.is_finite() && p.duration_s >= 0.0) {
-                return bad(format!("path {i} has a negative or non-finite length or duration"));
-            }
-            if p.camera.iter().any(|k| !(k.t_s.is_finite() && all_finite(&k.position) && k.yaw.is_finite() && k.pitch.is_finite())) {
-                return bad(format!("path {i} has a non-finite camera key"));
-            }
-            for name in p.assets.video.iter().chain(&p.assets.poster) {
-                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("path {i}: {m}")))?;
-            }
+            p.check(i, n)?;
         }
-        if !self.bar_order.is_empty() {
-            let mut seen = vec![false; n as usize];
-            for &id in &self.bar_order {
-                if id >= n || std::mem::replace(&mut seen[id as usize], true) {
-                    return bad(format!("bar_order is not a permutation of the {n} probes (at id {id})"));
-                }
-            }
-            if seen.iter().any(|s| !s) {
-                return bad("bar_order leaves out some probes".into());
-            }
-        }
+        self.check_bar_order()?;
         if let Some(proxy) = &self.proxy {
-            for level in &proxy.levels {
-                check_asset_name(&level.file).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
-                if !(level.error.is_finite() && level.error >= 0.0) {
-                    return bad(format!("proxy level {} has a negative or non-finite error", level.file));
-                }
-            }
-            if !proxy.depth_maps.is_empty() && proxy.depth_maps.len() != self.probes.len() {
-                return bad(format!("proxy has {} depth maps for {} probes", proxy.depth_maps.len(), self.probes.len()));
-            }
-            let chunk_files = proxy.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
-            for name in proxy.glb.iter().chain(proxy.levels.iter().flat_map(|l| &l.seen)).chain(&proxy.depth_maps).chain(chunk_files) {
-                check_asset_name(name).map_err(|m| FormatError::Invalid(format!("proxy: {m}")))?;
-            }
-            if proxy.floors.iter().any(|f| !f.is_finite()) || !proxy.floors.is_sorted() {
-                return bad("proxy floors must be finite heights, lowest first".to_string());
-            }
+            proxy.check(self.probes.len())?;
         }
         if let Some(c) = &self.coverage {
             if !(c.reachable_area.is_finite() && c.covered_area.is_finite() && c.covered_area <= c.reachable_area * (1.0 + 1e-9) + 1e-12) {
-                return bad("coverage areas are not finite or covered exceeds reachable".into());
+                return Err("coverage areas are not finite or covered exceeds reachable".into());
             }
+        }
+        Ok(())
+    }
+
+    /// Empty, or a permutation of the probes.
+    fn check_bar_order(&self) -> Result<(), String> {
+        if self.bar_order.is_empty() {
+            return Ok(());
+        }
+        let n = self.probes.len();
+        let mut seen = vec![false; n];
+        for &id in &self.bar_order {
+            if id as usize >= n || std::mem::replace(&mut seen[id as usize], true) {
+                return Err(format!("bar_order is not a permutation of the {n} probes (at id {id})"));
+            }
+        }
+        if seen.iter().any(|s| !s) {
+            return Err("bar_order leaves out some probes".into());
+        }
+        Ok(())
+    }
+}
+
+impl Probe {
+    /// The checks of probe `i` among `clusters` clusters.
+    fn check(&self, i: usize, clusters: usize) -> Result<(), String> {
+        if self.id != i as u32 {
+            return Err(format!("probe at index {i} has id {}", self.id));
+        }
+        if !all_finite(&self.position) {
+            return Err(format!("probe {i} has a non-finite position"));
+        }
+        if self.preferred_directions.iter().any(|d| !(d.yaw.is_finite() && d.pitch.is_finite() && d.goodness.is_finite())) {
+            return Err(format!("probe {i} has a non-finite preferred direction"));
+        }
+        if let Some(c) = self.cluster.filter(|&c| c as usize >= clusters) {
+            return Err(format!("probe {i} names cluster {c}, but there are {clusters}"));
+        }
+        let a = &self.assets;
+        if let Some(t) = &a.tiles {
+            // Tiles of at least 64 pixels (or the whole face) bound the
+            // count a hostile graph can make readers walk.
+            if !(16..=16384).contains(&t.size)
+                || !(64.min(t.size)..=4096).contains(&t.tile)
+                || !(1..=15).contains(&t.levels)
+                || t.size.div_ceil(1 << (t.levels - 1)) > t.tile
+                || t.preview_size > 4096
+            {
+                return Err(format!("probe {i}: tiles of {} pixels a face, {} a tile, in {} levels do not agree", t.size, t.tile, t.levels));
+            }
+        }
+        let tiles = a.tiles.iter().flat_map(|t| [&t.path, &t.preview]);
+        let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail).chain(tiles);
+        for name in names {
+            check_asset_name(name).map_err(|m| format!("probe {i}: {m}"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Path {
+    /// The checks of path `i` among `probes` probes.
+    fn check(&self, i: usize, probes: u32) -> Result<(), String> {
+        if self.id != i as u32 {
+            return Err(format!("path at index {i} has id {}", self.id));
+        }
+        if self.from >= probes || self.to >= probes || self.from == self.to {
+            return Err(format!("path {i} joins probes {} and {}, but there are {probes} probes", self.from, self.to));
+        }
+        if self.polyline.len() < 2 || !self.polyline.iter().all(all_finite) {
+            return Err(format!("path {i} needs a finite polyline of at least two points"));
+        }
+        if !(self.length.is_finite() && self.length >= 0.0 && self.duration_s.is_finite() && self.duration_s >= 0.0) {
+            return Err(format!("path {i} has a negative or non-finite length or duration"));
+        }
+        if self.camera.iter().any(|k| !(k.t_s.is_finite() && all_finite(&k.position) && k.yaw.is_finite() && k.pitch.is_finite())) {
+            return Err(format!("path {i} has a non-finite camera key"));
+        }
+        for name in self.assets.video.iter().chain(&self.assets.poster) {
+            check_asset_name(name).map_err(|m| format!("path {i}: {m}"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Proxy {
+    /// The checks of the proxy of a graph of `probes` probes.
+    fn check(&self, probes: usize) -> Result<(), String> {
+        for level in &self.levels {
+            check_asset_name(&level.file).map_err(|m| format!("proxy: {m}"))?;
+            if !(level.error.is_finite() && level.error >= 0.0) {
+                return Err(format!("proxy level {} has a negative or non-finite error", level.file));
+            }
+        }
+        if !self.depth_maps.is_empty() && self.depth_maps.len() != probes {
+            return Err(format!("proxy has {} depth maps for {probes} probes", self.depth_maps.len()));
+        }
+        let chunk_files = self.levels.iter().flat_map(|l| &l.chunks).flat_map(|c| std::iter::once(&c.file).chain(&c.seen));
+        for name in self.glb.iter().chain(self.levels.iter().flat_map(|l| &l.seen)).chain(&self.depth_maps).chain(chunk_files) {
+            check_asset_name(name).map_err(|m| format!("proxy: {m}"))?;
+        }
+        if self.floors.iter().any(|f| !f.is_finite()) || !self.floors.is_sorted() {
+            return Err("proxy floors must be finite heights, lowest first".to_string());
         }
         Ok(())
     }
