@@ -135,118 +135,130 @@ fn balance(p: f32, q: f32) -> f32 {
     }
 }
 
+/// The emissive triangles (index, corners, emission) and the power of each.
+fn emitters(tracer: &Tracer, scene: &Scene) -> (Vec<(u32, [Vec3; 3], Vec3)>, Vec<f32>) {
+    let mut emitters = Vec::new();
+    let mut power = Vec::new();
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let e = tracer.materials.emission(t as u32);
+        let corners = tri.map(|i| scene.positions[i as usize]);
+        let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
+        let p = area * luminance(e);
+        if p > 0.0 && p.is_finite() {
+            emitters.push((t as u32, corners, e));
+            power.push(p);
+        }
+    }
+    (emitters, power)
+}
+
+/// The pilot: surfaces the viewpoints see, and those one bounce further.
+fn pilot(tracer: &Tracer, viewpoints: &[Vec3]) -> Vec<Surface> {
+    let views: Vec<Vec3> = viewpoints.iter().step_by(viewpoints.len().div_ceil(8).max(1)).copied().collect();
+    let dirs = fibonacci_sphere(1024);
+    (0..views.len() * dirs.len())
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let mut rng = sampler(TABLES_SEED, Work::LightPilot, image::NONE, i as u64);
+            let mut ray = Ray::new(views[i / dirs.len()], dirs[i % dirs.len()]);
+            let first = tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h));
+            let second = first.and_then(|s| {
+                let mut ray = Ray::new(s.lifted(), cosine_direction(s.normal, Vec2::new(rng.random(), rng.random())));
+                tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h))
+            });
+            first.into_iter().chain(second)
+        })
+        .collect()
+}
+
+impl SunSquare {
+    /// A sun's square over the scene's box `(lo, hi)`, its cells weighed by
+    /// how many pilot surfaces see the sunlit points of each.
+    fn learn(tracer: &Tracer, surfaces: &[Surface], dir: Vec3, (lo, hi): (Vec3, Vec3)) -> SunSquare {
+        let axes = dir.any_orthonormal_pair();
+        let half = (hi - lo).length() / 2.0 * 1.01;
+        let centre = (lo + hi) / 2.0 + dir * half;
+        let counts: Vec<f32> = (0..CELLS * CELLS)
+            .into_par_iter()
+            .map(|c| {
+                let mut rng = sampler(TABLES_SEED, Work::LightCells, image::NONE, c as u64);
+                let mut seen = 0;
+                for _ in 0..4 {
+                    let (a, b) = cell_point(c, rng.random(), rng.random());
+                    let mut ray = Ray::new(centre + (axes.0 * a + axes.1 * b) * half, -dir);
+                    let Some(hit) = tracer.intersect(&mut ray) else { continue };
+                    let y = tracer.materials.surface(&ray, &hit).lifted();
+                    for _ in 0..8 {
+                        if surfaces.is_empty() {
+                            break;
+                        }
+                        let s = &surfaces[rng.random_range(0..surfaces.len())];
+                        let to = y - s.lifted();
+                        if to.dot(s.geometric) > 0.0 && tracer.visible(&Ray { t_max: 1.0, ..Ray::new(s.lifted(), to) }) {
+                            seen += 1;
+                        }
+                    }
+                }
+                seen as f32
+            })
+            .collect();
+        SunSquare { dir, centre, axes, half, cells: Table::mixed(&counts) }
+    }
+}
+
+impl SkyBox {
+    /// The sky's box `lo..hi`, its cells weighed by where bounce rays from
+    /// the pilot surfaces leave it, mixed with a uniform share by area.
+    fn learn(tracer: &Tracer, surfaces: &[Surface], lo: Vec3, hi: Vec3) -> SkyBox {
+        let exits: Vec<usize> = surfaces
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(i, s)| {
+                let mut rng = sampler(TABLES_SEED, Work::LightExits, image::NONE, i as u64);
+                (0..64)
+                    .filter_map(|_| {
+                        let w = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
+                        let mut ray = Ray::new(s.lifted(), w);
+                        if w.dot(s.geometric) <= 0.0 || tracer.intersect(&mut ray).is_some() {
+                            return None;
+                        }
+                        exit_cell(lo, hi, s.position, w).map(|(c, _)| c)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let mut counts = vec![0.0; 6 * CELLS * CELLS];
+        for c in exits {
+            counts[c] += 1.0;
+        }
+        // Uniform by area, not by cell: scale the uniform share per face.
+        let areas: Vec<f32> = (0..6).map(|f| face_area(lo, hi, f / 2)).collect();
+        let total_area: f32 = areas.iter().sum();
+        let seen: f32 = counts.iter().sum();
+        let weights = counts.iter().enumerate().map(|(c, &n)| {
+            let uniform = UNIFORM * areas[c / (CELLS * CELLS)] / total_area / (CELLS * CELLS) as f32;
+            if seen > 0.0 {
+                (1.0 - UNIFORM) * n / seen + uniform
+            } else {
+                uniform
+            }
+        });
+        SkyBox { lo, hi, cells: Table::new(weights) }
+    }
+}
+
 impl LightSampler {
     /// Lights of `tracer`'s scene, with grids learnt from what `viewpoints` see.
     pub fn new(tracer: &Tracer, scene: &Scene, viewpoints: &[Vec3]) -> LightSampler {
-        let mut emitters = Vec::new();
-        let mut power = Vec::new();
-        for (t, tri) in scene.triangles.iter().enumerate() {
-            let e = tracer.materials.emission(t as u32);
-            let corners = tri.map(|i| scene.positions[i as usize]);
-            let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
-            let p = area * luminance(e);
-            if p > 0.0 && p.is_finite() {
-                emitters.push((t as u32, corners, e));
-                power.push(p);
-            }
-        }
+        let (emitters, power) = emitters(tracer, scene);
         let (lo, hi) = scene.positions.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| (lo.min(p), hi.max(p)));
         let (lo, hi) = if lo.x <= hi.x { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         let margin = 1e-3 * (hi - lo).length() + 1e-3;
         let (lo, hi) = (lo - Vec3::splat(margin), hi + Vec3::splat(margin));
-        let (centre, radius) = ((lo + hi) / 2.0, (hi - lo).length() / 2.0);
-
-        // The pilot: surfaces the viewpoints see, and those one bounce further.
-        let views: Vec<Vec3> = viewpoints.iter().step_by(viewpoints.len().div_ceil(8).max(1)).copied().collect();
-        let dirs = fibonacci_sphere(1024);
-        let surfaces: Vec<Surface> = (0..views.len() * dirs.len())
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                let mut rng = sampler(TABLES_SEED, Work::LightPilot, image::NONE, i as u64);
-                let mut ray = Ray::new(views[i / dirs.len()], dirs[i % dirs.len()]);
-                let first = tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h));
-                let second = first.and_then(|s| {
-                    let mut ray = Ray::new(s.lifted(), cosine_direction(s.normal, Vec2::new(rng.random(), rng.random())));
-                    tracer.intersect(&mut ray).map(|h| tracer.materials.surface(&ray, &h))
-                });
-                first.into_iter().chain(second)
-            })
-            .collect();
-
-        let suns = tracer
-            .lighting
-            .suns
-            .iter()
-            .map(|&(dir, _)| {
-                let axes = dir.any_orthonormal_pair();
-                let half = radius * 1.01;
-                let centre = centre + dir * half;
-                // How many pilot surfaces see the sunlit points of each cell.
-                let counts: Vec<f32> = (0..CELLS * CELLS)
-                    .into_par_iter()
-                    .map(|c| {
-                        let mut rng = sampler(TABLES_SEED, Work::LightCells, image::NONE, c as u64);
-                        let mut seen = 0;
-                        for _ in 0..4 {
-                            let (a, b) = cell_point(c, rng.random(), rng.random());
-                            let mut ray = Ray::new(centre + (axes.0 * a + axes.1 * b) * half, -dir);
-                            let Some(hit) = tracer.intersect(&mut ray) else { continue };
-                            let y = tracer.materials.surface(&ray, &hit).lifted();
-                            for _ in 0..8 {
-                                if surfaces.is_empty() {
-                                    break;
-                                }
-                                let s = &surfaces[rng.random_range(0..surfaces.len())];
-                                let to = y - s.lifted();
-                                if to.dot(s.geometric) > 0.0 && tracer.visible(&Ray { t_max: 1.0, ..Ray::new(s.lifted(), to) }) {
-                                    seen += 1;
-                                }
-                            }
-                        }
-                        seen as f32
-                    })
-                    .collect();
-                SunSquare { dir, centre, axes, half, cells: Table::mixed(&counts) }
-            })
-            .collect();
-
-        let sky = (tracer.lighting.sky.zenith.max_element() > 0.0 || tracer.lighting.sky.horizon.max_element() > 0.0).then(|| {
-            // Where bounce rays from the pilot surfaces leave the box.
-            let exits: Vec<usize> = surfaces
-                .par_iter()
-                .enumerate()
-                .flat_map_iter(|(i, s)| {
-                    let mut rng = sampler(TABLES_SEED, Work::LightExits, image::NONE, i as u64);
-                    (0..64)
-                        .filter_map(|_| {
-                            let w = cosine_direction(s.normal, Vec2::new(rng.random(), rng.random()));
-                            let mut ray = Ray::new(s.lifted(), w);
-                            if w.dot(s.geometric) <= 0.0 || tracer.intersect(&mut ray).is_some() {
-                                return None;
-                            }
-                            exit_cell(lo, hi, s.position, w).map(|(c, _)| c)
-                        })
-                        .collect::<Vec<_>>()
-                })
-                .collect();
-            let mut counts = vec![0.0; 6 * CELLS * CELLS];
-            for c in exits {
-                counts[c] += 1.0;
-            }
-            // Uniform by area, not by cell: scale the uniform share per face.
-            let areas: Vec<f32> = (0..6).map(|f| face_area(lo, hi, f / 2)).collect();
-            let total_area: f32 = areas.iter().sum();
-            let seen: f32 = counts.iter().sum();
-            let weights = counts.iter().enumerate().map(|(c, &n)| {
-                let uniform = UNIFORM * areas[c / (CELLS * CELLS)] / total_area / (CELLS * CELLS) as f32;
-                if seen > 0.0 {
-                    (1.0 - UNIFORM) * n / seen + uniform
-                } else {
-                    uniform
-                }
-            });
-            SkyBox { lo, hi, cells: Table::new(weights) }
-        });
+        let surfaces = pilot(tracer, viewpoints);
+        let suns = tracer.lighting.suns.iter().map(|&(dir, _)| SunSquare::learn(tracer, &surfaces, dir, (lo, hi))).collect();
+        let lit_sky = tracer.lighting.sky.zenith.max_element() > 0.0 || tracer.lighting.sky.horizon.max_element() > 0.0;
+        let sky = lit_sky.then(|| SkyBox::learn(tracer, &surfaces, lo, hi));
         LightSampler { emitters, emitter_table: Table::new(power), suns, sky }
     }
 
