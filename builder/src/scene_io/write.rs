@@ -119,7 +119,41 @@ pub fn write_obj(scene: &Scene, path: &Path) -> Result<(), ExportError> {
 /// A single binary glTF with embedded PNG textures, one primitive per material.
 pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
     let mut glb = Glb::default();
-    let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
+    let attributes = vertex_attributes(&mut glb, scene);
+    let primitives = primitives(&mut glb, scene, &attributes);
+    let mut images = Vec::new();
+    for i in 0..scene.textures.len() {
+        let view = glb.view(&png(scene, i)?, None);
+        images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": scene.textures[i].name }));
+    }
+    let materials: Vec<_> = scene.materials.iter().map(gltf_material).collect();
+    let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
+    let (nodes, lights) = light_nodes(scene);
+    let mut document = json!({
+        "asset": { "version": "2.0", "generator": "ExploreMaps" },
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "nodes": nodes,
+        "meshes": [{ "primitives": primitives }],
+        "materials": materials,
+        "textures": textures,
+        "images": images,
+    });
+    if !lights.is_empty() {
+        document["extensionsUsed"] = json!(["KHR_materials_emissive_strength", "KHR_lights_punctual"]);
+        document["extensions"] = json!({ "KHR_lights_punctual": { "lights": lights } });
+    }
+    write_atomic(path, &glb.finish(document)).map_err(io(path))
+}
+
+fn floats(v: &mut dyn Iterator<Item = f32>) -> Vec<u8> {
+    v.flat_map(f32::to_le_bytes).collect()
+}
+
+/// The scene's vertex attributes, each in a view of its own: a primitive's
+/// `attributes`.
+fn vertex_attributes(glb: &mut Glb, scene: &Scene) -> serde_json::Value {
     let bounds = scene.bounds();
     let view = glb.view(&floats(&mut scene.positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
     let positions = glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.positions.len(), "type": "VEC3",
@@ -141,6 +175,11 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         attributes["COLOR_0"] =
             json!(glb.accessor(json!({ "bufferView": view, "componentType": FLOAT, "count": scene.colours.len(), "type": "VEC3" })));
     }
+    attributes
+}
+
+/// One primitive per material that has triangles, sharing the attributes.
+fn primitives(glb: &mut Glb, scene: &Scene, attributes: &serde_json::Value) -> Vec<serde_json::Value> {
     let mut primitives = Vec::new();
     for m in 0..scene.materials.len() as u32 {
         let indices: Vec<u8> = scene
@@ -157,42 +196,40 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         let accessor = glb.accessor(json!({ "bufferView": view, "componentType": UNSIGNED_INT, "count": indices.len() / 4, "type": "SCALAR" }));
         primitives.push(json!({ "attributes": attributes, "indices": accessor, "material": m }));
     }
-    let mut images = Vec::new();
-    for i in 0..scene.textures.len() {
-        let view = glb.view(&png(scene, i)?, None);
-        images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": scene.textures[i].name }));
+    primitives
+}
+
+/// A material as glTF: base colour, emission (its strength above 1 as
+/// `KHR_materials_emissive_strength`), alpha mode.
+fn gltf_material(m: &exploremaps_scenes::Material) -> serde_json::Value {
+    let mut pbr = json!({ "baseColorFactor": m.base_color, "metallicFactor": 0.0, "roughnessFactor": 1.0 });
+    if let Some(t) = m.base_color_texture {
+        pbr["baseColorTexture"] = json!({ "index": t });
     }
-    let materials: Vec<_> = scene
-        .materials
-        .iter()
-        .map(|m| {
-            let mut pbr = json!({ "baseColorFactor": m.base_color, "metallicFactor": 0.0, "roughnessFactor": 1.0 });
-            if let Some(t) = m.base_color_texture {
-                pbr["baseColorTexture"] = json!({ "index": t });
-            }
-            let peak = m.emissive.max_element();
-            let mut out = json!({ "name": m.name, "pbrMetallicRoughness": pbr });
-            if peak > 0.0 {
-                let factor = if peak > 1.0 { m.emissive / peak } else { m.emissive };
-                out["emissiveFactor"] = json!(factor.to_array());
-                if peak > 1.0 {
-                    out["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": peak } });
-                }
-            }
-            match m.alpha_mode {
-                AlphaMode::Opaque => {}
-                AlphaMode::Mask { cutoff } => {
-                    out["alphaMode"] = json!("MASK");
-                    out["alphaCutoff"] = json!(cutoff);
-                }
-                AlphaMode::Blend => out["alphaMode"] = json!("BLEND"),
-            }
-            out
-        })
-        .collect();
-    let textures: Vec<_> = (0..scene.textures.len()).map(|i| json!({ "source": i })).collect();
-    // Lights as KHR_lights_punctual, each on a node of its own, in candela
-    // and lux at the loader's 683 lumens a watt (so they load back as they are).
+    let peak = m.emissive.max_element();
+    let mut out = json!({ "name": m.name, "pbrMetallicRoughness": pbr });
+    if peak > 0.0 {
+        let factor = if peak > 1.0 { m.emissive / peak } else { m.emissive };
+        out["emissiveFactor"] = json!(factor.to_array());
+        if peak > 1.0 {
+            out["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": peak } });
+        }
+    }
+    match m.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask { cutoff } => {
+            out["alphaMode"] = json!("MASK");
+            out["alphaCutoff"] = json!(cutoff);
+        }
+        AlphaMode::Blend => out["alphaMode"] = json!("BLEND"),
+    }
+    out
+}
+
+/// The nodes (the mesh's first) and the lights as `KHR_lights_punctual`,
+/// each on a node of its own, in candela and lux at the loader's 683 lumens
+/// a watt (so they load back as they are).
+fn light_nodes(scene: &Scene) -> (Vec<serde_json::Value>, Vec<serde_json::Value>) {
     let mut nodes = vec![json!({ "mesh": 0, "name": scene.name })];
     let mut lights = Vec::new();
     for light in &scene.lights {
@@ -208,22 +245,7 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
         node["extensions"] = json!({ "KHR_lights_punctual": { "light": lights.len() - 1 } });
         nodes.push(node);
     }
-    let mut document = json!({
-        "asset": { "version": "2.0", "generator": "ExploreMaps" },
-        "extensionsUsed": ["KHR_materials_emissive_strength"],
-        "scene": 0,
-        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
-        "nodes": nodes,
-        "meshes": [{ "primitives": primitives }],
-        "materials": materials,
-        "textures": textures,
-        "images": images,
-    });
-    if !lights.is_empty() {
-        document["extensionsUsed"] = json!(["KHR_materials_emissive_strength", "KHR_lights_punctual"]);
-        document["extensions"] = json!({ "KHR_lights_punctual": { "lights": lights } });
-    }
-    write_atomic(path, &glb.finish(document)).map_err(io(path))
+    (nodes, lights)
 }
 
 /// A vertex-coloured mesh (a proxy level) as a glTF binary: positions, linear vertex colours
@@ -231,7 +253,6 @@ pub fn write_glb(scene: &Scene, path: &Path) -> Result<(), ExportError> {
 /// (`KHR_materials_unlit`: the colours already hold the lighting).
 pub fn unlit_mesh_glb(name: &str, positions: &[glam::Vec3], triangles: &[[u32; 3]], colours: &[[u8; 3]]) -> Vec<u8> {
     let mut glb = Glb::default();
-    let floats = |v: &mut dyn Iterator<Item = f32>| v.flat_map(f32::to_le_bytes).collect::<Vec<u8>>();
     let (lo, hi) = positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let (lo, hi) = if positions.is_empty() { (glam::Vec3::ZERO, glam::Vec3::ZERO) } else { (lo, hi) };
     let view = glb.view(&floats(&mut positions.iter().flat_map(|p| p.to_array())), Some(ARRAY_BUFFER));
