@@ -263,45 +263,16 @@ fn write_tour(
     library: Option<&Path>,
     progress: &mut impl FnMut(usize, usize),
 ) -> Result<TourReport, TourError> {
-    let mut report = TourReport { probes: graph.probes.len(), ..Default::default() };
     // Titles follow the thumbnail bar: "View 1" is the first there.
     let mut rank: Vec<usize> = (0..graph.probes.len()).collect();
     for (k, &id) in graph.bar_order.iter().enumerate() {
         rank[id as usize] = k;
     }
-    let title = |id: u32| format!("View {}", rank[id as usize] + 1);
-    let first = graph.bar_order.first().copied().unwrap_or(0);
-    let mut probes = Vec::new();
-    for (id, probe) in graph.probes.iter().enumerate() {
-        progress(id, graph.probes.len());
-        let (tiles, count, bytes) = probe_tiles(bundle, graph, id, dir)?;
-        report.tiles += count;
-        report.bytes += bytes;
-        let thumbnail = match &probe.assets.thumbnail {
-            Some(file) => {
-                let name = format!("thumbs/{id}.jpg");
-                report.bytes += copy(&bundle.join(file), dir, &name)?;
-                Some(name)
-            }
-            None => None,
-        };
-        let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-        probes.push(json!({
-            "id": id.to_string(), "title": title(id as u32), "thumbnail": thumbnail,
-            "yaw": radians(yaw), "pitch": radians(pitch), "tiles": tiles,
-        }));
-    }
-    progress(graph.probes.len(), graph.probes.len());
-    let mut videos = vec![None; graph.paths.len()];
-    for p in &graph.paths {
-        if let Some(file) = &p.assets.video {
-            let name = format!("videos/{}.mp4", p.id);
-            report.bytes += copy(&bundle.join(file), dir, &name)?;
-            videos[p.id as usize] = Some(name);
-        }
-    }
+    let mut tour = TourFiles { bundle, graph, dir, rank, report: TourReport { probes: graph.probes.len(), ..Default::default() } };
+    let probes = tour.probes(progress)?;
+    let videos = tour.videos()?;
     let links = links(graph);
-    report.links = links.len();
+    tour.report.links = links.len();
     let direction = |(yaw, pitch): (f32, f32)| json!({ "yaw": radians(yaw), "pitch": radians(pitch) });
     let tour_links: Vec<Value> = links
         .iter()
@@ -312,20 +283,91 @@ fn write_tour(
             })
         })
         .collect();
-    let tour = json!({ "title": graph.scene.name, "first": first.to_string(), "probes": probes, "links": tour_links });
+    let first = graph.bar_order.first().copied().unwrap_or(0);
+    let data = json!({ "title": graph.scene.name, "first": first.to_string(), "probes": probes, "links": tour_links });
     let tour_js = format!(
         "// The tour, for ExploreMaps' scripts (written by `exploremaps export`).\nwindow.EXPLOREMAPS_TOUR = {};\n",
-        serde_json::to_string_pretty(&tour).expect("JSON of plain values")
+        serde_json::to_string_pretty(&data).expect("JSON of plain values")
     );
-    report.bytes += write(dir, "tour.js", tour_js.as_bytes())?;
-    report.bytes += write(dir, "transition.js", include_str!("transition.js").as_bytes())?;
+    tour.report.bytes += write(dir, "tour.js", tour_js.as_bytes())?;
+    tour.report.bytes += write(dir, "transition.js", include_str!("transition.js").as_bytes())?;
     for &viewer in viewers {
+        tour.viewer(viewer, library, &data, &links)?;
+    }
+    let items: String = viewers.iter().map(|v| format!("<li><a href=\"{}/index.html\">{}</a></li>\n", v.folder(), v.title())).collect();
+    let index = include_str!("index.html").replace("{{TITLE}}", &html_escape(&graph.scene.name)).replace("{{VIEWERS}}", &items);
+    tour.report.bytes += write(dir, "index.html", index.as_bytes())?;
+    let marker =
+        json!({ "generator": concat!("exploremaps ", env!("CARGO_PKG_VERSION")), "viewers": viewers.iter().map(|v| v.folder()).collect::<Vec<_>>() });
+    write(dir, MARKER, marker.to_string().as_bytes())?;
+    Ok(tour.report)
+}
+
+/// A tour's files as they are written into `dir`, counted in `report`.
+struct TourFiles<'a> {
+    bundle: &'a Path,
+    graph: &'a Graph,
+    dir: &'a Path,
+    /// Per probe, its place in the thumbnail bar.
+    rank: Vec<usize>,
+    report: TourReport,
+}
+
+impl TourFiles<'_> {
+    fn title(&self, id: u32) -> String {
+        format!("View {}", self.rank[id as usize] + 1)
+    }
+
+    /// Each probe's tiles and thumbnail copied, and its entry in the tour.
+    fn probes(&mut self, progress: &mut impl FnMut(usize, usize)) -> Result<Vec<Value>, TourError> {
+        let (bundle, graph, dir) = (self.bundle, self.graph, self.dir);
+        let mut probes = Vec::new();
+        for (id, probe) in graph.probes.iter().enumerate() {
+            progress(id, graph.probes.len());
+            let (tiles, count, bytes) = probe_tiles(bundle, graph, id, dir)?;
+            self.report.tiles += count;
+            self.report.bytes += bytes;
+            let thumbnail = match &probe.assets.thumbnail {
+                Some(file) => {
+                    let name = format!("thumbs/{id}.jpg");
+                    self.report.bytes += copy(&bundle.join(file), dir, &name)?;
+                    Some(name)
+                }
+                None => None,
+            };
+            let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
+            probes.push(json!({
+                "id": id.to_string(), "title": self.title(id as u32), "thumbnail": thumbnail,
+                "yaw": radians(yaw), "pitch": radians(pitch), "tiles": tiles,
+            }));
+        }
+        progress(graph.probes.len(), graph.probes.len());
+        Ok(probes)
+    }
+
+    /// The paths' videos copied; per path, its name in the tour.
+    fn videos(&mut self) -> Result<Vec<Option<String>>, TourError> {
+        let mut videos = vec![None; self.graph.paths.len()];
+        for p in &self.graph.paths {
+            if let Some(file) = &p.assets.video {
+                let name = format!("videos/{}.mp4", p.id);
+                self.report.bytes += copy(&self.bundle.join(file), self.dir, &name)?;
+                videos[p.id as usize] = Some(name);
+            }
+        }
+        Ok(videos)
+    }
+
+    /// A viewer's page, its library copied from `library` (or linked from
+    /// a CDN), and its own description of the tour.
+    fn viewer(&mut self, viewer: Viewer, library: Option<&Path>, tour: &Value, links: &[Link]) -> Result<(), TourError> {
+        let (graph, dir) = (self.graph, self.dir);
         let mut page = viewer.page().replace("{{TITLE}}", &html_escape(&graph.scene.name));
         for (package, version, file) in viewer.library() {
             let url = match library {
                 Some(lib) => {
                     let name = format!("lib/{package}/{file}");
-                    report.bytes += copy(&lib.join(package).join(file), dir, &name)?;
+                    self.report.bytes += copy(&lib.join(package).join(file), dir, &name)?;
                     format!("../{name}")
                 }
                 None => format!("https://cdn.jsdelivr.net/npm/{package}@{version}/{file}"),
@@ -334,29 +376,22 @@ fn write_tour(
         }
         debug_assert!(!page.contains("{{"), "every placeholder of {} is filled", viewer.folder());
         let folder = viewer.folder();
-        report.bytes += write(dir, &format!("{folder}/index.html"), page.as_bytes())?;
-        match viewer {
+        self.report.bytes += write(dir, &format!("{folder}/index.html"), page.as_bytes())?;
+        let title = |id: u32| self.title(id);
+        let written = match viewer {
             Viewer::Pannellum => {
-                report.bytes += write(
-                    dir,
-                    "pannellum/tour.json",
-                    serde_json::to_string_pretty(&pannellum(graph, &tour, &links, &title)).expect("JSON").as_bytes(),
-                )?
+                let json = serde_json::to_string_pretty(&pannellum(graph, tour, links, &title)).expect("JSON");
+                write(dir, "pannellum/tour.json", json.as_bytes())?
             }
             Viewer::Marzipano => {
-                let data = format!("var APP_DATA = {};\n", serde_json::to_string_pretty(&marzipano(graph, &tour, &links, &title)).expect("JSON"));
-                report.bytes += write(dir, "marzipano/data.js", data.as_bytes())?;
+                let data = format!("var APP_DATA = {};\n", serde_json::to_string_pretty(&marzipano(graph, tour, links, &title)).expect("JSON"));
+                write(dir, "marzipano/data.js", data.as_bytes())?
             }
-            Viewer::Psv => {}
-        }
+            Viewer::Psv => 0,
+        };
+        self.report.bytes += written;
+        Ok(())
     }
-    let items: String = viewers.iter().map(|v| format!("<li><a href=\"{}/index.html\">{}</a></li>\n", v.folder(), v.title())).collect();
-    let index = include_str!("index.html").replace("{{TITLE}}", &html_escape(&graph.scene.name)).replace("{{VIEWERS}}", &items);
-    report.bytes += write(dir, "index.html", index.as_bytes())?;
-    let marker =
-        json!({ "generator": concat!("exploremaps ", env!("CARGO_PKG_VERSION")), "viewers": viewers.iter().map(|v| v.folder()).collect::<Vec<_>>() });
-    write(dir, MARKER, marker.to_string().as_bytes())?;
-    Ok(report)
 }
 
 fn html_escape(text: &str) -> String {
