@@ -464,10 +464,22 @@ fn num(x: f64) -> String {
 }
 
 fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
-    let f = &plan.stats.free_space;
-    let c = &plan.coverage;
-    let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!("{} ({} triangles) -> {}", scene.name, scene.triangles.len(), output.display());
+    print_space(&plan.stats.free_space);
+    print_stages(&plan.stats);
+    print_coverage(plan);
+    let files: Vec<&str> = plan.images.iter().map(|(n, _)| n.as_str()).chain(["coverage.json", GRAPH_FILE]).collect();
+    println!(
+        "  wrote       {} ({:.2} s in all: planning {:.2} s, the report {:.2} s)",
+        files.join(", "),
+        plan.seconds,
+        plan.seconds - plan.report_seconds,
+        plan.report_seconds
+    );
+}
+
+/// The free space: its kind, grid, the parts left out, where one walks.
+fn print_space(f: &plan::freespace::FreeSpaceStats) {
     println!("  space       {} ({}); {} ({})", f.space, f.space_reason, f.height, f.height_reason);
     println!(
         "  free space  voxel {}, near {} units, {} navigable voxels of {} open ({:.2} s)",
@@ -506,18 +518,22 @@ fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
             if levels.is_empty() { "no single height (rolling ground)".to_string() } else { levels.join(", ") }
         );
     }
-    let e = &plan.stats.explore;
+}
+
+/// Exploration, clustering and paths.
+fn print_stages(stats: &plan::PlanStats) {
+    let e = &stats.explore;
     if e.probes > 0 {
         let capped = if e.capped { ", stopped at --max-probes short of --coverage" } else { "" };
         println!("  explore     {} candidate probes{capped}, {:.1} M rays ({:.2} s)", e.probes, e.rays as f64 / 1e6, e.seconds);
     }
-    if let Some(c) = &plan.stats.cluster {
+    if let Some(c) = &stats.cluster {
         println!(
             "  cluster     {} clusters -> {} probes ({} added back to keep coverage) ({:.2} s)",
             c.clusters, c.final_probes, c.added_back, c.seconds
         );
     }
-    let (paths, m) = (&plan.stats.connect, &plan.stats.smooth);
+    let (paths, m) = (&stats.connect, &stats.smooth);
     if e.probes > 0 {
         println!(
             "  paths       {} paths ({} pairs share a view, {} pruned), {} component(s); smoothed at {:.1} ms a path, clearance ≥ {} (r = {}) ({:.2} s)",
@@ -531,6 +547,12 @@ fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
             paths.seconds + m.seconds
         );
     }
+}
+
+/// The coverage, the most any placement could see, and the baselines.
+fn print_coverage(plan: &plan::Plan) {
+    let c = &plan.coverage;
+    let need = |x: f64| c.probes_for(x).map_or("-".to_string(), |n| n.to_string());
     println!(
         "  coverage    {:.2} % of {} units² reachable, {} samples; probes for 90/95/98/99 %: {}/{}/{}/{} ({:.2} s)",
         100.0 * c.fraction(),
@@ -548,7 +570,7 @@ fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
             "  ceiling     {} units² seen from the free space in the box: {:.1} % seen from the {} space, {:.1} % by the probes; {} units² more seen only through crevices no viewpoint fits in",
             num(ceiling.area),
             100.0 * ceiling.seen_from_space / ceiling.area,
-            if f.height == "walk" { "walk (eye-height)" } else { "navigable" },
+            if plan.stats.free_space.height == "walk" { "walk (eye-height)" } else { "navigable" },
             100.0 * ceiling.covered / ceiling.area,
             num(ceiling.crevices)
         );
@@ -556,14 +578,6 @@ fn print_plan(scene: &Scene, output: &Path, plan: &plan::Plan) {
     for b in &plan.baselines {
         println!("  baseline    {} placement, same {} probes: {:.2} %", b.name, b.probes.len(), 100.0 * b.report.fraction());
     }
-    let files: Vec<&str> = plan.images.iter().map(|(n, _)| n.as_str()).chain(["coverage.json", GRAPH_FILE]).collect();
-    println!(
-        "  wrote       {} ({:.2} s in all: planning {:.2} s, the report {:.2} s)",
-        files.join(", "),
-        plan.seconds,
-        plan.seconds - plan.report_seconds,
-        plan.report_seconds
-    );
 }
 
 /// A spinner on stderr while a long step runs; hidden when stderr is not a terminal.
