@@ -4,7 +4,7 @@
 //! memory budget for textures) and draws a frame. Platforms (`native`,
 //! `web`) own the window, files and decoding.
 
-use crate::dollhouse::{facing, Camera, DollhousePass, Floors, Orbit, ProxyMesh};
+use crate::dollhouse::{facing, Camera, DollhousePass, Floors, FrameTarget, Orbit, ProxyMesh};
 use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
@@ -1330,7 +1330,8 @@ impl App {
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         if let Some(c) = &camera {
             let (centre, extent) = self.proxy.as_ref().map_or((c.eye, 1.0), |m| ((m.lo + m.hi) / 2.0, m.diagonal().max(1e-3)));
-            self.dollhouse.draw(&gpu.device, &gpu.queue, &mut encoder, target, self.width as u32, self.height as u32, c, self.cut(), centre, extent);
+            let mut frame = self.frame_target(&gpu, &mut encoder, target);
+            self.dollhouse.draw(&mut frame, c, self.cut(), centre, extent);
         }
         {
             let load = if camera.is_some() { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }) };
@@ -1353,19 +1354,8 @@ impl App {
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
             let rect = [frame.x0, frame.y0, frame.size];
-            self.dollhouse.draw_plan(
-                &gpu.device,
-                &gpu.queue,
-                &mut encoder,
-                target,
-                self.width as u32,
-                self.height as u32,
-                rect,
-                frame.centre,
-                frame.scale,
-                self.plan_cut(),
-                mesh.lo.y,
-            );
+            let mut target = self.frame_target(&gpu, &mut encoder, target);
+            self.dollhouse.draw_plan(&mut target, rect, frame.centre, frame.scale, self.plan_cut(), mesh.lo.y);
         }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -1388,6 +1378,11 @@ impl App {
             self.message(&format!("the path's video cannot be played ({e}); showing the panoramas instead"), platform);
         }
         encoder.finish()
+    }
+
+    /// The frame's target, the size of the window.
+    fn frame_target<'a>(&self, gpu: &'a Gpu, encoder: &'a mut wgpu::CommandEncoder, view: &'a wgpu::TextureView) -> FrameTarget<'a> {
+        FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view, width: self.width as u32, height: self.height as u32 }
     }
 
     /// Whether anything moves or loads, so the platform keeps drawing frames.

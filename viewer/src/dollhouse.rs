@@ -389,6 +389,29 @@ pub const BACKGROUND: wgpu::Color = wgpu::Color { r: 0.06, g: 0.065, b: 0.075, a
 /// The floor plan's background (linear RGB).
 const PLAN_BACKGROUND: [f32; 4] = [0.012, 0.013, 0.018, 1.0];
 
+/// Where a frame is drawn: the GPU, the frame's command encoder, and its
+/// target of `width` × `height` pixels.
+pub struct FrameTarget<'a> {
+    pub device: &'a wgpu::Device,
+    pub queue: &'a wgpu::Queue,
+    pub encoder: &'a mut wgpu::CommandEncoder,
+    pub view: &'a wgpu::TextureView,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// The shader's uniforms: the camera, the cut height, `brightness` scaling
+/// the proxy's colours (the plan is dimmed so the map's dots and lines stand
+/// out on it), whether cut walls show their sections, and the colour they
+/// and the background are filled with.
+struct Uniforms {
+    view_proj: Mat4,
+    cut: f32,
+    brightness: f32,
+    sections: bool,
+    fill: [f32; 4],
+}
+
 /// The GPU side: the proxy's buffers and a depth buffer sized to the target.
 /// The dollhouse and the floor plan each have their uniforms, so both may be
 /// drawn in one frame.
@@ -509,13 +532,11 @@ impl DollhousePass {
         self.depth.as_ref().expect("made above").0.clone()
     }
 
-    /// `brightness` scales the proxy's colours (the plan is dimmed so the
-    /// map's dots and lines stand out on it).
-    fn write_uniforms(queue: &wgpu::Queue, buffer: &wgpu::Buffer, view_proj: Mat4, cut: f32, brightness: f32, sections: bool, fill: [f32; 4]) {
-        let mut u: Vec<f32> = view_proj.to_cols_array().to_vec();
-        u.extend([cut.min(f32::MAX), brightness, if sections { 1.0 } else { 0.0 }, 0.0]);
-        u.extend(fill);
-        queue.write_buffer(buffer, 0, &u.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>());
+    fn write_uniforms(queue: &wgpu::Queue, buffer: &wgpu::Buffer, u: Uniforms) {
+        let mut words: Vec<f32> = u.view_proj.to_cols_array().to_vec();
+        words.extend([u.cut.min(f32::MAX), u.brightness, if u.sections { 1.0 } else { 0.0 }, 0.0]);
+        words.extend(u.fill);
+        queue.write_buffer(buffer, 0, &words.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>());
     }
 
     fn draw_mesh(&self, pass: &mut wgpu::RenderPass<'_>, bind: &wgpu::BindGroup) {
@@ -532,21 +553,8 @@ impl DollhousePass {
     /// square `rect` (x, y, size in pixels) of `target`, over a dark
     /// background: world (`centre`.x, `centre`.y as z) at the square's
     /// centre, `scale` pixels a scene unit, +X right and −Z up.
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw_plan(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &wgpu::TextureView,
-        width: u32,
-        height: u32,
-        rect: [f32; 3],
-        centre: [f32; 2],
-        scale: f32,
-        cut: f32,
-        lo_y: f32,
-    ) {
+    pub fn draw_plan(&mut self, frame: &mut FrameTarget, rect: [f32; 3], centre: [f32; 2], scale: f32, cut: f32, lo_y: f32) {
+        let FrameTarget { device, queue, ref mut encoder, view: target, width, height } = *frame;
         let [x, y, size] = rect;
         let (x0, y0) = (x.max(0.0).floor() as u32, y.max(0.0).floor() as u32);
         let (x1, y1) = (((x + size).ceil() as u32).min(width), ((y + size).ceil() as u32).min(height));
@@ -559,7 +567,8 @@ impl DollhousePass {
         let distance = 50.0 * half;
         let camera = Camera { eye: Vec3::new(centre[0], top + distance, centre[1]), forward: Vec3::NEG_Y, fov_y: 2.0 * (half / distance).atan() };
         let depth_range = distance + (top - lo_y).max(0.0) + half;
-        Self::write_uniforms(queue, &self.plan_uniforms, camera.view_proj(1.0, 0.5 * distance, depth_range * 1.01), cut, 0.45, true, PLAN_BACKGROUND);
+        let view_proj = camera.view_proj(1.0, 0.5 * distance, depth_range * 1.01);
+        Self::write_uniforms(queue, &self.plan_uniforms, Uniforms { view_proj, cut, brightness: 0.45, sections: true, fill: PLAN_BACKGROUND });
         let depth = self.depth_view(device, width, height);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("floor plan"),
@@ -619,32 +628,13 @@ impl DollhousePass {
 
     /// Clears `target` and draws the mesh seen by `camera`, hiding what is
     /// above `cut`. `extent` bounds the depth range (the mesh's diagonal).
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &wgpu::TextureView,
-        width: u32,
-        height: u32,
-        camera: &Camera,
-        cut: f32,
-        centre: Vec3,
-        extent: f32,
-    ) {
+    pub fn draw(&mut self, frame: &mut FrameTarget, camera: &Camera, cut: f32, centre: Vec3, extent: f32) {
+        let FrameTarget { device, queue, ref mut encoder, view: target, width, height } = *frame;
         let depth = self.depth_view(device, width, height);
         let far = camera.eye.distance(centre) + extent;
         let near = (1e-3 * extent).max(far * 1e-5);
-        Self::write_uniforms(
-            queue,
-            &self.uniforms,
-            camera.view_proj(width as f32 / height.max(1) as f32, near, far),
-            cut,
-            1.0,
-            false,
-            PLAN_BACKGROUND,
-        );
+        let view_proj = camera.view_proj(width as f32 / height.max(1) as f32, near, far);
+        Self::write_uniforms(queue, &self.uniforms, Uniforms { view_proj, cut, brightness: 1.0, sections: false, fill: PLAN_BACKGROUND });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("dollhouse"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {

@@ -139,22 +139,18 @@ fn floors_cut_above_head_height_and_below_the_next_storey() {
 
 /// Draws `mesh` seen by `camera` into a `size`² target and reads it back.
 pub(crate) fn draw(mesh: &ProxyMesh, camera: &Camera, cut: f32, size: u32) -> Option<Vec<u8>> {
-    render_with(mesh, size, |pass, device, queue, encoder, target| {
-        pass.draw(device, queue, encoder, target, size, size, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal())
-    })
+    render_with(mesh, size, |pass, frame| pass.draw(frame, camera, cut, (mesh.lo + mesh.hi) / 2.0, mesh.diagonal()))
 }
 
 /// Clears a `size`² target to black, runs `call` on it with a pass holding
 /// `mesh`, and reads it back.
-fn render_with(
-    mesh: &ProxyMesh,
-    size: u32,
-    call: impl FnOnce(&mut DollhousePass, &wgpu::Device, &wgpu::Queue, &mut wgpu::CommandEncoder, &wgpu::TextureView),
-) -> Option<Vec<u8>> {
+fn render_with(mesh: &ProxyMesh, size: u32, call: impl FnOnce(&mut DollhousePass, &mut FrameTarget)) -> Option<Vec<u8>> {
     let (device, queue) = crate::panorama::tests::gpu()?;
     let mut pass = DollhousePass::new(&device, wgpu::TextureFormat::Rgba8UnormSrgb);
     pass.upload(&device, &queue, mesh);
-    Some(crate::panorama::tests::render_target(&device, &queue, size, |encoder, target| call(&mut pass, &device, &queue, encoder, target)))
+    Some(crate::panorama::tests::render_target(&device, &queue, size, |encoder, view| {
+        call(&mut pass, &mut FrameTarget { device: &device, queue: &queue, encoder, view, width: size, height: size })
+    }))
 }
 
 #[test]
@@ -202,9 +198,7 @@ fn a_section_outlines_what_crosses_the_plane() {
 fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
     let mesh = two_storeys(vec![]);
     // A 32-pixel square at (0, 16) of a 64² target, 2 px a unit, centred on the origin.
-    let Some(px) = render_with(&mesh, 64, |pass, device, queue, encoder, target| {
-        pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)
-    }) else {
+    let Some(px) = render_with(&mesh, 64, |pass, frame| pass.draw_plan(frame, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else {
         return;
     };
     let at = |x: u32, y: u32| {
@@ -222,9 +216,7 @@ fn the_floor_plan_draws_the_storey_from_above_dimmed_in_its_square_only() {
     // Seen from below (wound the other way), a floor is a solid's inside: dark.
     let mut flipped = two_storeys(vec![]);
     flipped.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-    let Some(px) = render_with(&flipped, 64, |pass, device, queue, encoder, target| {
-        pass.draw_plan(device, queue, encoder, target, 64, 64, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)
-    }) else {
+    let Some(px) = render_with(&flipped, 64, |pass, frame| pass.draw_plan(frame, [0.0, 16.0, 32.0], [0.0, 0.0], 2.0, 2.0, 0.0)) else {
         return;
     };
     let i = 4 * (32 * 64 + 16);
