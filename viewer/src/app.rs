@@ -7,7 +7,7 @@
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, FrameTarget, Orbit, ProxyMesh};
 use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
-use crate::panorama::{visible_tiles, Cube, PanoramaPass, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
+use crate::panorama::{visible_tiles, Cube, PanoramaPass, Shown, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
 use exploremaps_format::timing::ease;
 use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
@@ -1349,7 +1349,7 @@ impl App {
                 multiview_mask: None,
             });
             if let Some(source) = source.filter(|_| opacity > 0.0) {
-                self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, source, opacity);
+                self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, Shown { source, opacity });
             }
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {

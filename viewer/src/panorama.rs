@@ -345,6 +345,14 @@ impl VideoTexture {
     }
 }
 
+/// What a panorama pass draws, over what is there with `opacity` (1:
+/// replaces it).
+#[derive(Clone, Copy)]
+pub struct Shown<'a> {
+    pub source: Source<'a>,
+    pub opacity: f32,
+}
+
 /// What to draw.
 #[derive(Clone, Copy)]
 pub enum Source<'a> {
@@ -454,19 +462,10 @@ impl PanoramaPass {
         }
     }
 
-    /// Draws `source` as seen in `view` into a pass over a target of aspect
-    /// ratio `aspect`, over what is there with `opacity` (1: replaces it).
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        pass: &mut wgpu::RenderPass<'_>,
-        view: &View,
-        aspect: f32,
-        source: Source<'_>,
-        opacity: f32,
-    ) {
+    /// Draws `shown` as seen in `view` into a pass over a target of aspect
+    /// ratio `aspect`.
+    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, shown: Shown<'_>) {
+        let Shown { source, opacity } = shown;
         let blank = (&self.blank_cube, None);
         let (a, b, video, fade) = match source {
             Source::Cube(c, t) => ((c, t), blank, &self.blank_video, 0.0),

@@ -60,7 +60,7 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.draw(device, queue, &mut rp, &view, 1.0, source, 1.0);
+        pass.draw(device, queue, &mut rp, &view, 1.0, Shown { source, opacity: 1.0 });
     })
 }
 
