@@ -173,17 +173,33 @@ fn relative_yaw(view: &View, departure: (f32, f32)) -> f32 {
 
 pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     let mut out = Layout::default();
-    let graph = nav.graph();
-    let (w, h, k) = (s.width, s.height, s.scale);
     let at_probe = matches!(nav.state, State::AtProbe { .. });
-    let current = nav.probe();
-
-    // Markers where paths leave, in the view (not over the dollhouse).
+    // The paths that leave from here, the best aligned first (not over the dollhouse).
     let choices = if at_probe && s.dollhouse.is_none() { nav.path_bar() } else { Vec::new() };
+    departure_markers(&mut out, nav, s, &choices);
+    if let Some(f) = s.dollhouse.as_ref().and_then(|d| d.loading) {
+        // The proxy still refining: a bar along the top.
+        let bar = 4.0 * s.scale;
+        out.shapes.push(Shape::rect(0.0, 0.0, s.width, bar, PANEL));
+        out.shapes.push(Shape::rect(0.0, 0.0, s.width * f.clamp(0.0, 1.0), bar, HIGHLIGHT));
+    }
+    dollhouse_markers(&mut out, nav.probe(), s);
+    let bar = probe_bar(&mut out, nav, s);
+    path_bar(&mut out, nav, s, &choices, bar);
+    if s.show_map && s.dollhouse.is_none() {
+        map(&mut out, nav, nav.graph(), s);
+    }
+    buttons(&mut out, s);
+    out
+}
+
+/// Markers where paths leave, in the view.
+fn departure_markers(out: &mut Layout, nav: &Navigator, s: &Screen, choices: &[PathChoice]) {
+    let k = s.scale;
     for (i, c) in choices.iter().enumerate() {
         let (yaw, pitch) = nav.departure(c.path, c.reversed);
         // Markers sit a little below the horizon of the departure, like a floor arrow.
-        if let Some([x, y]) = project(&nav.view, direction(yaw, pitch - 0.25), w, h) {
+        if let Some([x, y]) = project(&nav.view, direction(yaw, pitch - 0.25), s.width, s.height) {
             let r = 16.0 * k;
             let colour = if i == 0 { HIGHLIGHT } else { WHITE };
             out.shapes.push(Shape::disc(x, y, r + 2.0 * k, [0.0, 0.0, 0.0, 0.5]));
@@ -191,15 +207,11 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
             out.hits.push(Hit { x: x - r, y: y - r, w: 2.0 * r, h: 2.0 * r, round: true, action: Action::TakePath(c.path) });
         }
     }
+}
 
-    // The proxy still refining: a bar along the top.
-    if let Some(f) = s.dollhouse.as_ref().and_then(|d| d.loading) {
-        let bar = 4.0 * k;
-        out.shapes.push(Shape::rect(0.0, 0.0, w, bar, PANEL));
-        out.shapes.push(Shape::rect(0.0, 0.0, w * f.clamp(0.0, 1.0), bar, HIGHLIGHT));
-    }
-
-    // Probes over the dollhouse.
+/// Probes over the dollhouse.
+fn dollhouse_markers(out: &mut Layout, current: u32, s: &Screen) {
+    let k = s.scale;
     for &(p, [x, y], hidden) in s.dollhouse.iter().flat_map(|d| &d.markers) {
         // A probe behind a wall: smaller and faint, still tappable.
         let (r, alpha) = if hidden { (6.0 * k, 0.45) } else { (9.0 * k, 1.0) };
@@ -209,8 +221,13 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
         let hr = 16.0 * k;
         out.hits.push(Hit { x: x - hr, y: y - hr, w: 2.0 * hr, h: 2.0 * hr, round: true, action: Action::GoTo(p) });
     }
+}
 
-    // Probe bar.
+/// The probe bar along the bottom, scrolled to the current probe; returns
+/// its top and tile height (the path bar sits above it).
+fn probe_bar(out: &mut Layout, nav: &Navigator, s: &Screen) -> (f32, f32) {
+    let (w, h, k) = (s.width, s.height, s.scale);
+    let (graph, current) = (nav.graph(), nav.probe());
     let bar_h = (w.min(h) * 0.12).clamp(44.0 * k, 90.0 * k);
     let tile_w = bar_h * 16.0 / 9.0;
     let gap = 6.0 * k;
@@ -228,30 +245,37 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
         }
         out.tile([x, y, tile_w, bar_h], p, (p == current).then_some(HIGHLIGHT), s.thumbs_ready, Action::GoTo(p));
     }
+    (y, bar_h)
+}
 
-    // Path bar: left to right by relative yaw, the best aligned centred.
-    if !choices.is_empty() {
-        let ph = bar_h * 0.8;
-        let pw = ph * 16.0 / 9.0;
-        let mut by_yaw: Vec<(f32, &PathChoice)> = choices.iter().map(|c| (relative_yaw(&nav.view, nav.departure(c.path, c.reversed)), c)).collect();
-        by_yaw.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.path.cmp(&b.1.path)));
-        let best = by_yaw.iter().position(|(_, c)| c.path == choices[0].path).unwrap_or(0) as f32;
-        let py = y - 2.0 * gap - ph;
-        for (i, (_, c)) in by_yaw.iter().enumerate() {
-            let x = w / 2.0 - pw / 2.0 + (i as f32 - best) * (pw + gap);
-            if x + pw < 0.0 || x > w {
-                continue;
-            }
-            let frame = if c.path == choices[0].path { HIGHLIGHT } else { WHITE };
-            out.tile([x, py, pw, ph], c.to, Some(frame), s.thumbs_ready, Action::TakePath(c.path));
+/// The path bar above the probe bar (`(top, height)`): left to right by
+/// relative yaw, the best aligned centred.
+fn path_bar(out: &mut Layout, nav: &Navigator, s: &Screen, choices: &[PathChoice], (y, bar_h): (f32, f32)) {
+    if choices.is_empty() {
+        return;
+    }
+    let (w, gap) = (s.width, 6.0 * s.scale);
+    let ph = bar_h * 0.8;
+    let pw = ph * 16.0 / 9.0;
+    let mut by_yaw: Vec<(f32, &PathChoice)> = choices.iter().map(|c| (relative_yaw(&nav.view, nav.departure(c.path, c.reversed)), c)).collect();
+    by_yaw.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.path.cmp(&b.1.path)));
+    let best = by_yaw.iter().position(|(_, c)| c.path == choices[0].path).unwrap_or(0) as f32;
+    let py = y - 2.0 * gap - ph;
+    for (i, (_, c)) in by_yaw.iter().enumerate() {
+        let x = w / 2.0 - pw / 2.0 + (i as f32 - best) * (pw + gap);
+        if x + pw < 0.0 || x > w {
+            continue;
         }
+        let frame = if c.path == choices[0].path { HIGHLIGHT } else { WHITE };
+        out.tile([x, py, pw, ph], c.to, Some(frame), s.thumbs_ready, Action::TakePath(c.path));
     }
+}
 
-    // Overhead map.
-    if s.show_map && s.dollhouse.is_none() {
-        map(&mut out, nav, graph, s);
-    }
-    // Buttons: tour (a disc, green while touring) and map.
+/// The buttons along the top: tour (a disc, green while touring), map,
+/// dollhouse and its floors; then the message bar, if any.
+fn buttons(out: &mut Layout, s: &Screen) {
+    let (w, k) = (s.width, s.scale);
+    let gap = 6.0 * k;
     let r = 16.0 * k;
     let (bx, by) = (gap + r, gap + r);
     out.shapes.push(Shape::disc(bx, by, r, if s.touring { [0.2, 0.8, 0.3, 0.95] } else { [0.1, 0.1, 0.1, 0.7] }));
@@ -290,7 +314,6 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     if s.message {
         out.shapes.push(Shape::rect(last + r + gap, by - 3.0 * k, (w - last - r - 2.0 * gap).max(0.0), 6.0 * k, [0.9, 0.15, 0.1, 0.95]));
     }
-    out
 }
 
 /// The overhead map (over the floor plan when the proxy is here): paths as
