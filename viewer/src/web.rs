@@ -615,52 +615,24 @@ pub async fn start(canvas_id: String, bundle_url: String) -> Result<(), JsValue>
 
 async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     mark("wasm_ready");
-    let graph_url = format!("{base}{GRAPH_FILE}");
-    let text = JsFuture::from(fetch(&graph_url).await.map_err(|e| format!("{graph_url}: {e}"))?.text().map_err(js_error)?).await.map_err(js_error)?;
-    let graph =
-        Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {}", exploremaps_format::error_chain(&e)))?;
-    if graph.probes.is_empty() {
-        return Err(format!("{graph_url}: the bundle has no probes to show"));
-    }
+    let graph = fetch_graph(base).await?;
     mark("graph");
     let link = Link::parse(&window().location().hash().unwrap_or_default()).unwrap_or_else(|e| {
         show(&format!("the link's {e}; starting at the first probe"));
         Link::default()
     });
     let probe = link.probe.filter(|&p| (p as usize) < graph.probes.len());
-
     let document = window().document().ok_or("no document")?;
     let canvas: web_sys::HtmlCanvasElement = document
         .get_element_by_id(canvas_id)
         .ok_or_else(|| format!("no canvas #{canvas_id}"))?
         .dyn_into()
         .map_err(|_| format!("#{canvas_id} is not a canvas"))?;
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    desc.backends = wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL;
-    let instance = wgpu::util::new_instance_with_webgpu_detection(desc).await;
-    let surface = instance.create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone())).map_err(|e| format!("cannot draw on the canvas: {e}"))?;
-    let adapter = instance
-        .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
-        .await
-        .map_err(|e| format!("this browser offers neither WebGPU nor WebGL2 ({e})"))?;
-    let (w, h) = (canvas.width().max(1), canvas.height().max(1));
-    let (gpu, config) = Gpu::open(&adapter, &surface, w, h).await?;
-    mark("device");
-    set_status("backend", &format!("{:?}", adapter.get_info().backend).into());
-
-    let video: web_sys::HtmlVideoElement = document.create_element("video").map_err(js_error)?.unchecked_into();
-    video.set_muted(true);
-    video.set_preload("auto");
-    let _ = video.set_attribute("playsinline", "");
-    // Attached (invisibly), so the browser decodes its frames.
-    let _ = video.set_attribute("style", "position:fixed;left:0;top:0;width:1px;height:1px;opacity:0;pointer-events:none");
-    if let Some(body) = document.body() {
-        let _ = body.append_child(&video);
-    }
+    let (gpu, surface, config) = open_gpu(&canvas).await?;
     let mut platform = WebPlatform {
         base: base.to_string(),
         done: Rc::default(),
-        video,
+        video: hidden_video(&document)?,
         video_texture: None,
         playing: None,
         message: None,
@@ -690,35 +662,86 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         first_frame_logged: false,
         dollhouse_level: None,
     }));
+    listen_to_input(canvas.as_ref(), &state);
+    start_frame_loop(state);
+    Ok(())
+}
 
-    let target: &web_sys::EventTarget = canvas.as_ref();
-    listen(target, "pointerdown", &state, |s, e: web_sys::PointerEvent| {
+/// The bundle's graph.json, read and validated.
+async fn fetch_graph(base: &str) -> Result<Graph, String> {
+    let graph_url = format!("{base}{GRAPH_FILE}");
+    let text = JsFuture::from(fetch(&graph_url).await.map_err(|e| format!("{graph_url}: {e}"))?.text().map_err(js_error)?).await.map_err(js_error)?;
+    let graph =
+        Graph::from_json(&text.as_string().unwrap_or_default()).map_err(|e| format!("{graph_url}: {}", exploremaps_format::error_chain(&e)))?;
+    if graph.probes.is_empty() {
+        return Err(format!("{graph_url}: the bundle has no probes to show"));
+    }
+    Ok(graph)
+}
+
+/// WebGPU when the browser has it, else WebGL2, drawing on `canvas`.
+async fn open_gpu(canvas: &web_sys::HtmlCanvasElement) -> Result<(Gpu, wgpu::Surface<'static>, wgpu::SurfaceConfiguration), String> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL;
+    let instance = wgpu::util::new_instance_with_webgpu_detection(desc).await;
+    let surface = instance.create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone())).map_err(|e| format!("cannot draw on the canvas: {e}"))?;
+    let adapter = instance
+        .request_adapter(&wgpu::RequestAdapterOptions { compatible_surface: Some(&surface), ..Default::default() })
+        .await
+        .map_err(|e| format!("this browser offers neither WebGPU nor WebGL2 ({e})"))?;
+    let (w, h) = (canvas.width().max(1), canvas.height().max(1));
+    let (gpu, config) = Gpu::open(&adapter, &surface, w, h).await?;
+    mark("device");
+    set_status("backend", &format!("{:?}", adapter.get_info().backend).into());
+    Ok((gpu, surface, config))
+}
+
+/// The `<video>` element paths play in: attached (invisibly), so the
+/// browser decodes its frames.
+fn hidden_video(document: &web_sys::Document) -> Result<web_sys::HtmlVideoElement, String> {
+    let video: web_sys::HtmlVideoElement = document.create_element("video").map_err(js_error)?.unchecked_into();
+    video.set_muted(true);
+    video.set_preload("auto");
+    let _ = video.set_attribute("playsinline", "");
+    let _ = video.set_attribute("style", "position:fixed;left:0;top:0;width:1px;height:1px;opacity:0;pointer-events:none");
+    if let Some(body) = document.body() {
+        let _ = body.append_child(&video);
+    }
+    Ok(video)
+}
+
+/// Pointer, wheel and key events on the canvas (keys on the window) to the app.
+fn listen_to_input(target: &web_sys::EventTarget, state: &Rc<RefCell<State>>) {
+    listen(target, "pointerdown", state, |s, e: web_sys::PointerEvent| {
         let _ = s.canvas.set_pointer_capture(e.pointer_id());
         let (id, x, y) = pointer(s, &e);
         s.app.input(Input::PointerDown { id, x, y }, &mut s.platform);
     });
-    listen(target, "pointermove", &state, |s, e: web_sys::PointerEvent| {
+    listen(target, "pointermove", state, |s, e: web_sys::PointerEvent| {
         let (id, x, y) = pointer(s, &e);
         s.app.input(Input::PointerMove { id, x, y }, &mut s.platform);
     });
     for name in ["pointerup", "pointercancel"] {
-        listen(target, name, &state, |s, e: web_sys::PointerEvent| {
+        listen(target, name, state, |s, e: web_sys::PointerEvent| {
             let (id, x, y) = pointer(s, &e);
             s.app.input(Input::PointerUp { id, x, y }, &mut s.platform);
         });
     }
-    listen(target, "wheel", &state, |s, e: web_sys::WheelEvent| {
+    listen(target, "wheel", state, |s, e: web_sys::WheelEvent| {
         e.prevent_default();
         s.app.input(Input::Wheel(-(e.delta_y() as f32) / 100.0), &mut s.platform);
     });
-    listen(window().as_ref(), "keydown", &state, |s, e: web_sys::KeyboardEvent| {
+    listen(window().as_ref(), "keydown", state, |s, e: web_sys::KeyboardEvent| {
         if let Some(k) = Key::from_code(&e.code()) {
             e.prevent_default();
             s.app.input(Input::Key(k), &mut s.platform);
         }
     });
+}
 
-    // The frame loop: requestAnimationFrame, every frame (the view may move at any time).
+/// The frame loop: requestAnimationFrame, every frame (the view may move at
+/// any time), for the page's lifetime.
+fn start_frame_loop(state: Rc<RefCell<State>>) {
     let tick: FrameLoop = Rc::default();
     let next = tick.clone();
     *tick.borrow_mut() = Some(Closure::new(move |now: f64| {
@@ -729,5 +752,4 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
     }));
     let _ = window().request_animation_frame(tick.borrow().as_ref().expect("set above").as_ref().unchecked_ref());
     std::mem::forget(tick);
-    Ok(())
 }
