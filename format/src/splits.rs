@@ -217,11 +217,10 @@ impl Refiner {
         if box_.iter().any(|x| !x.is_finite()) {
             return corrupt("vertex-split packet box is not finite");
         }
-        let grid = Grid::new([box_[0], box_[1], box_[2]], [box_[3], box_[4], box_[5]], bits as u32);
-        let group_bits = bit_length(group_count as u32 - 1);
+        let coding = Coding::new(Grid::new([box_[0], box_[1], box_[2]], [box_[3], box_[4], box_[5]], bits as u32), group_count as u32);
         let mut source = Source::new(&mut input, MODELS)?;
         for _ in 0..count {
-            let r = self.read(&mut source, &grid, group_count as u32, group_bits, vertices_after, triangles_after)?;
+            let r = self.read(&mut source, &coding, vertices_after, triangles_after)?;
             self.apply(&r)?;
         }
         if self.mesh.positions.len() as u64 != vertices_after || self.mesh.triangles.len() as u64 != triangles_after || input.at != body {
@@ -230,30 +229,11 @@ impl Refiner {
         Ok(())
     }
 
-    /// Reads one refinement from the section (the inverse of `write`).
-    fn read(
-        &self,
-        src: &mut Source,
-        grid: &Grid,
-        group_count: u32,
-        group_bits: u32,
-        max_vertices: u64,
-        max_triangles: u64,
-    ) -> Result<Refinement, CodingError> {
+    /// Reads one refinement from the section (the inverse of `write`); the
+    /// mesh may not grow past `max_vertices` and `max_triangles`.
+    fn read(&self, src: &mut Source, coding: &Coding, max_vertices: u64, max_triangles: u64) -> Result<Refinement, CodingError> {
         let n = self.mesh.positions.len() as u32;
-        let max = grid.max as i64;
-        let axis = |x: i64| if (0..=max).contains(&x) { Ok(x as u32) } else { corrupt("position off the grid") };
-        let group = |src: &mut Source, predicted: u32| -> Result<u32, CodingError> {
-            if group_count == 1 || src.symbol(GROUP) == 0 {
-                return Ok(predicted);
-            }
-            let g = src.raw(group_bits)?;
-            if g < group_count {
-                Ok(g)
-            } else {
-                corrupt("group out of range")
-            }
-        };
+        let grid = &coding.grid;
         match src.symbol(KIND) {
             0 => {
                 let vertex = src.raw(bit_length(n.saturating_sub(1)))?;
@@ -264,10 +244,10 @@ impl Refiner {
                 let mut restored = [0u32; 3];
                 let mut new = [0u32; 3];
                 for i in 0..3 {
-                    restored[i] = axis(now[i] as i64 + unzigzag(src.value(RESTORED + i)?))?;
+                    restored[i] = coding.axis(now[i] as i64 + unzigzag(src.value(RESTORED + i)?))?;
                 }
                 for i in 0..3 {
-                    new[i] = axis(new_predicted(now[i], restored[i], max) + unzigzag(src.value(NEW + i)?))?;
+                    new[i] = coding.axis(new_predicted(now[i], restored[i], grid.max as i64) + unzigzag(src.value(NEW + i)?))?;
                 }
                 let (position, new_position) = (grid.dequantize(restored), grid.dequantize(new));
                 let (mut colour, mut new_colour) = ([0u8; 3], [0u8; 3]);
@@ -286,99 +266,102 @@ impl Refiner {
                         moved.push(t);
                     }
                 }
-                let count = match src.symbol(ADDED) as u32 {
-                    ADDED_ESCAPE => ADDED_ESCAPE + src.value(ADDED)?,
-                    c => c,
-                };
-                if count > MAX_ADDED {
-                    return corrupt("split brings back too many triangles");
-                }
-                let mut neighbours = self.neighbours(vertex, &moved);
-                let mut predicted = self.first_group(vertex, &moved);
-                let (mut added, mut groups) = (Vec::new(), Vec::new());
-                for _ in 0..count {
-                    let mut tri = [0u32; 3];
-                    if src.symbol(FAN) == 0 {
-                        let k = src.value(NEIGHBOUR)? as usize;
-                        if k >= neighbours.len() {
-                            return corrupt("neighbour out of range");
-                        }
-                        let x = neighbours.remove(k);
-                        let turn = src.symbol(TURN + self.turn_guess(vertex, x, &moved));
-                        tri = if turn == 0 { [vertex, n, x] } else { [vertex, x, n] };
-                    } else {
-                        for (slot, c) in tri.iter_mut().enumerate() {
-                            *c = match src.symbol(CORNER + slot) {
-                                0 => vertex,
-                                1 => n,
-                                _ => src.raw(bit_length(n))?,
-                            };
-                        }
-                    }
-                    predicted = group(src, predicted)?;
-                    added.push(tri);
-                    groups.push(predicted);
-                }
+                let (added, groups) = self.read_added(src, coding, vertex, &moved)?;
                 Ok(Refinement::Split { vertex, position, new_position, colour, new_colour, moved, added, groups })
             }
-            1 => {
-                let (vertices, triangles) = (src.value(PART)? as u64, src.value(PART)? as u64);
-                if vertices == 0 || n as u64 + vertices > max_vertices || self.mesh.triangles.len() as u64 + triangles > max_triangles {
-                    return corrupt("part larger than its packet");
-                }
-                let mut previous = self.last_quantized(grid);
-                let mut positions = Vec::with_capacity(vertices as usize);
-                for _ in 0..vertices {
-                    let mut q = [0u32; 3];
-                    for i in 0..3 {
-                        q[i] = axis(previous[i] as i64 + unzigzag(src.value(PART_POSITION + i)?))?;
-                    }
-                    positions.push(grid.dequantize(q));
-                    previous = q;
-                }
-                let mut colours = Vec::new();
-                if self.colours {
-                    let mut previous = self.mesh.colours.last().copied().unwrap_or([128; 3]);
-                    for _ in 0..vertices {
-                        for (i, x) in previous.iter_mut().enumerate() {
-                            *x = x.wrapping_add(unzigzag(src.value(COLOUR + i)?) as u8);
-                        }
-                        colours.push(previous);
-                    }
-                }
-                let total = n as u64 + vertices;
-                let mut tris = Vec::with_capacity(triangles as usize);
-                for _ in 0..triangles {
-                    let mut tri = [0u32; 3];
-                    for c in &mut tri {
-                        let back = src.value(PART)? as u64;
-                        *c = total.checked_sub(back + 1).ok_or_else(|| CodingError::Corrupt("part corner out of range".into()))? as u32;
-                    }
-                    tris.push(tri);
-                }
-                let mut groups = Vec::with_capacity(tris.len());
-                for _ in 0..triangles {
-                    groups.push(group(src, *groups.last().unwrap_or(&0))?);
-                }
-                Ok(Refinement::Part { positions, colours, triangles: tris, groups })
-            }
+            1 => self.read_part(src, coding, max_vertices, max_triangles),
             _ => corrupt("refinement kind out of range"),
         }
     }
 
-    /// Writes one refinement (its positions already on the grid) into the
-    /// section, predicted from the mesh as it is before it.
-    fn write(&self, sink: &mut Sink, r: &Refinement, grid: &Grid, group_count: u32, group_bits: u32) -> Result<(), CodingError> {
+    /// Reads the triangles a split of `vertex` brings back, with their groups.
+    fn read_added(&self, src: &mut Source, coding: &Coding, vertex: u32, moved: &[u32]) -> Result<(Vec<[u32; 3]>, Vec<u32>), CodingError> {
         let n = self.mesh.positions.len() as u32;
-        let wrap = |a: u8, b: u8| zigzag(a.wrapping_sub(b) as i8 as i64);
-        let group = |sink: &mut Sink, g: u32, predicted: u32| {
-            if group_count > 1 {
-                sink.symbol(GROUP, (g != predicted) as usize);
-                if g != predicted {
-                    sink.raw(g, group_bits);
+        let count = match src.symbol(ADDED) as u32 {
+            ADDED_ESCAPE => ADDED_ESCAPE + src.value(ADDED)?,
+            c => c,
+        };
+        if count > MAX_ADDED {
+            return corrupt("split brings back too many triangles");
+        }
+        let mut neighbours = self.neighbours(vertex, moved);
+        let mut predicted = self.first_group(vertex, moved);
+        let (mut added, mut groups) = (Vec::new(), Vec::new());
+        for _ in 0..count {
+            let mut tri = [0u32; 3];
+            if src.symbol(FAN) == 0 {
+                let k = src.value(NEIGHBOUR)? as usize;
+                if k >= neighbours.len() {
+                    return corrupt("neighbour out of range");
+                }
+                let x = neighbours.remove(k);
+                let turn = src.symbol(TURN + self.turn_guess(vertex, x, moved));
+                tri = if turn == 0 { [vertex, n, x] } else { [vertex, x, n] };
+            } else {
+                for (slot, c) in tri.iter_mut().enumerate() {
+                    *c = match src.symbol(CORNER + slot) {
+                        0 => vertex,
+                        1 => n,
+                        _ => src.raw(bit_length(n))?,
+                    };
                 }
             }
-        };
+            predicted = coding.read_group(src, predicted)?;
+            added.push(tri);
+            groups.push(predicted);
+        }
+        Ok((added, groups))
+    }
+
+    /// Reads a part: a piece simplification removed whole.
+    fn read_part(&self, src: &mut Source, coding: &Coding, max_vertices: u64, max_triangles: u64) -> Result<Refinement, CodingError> {
+        let n = self.mesh.positions.len() as u32;
+        let (vertices, triangles) = (src.value(PART)? as u64, src.value(PART)? as u64);
+        if vertices == 0 || n as u64 + vertices > max_vertices || self.mesh.triangles.len() as u64 + triangles > max_triangles {
+            return corrupt("part larger than its packet");
+        }
+        let mut previous = self.last_quantized(&coding.grid);
+        let mut positions = Vec::with_capacity(vertices as usize);
+        for _ in 0..vertices {
+            let mut q = [0u32; 3];
+            for i in 0..3 {
+                q[i] = coding.axis(previous[i] as i64 + unzigzag(src.value(PART_POSITION + i)?))?;
+            }
+            positions.push(coding.grid.dequantize(q));
+            previous = q;
+        }
+        let mut colours = Vec::new();
+        if self.colours {
+            let mut previous = self.mesh.colours.last().copied().unwrap_or([128; 3]);
+            for _ in 0..vertices {
+                for (i, x) in previous.iter_mut().enumerate() {
+                    *x = x.wrapping_add(unzigzag(src.value(COLOUR + i)?) as u8);
+                }
+                colours.push(previous);
+            }
+        }
+        let total = n as u64 + vertices;
+        let mut tris = Vec::with_capacity(triangles as usize);
+        for _ in 0..triangles {
+            let mut tri = [0u32; 3];
+            for c in &mut tri {
+                let back = src.value(PART)? as u64;
+                *c = total.checked_sub(back + 1).ok_or_else(|| CodingError::Corrupt("part corner out of range".into()))? as u32;
+            }
+            tris.push(tri);
+        }
+        let mut groups = Vec::with_capacity(tris.len());
+        for _ in 0..triangles {
+            groups.push(coding.read_group(src, *groups.last().unwrap_or(&0))?);
+        }
+        Ok(Refinement::Part { positions, colours, triangles: tris, groups })
+    }
+
+    /// Writes one refinement (its positions already on the grid) into the
+    /// section, predicted from the mesh as it is before it.
+    fn write(&self, sink: &mut Sink, r: &Refinement, coding: &Coding) -> Result<(), CodingError> {
+        let n = self.mesh.positions.len() as u32;
+        let grid = &coding.grid;
         match r {
             Refinement::Split { vertex, position, new_position, colour, new_colour, moved, added, groups } => {
                 if *vertex >= n || added.len() > MAX_ADDED as usize {
@@ -406,44 +389,7 @@ impl Refiner {
                 for &t in &self.incident[*vertex as usize] {
                     sink.symbol(MOVED + self.nearer_new(t, *vertex, *position, *new_position), moved.binary_search(&t).is_ok() as usize);
                 }
-                let count = added.len() as u32;
-                sink.symbol(ADDED, count.min(ADDED_ESCAPE) as usize);
-                if count >= ADDED_ESCAPE {
-                    sink.value(ADDED, count - ADDED_ESCAPE);
-                }
-                let mut neighbours = self.neighbours(*vertex, moved);
-                let mut predicted = self.first_group(*vertex, moved);
-                for (tri, &g) in added.iter().zip(groups) {
-                    // The usual triangle: the vertex, the new one and a neighbour, in either turn.
-                    let fan = match *tri {
-                        [a, b, x] if a == *vertex && b == n => Some((x, 0)),
-                        [a, x, b] if a == *vertex && b == n => Some((x, 1)),
-                        _ => None,
-                    };
-                    match fan.and_then(|(x, turn)| Some((neighbours.iter().position(|&c| c == x)?, x, turn))) {
-                        Some((k, x, turn)) => {
-                            sink.symbol(FAN, 0);
-                            sink.value(NEIGHBOUR, k as u32);
-                            neighbours.remove(k);
-                            sink.symbol(TURN + self.turn_guess(*vertex, x, moved), turn);
-                        }
-                        None => {
-                            sink.symbol(FAN, 1);
-                            for (slot, &c) in tri.iter().enumerate() {
-                                if c == *vertex {
-                                    sink.symbol(CORNER + slot, 0);
-                                } else if c == n {
-                                    sink.symbol(CORNER + slot, 1);
-                                } else {
-                                    sink.symbol(CORNER + slot, 2);
-                                    sink.raw(c, bit_length(n));
-                                }
-                            }
-                        }
-                    }
-                    group(sink, g, predicted);
-                    predicted = g;
-                }
+                self.write_added(sink, coding, *vertex, moved, added, groups);
             }
             Refinement::Part { positions, colours, triangles, groups } => {
                 sink.symbol(KIND, 1);
@@ -472,12 +418,55 @@ impl Refiner {
                 }
                 let mut predicted = 0;
                 for &g in groups {
-                    group(sink, g, predicted);
+                    coding.write_group(sink, g, predicted);
                     predicted = g;
                 }
             }
         }
         Ok(())
+    }
+
+    /// Writes the triangles a split of `vertex` brings back, with their groups.
+    fn write_added(&self, sink: &mut Sink, coding: &Coding, vertex: u32, moved: &[u32], added: &[[u32; 3]], groups: &[u32]) {
+        let n = self.mesh.positions.len() as u32;
+        let count = added.len() as u32;
+        sink.symbol(ADDED, count.min(ADDED_ESCAPE) as usize);
+        if count >= ADDED_ESCAPE {
+            sink.value(ADDED, count - ADDED_ESCAPE);
+        }
+        let mut neighbours = self.neighbours(vertex, moved);
+        let mut predicted = self.first_group(vertex, moved);
+        for (tri, &g) in added.iter().zip(groups) {
+            // The usual triangle: the vertex, the new one and a neighbour, in either turn.
+            let fan = match *tri {
+                [a, b, x] if a == vertex && b == n => Some((x, 0)),
+                [a, x, b] if a == vertex && b == n => Some((x, 1)),
+                _ => None,
+            };
+            match fan.and_then(|(x, turn)| Some((neighbours.iter().position(|&c| c == x)?, x, turn))) {
+                Some((k, x, turn)) => {
+                    sink.symbol(FAN, 0);
+                    sink.value(NEIGHBOUR, k as u32);
+                    neighbours.remove(k);
+                    sink.symbol(TURN + self.turn_guess(vertex, x, moved), turn);
+                }
+                None => {
+                    sink.symbol(FAN, 1);
+                    for (slot, &c) in tri.iter().enumerate() {
+                        if c == vertex {
+                            sink.symbol(CORNER + slot, 0);
+                        } else if c == n {
+                            sink.symbol(CORNER + slot, 1);
+                        } else {
+                            sink.symbol(CORNER + slot, 2);
+                            sink.raw(c, bit_length(n));
+                        }
+                    }
+                }
+            }
+            coding.write_group(sink, g, predicted);
+            predicted = g;
+        }
     }
 
     /// The model for whether triangle `t` moves: 1 when the centre of its
@@ -542,6 +531,55 @@ impl Refiner {
     fn last_quantized(&self, grid: &Grid) -> [u32; 3] {
         self.mesh.positions.last().map_or([0; 3], |&p| grid.quantize(p))
     }
+}
+
+/// How a packet's refinements are coded: positions on `grid`, triangle
+/// groups among `group_count` (raw in `group_bits` when not as predicted).
+struct Coding {
+    grid: Grid,
+    group_count: u32,
+    group_bits: u32,
+}
+
+impl Coding {
+    fn new(grid: Grid, group_count: u32) -> Coding {
+        Coding { grid, group_count, group_bits: bit_length(group_count - 1) }
+    }
+
+    /// A quantized coordinate, which must be on the grid.
+    fn axis(&self, x: i64) -> Result<u32, CodingError> {
+        if (0..=self.grid.max as i64).contains(&x) {
+            Ok(x as u32)
+        } else {
+            corrupt("position off the grid")
+        }
+    }
+
+    fn read_group(&self, src: &mut Source, predicted: u32) -> Result<u32, CodingError> {
+        if self.group_count == 1 || src.symbol(GROUP) == 0 {
+            return Ok(predicted);
+        }
+        let g = src.raw(self.group_bits)?;
+        if g < self.group_count {
+            Ok(g)
+        } else {
+            corrupt("group out of range")
+        }
+    }
+
+    fn write_group(&self, sink: &mut Sink, g: u32, predicted: u32) {
+        if self.group_count > 1 {
+            sink.symbol(GROUP, (g != predicted) as usize);
+            if g != predicted {
+                sink.raw(g, self.group_bits);
+            }
+        }
+    }
+}
+
+/// A colour component's difference, zigzagged.
+fn wrap(a: u8, b: u8) -> u32 {
+    zigzag(a.wrapping_sub(b) as i8 as i64)
 }
 
 /// `2·now − restored`, on the grid.
@@ -624,8 +662,8 @@ pub fn encode(base: &MeshData, refinements: &[Refinement], bits: u32, packet_tri
     if every.iter().flatten().any(|x| !x.is_finite()) {
         return Err(CodingError::Input("a position is not finite".into()));
     }
-    let grid = Grid::new(lo, hi, bits);
-    let group_bits = bit_length(group_count - 1);
+    let coding = Coding::new(Grid::new(lo, hi, bits), group_count);
+    let grid = &coding.grid;
     let on_grid = |p: [f32; 3]| grid.dequantize(grid.quantize(p));
     let mut packets = Vec::new();
     let mut rest = refinements;
@@ -661,7 +699,7 @@ pub fn encode(base: &MeshData, refinements: &[Refinement], bits: u32, packet_tri
                     groups: groups.clone(),
                 },
             };
-            state.write(&mut sink, &r, &grid, group_count, group_bits)?;
+            state.write(&mut sink, &r, &coding)?;
             state.apply(&r).map_err(|e| CodingError::Input(e.to_string()))?;
             taken += 1;
         }
