@@ -162,7 +162,19 @@ struct Closed {
     real_triangles: u32,
 }
 
+/// The mesh closed for coding: checked, its edges glued, its non-manifold
+/// vertices split, and each boundary loop closed by a dummy.
 fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingError> {
+    check_input(triangles, vertex_count)?;
+    let mut corners: Vec<u32> = triangles.iter().flatten().copied().collect();
+    let mut opposite = glue(&corners);
+    let mut source = split_fans(&mut corners, &opposite, vertex_count);
+    close_boundaries(&mut corners, &mut opposite, &mut source);
+    debug_assert!(opposite.iter().all(|&o| o != NONE));
+    Ok(Closed { corners, opposite, source, real_triangles: triangles.len() as u32 })
+}
+
+fn check_input(triangles: &[[u32; 3]], vertex_count: u32) -> Result<(), CodingError> {
     for (t, tri) in triangles.iter().enumerate() {
         if tri.iter().any(|&v| v >= vertex_count) {
             return Err(CodingError::Input(format!("triangle {t} uses vertex {} of {vertex_count}", tri.iter().max().unwrap())));
@@ -175,9 +187,13 @@ fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingErro
     if triangles.len() as u64 * 2 > MAX_TRIANGLES as u64 {
         return Err(CodingError::Input(format!("{} triangles; at most {} can be coded", triangles.len(), MAX_TRIANGLES / 2)));
     }
-    let mut corners: Vec<u32> = triangles.iter().flatten().copied().collect();
+    Ok(())
+}
+
+/// Per corner, the corner across its opposite edge (NONE on a boundary):
+/// edges used exactly twice in opposite directions are glued.
+fn glue(corners: &[u32]) -> Vec<u32> {
     let n = corners.len() as u32;
-    // Glue edges used exactly twice in opposite directions.
     let mut edges: Vec<(u64, u32)> = (0..n)
         .map(|c| {
             let (u, v) = (corners[next(c) as usize], corners[prev(c) as usize]);
@@ -194,7 +210,14 @@ fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingErro
             }
         }
     }
-    // One vertex per fan of glued triangles around it.
+    opposite
+}
+
+/// One vertex per fan of glued triangles around it: a vertex with several
+/// fans gets a copy for each after the first. Returns per vertex its input
+/// vertex.
+fn split_fans(corners: &mut [u32], opposite: &[u32], vertex_count: u32) -> Vec<u32> {
+    let n = corners.len() as u32;
     let mut source: Vec<u32> = (0..vertex_count).collect();
     let mut has_fan = vec![false; vertex_count as usize];
     let mut done = vec![false; n as usize];
@@ -237,8 +260,14 @@ fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingErro
             corners[k as usize] = id;
         }
     }
-    // Close each boundary loop with a dummy vertex. After the split each
-    // vertex starts at most one boundary edge.
+    source
+}
+
+/// Closes each boundary loop with a dummy vertex (NONE in `source`) and a
+/// fan of dummy triangles. After the fans are split each vertex starts at
+/// most one boundary edge.
+fn close_boundaries(corners: &mut Vec<u32>, opposite: &mut Vec<u32>, source: &mut Vec<u32>) {
+    let n = corners.len() as u32;
     let mut outgoing = vec![NONE; source.len()];
     for c in 0..n {
         if opposite[c as usize] == NONE {
@@ -274,8 +303,6 @@ fn close(triangles: &[[u32; 3]], vertex_count: u32) -> Result<Closed, CodingErro
         opposite[(last + 1) as usize] = first;
         opposite[first as usize] = last + 1;
     }
-    debug_assert!(opposite.iter().all(|&o| o != NONE));
-    Ok(Closed { corners, opposite, source, real_triangles: triangles.len() as u32 })
 }
 
 /// A vertex of a boundary loop, and the loop edge from it to the next one.
