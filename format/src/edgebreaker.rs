@@ -816,10 +816,29 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>
     if code.triangle_count > MAX_TRIANGLES || code.vertex_count > code.triangle_count.saturating_mul(3) {
         return corrupt(format!("{} triangles, {} vertices", code.triangle_count, code.vertex_count));
     }
-    // Components end at an E with an empty stack. Each starts with three
-    // vertices (or its start loop's) and brings one more per C; in version 3
-    // files the first vertices of the first `dummy_starts` components are
-    // dummies.
+    let (ends, splits) = components(code)?;
+    let right_lens = right_loop_lengths(code, &ends, splits)?;
+    if code.dummy_starts as usize > ends.len() {
+        return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
+    }
+    // Forwards: rebuild, popping the right loops' lengths.
+    let mut listed =
+        Listed { code, at: 0, component: 0, right_lens, merges: 0, met: record.then(|| Vec::with_capacity(symbols.len())), starting: false };
+    let (mut out, mut dummies) = rebuild(&mut listed, symbols.len(), code.triangle_count, code.vertex_count, code.dummy_starts)?;
+    // A dummy in two lists is refused as a repeat.
+    dummies.extend_from_slice(&code.dummies);
+    dummies.sort_unstable();
+    (out.keep, out.kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
+    Ok((out, listed.met.unwrap_or_default()))
+}
+
+/// The first pass: where each component ends (at an E with an empty stack)
+/// and how many S symbols there are, checked against the counts declared.
+/// Each component starts with three vertices (or its start loop's) and
+/// brings one more per C; in version 3 files the first vertices of the first
+/// `dummy_starts` components are dummies.
+fn components(code: &Connectivity) -> Result<(Vec<usize>, usize), CodingError> {
+    let symbols = &code.symbols;
     let loops_in = code.start_loops.len();
     if code.dummy_starts > 0 && loops_in > 0 {
         return corrupt("components start both at dummies and at loops");
@@ -879,8 +898,13 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>
     if vertices != code.vertex_count as u64 {
         return corrupt(format!("{vertices} vertices decoded, {} declared", code.vertex_count));
     }
-    // Backwards over each component: lengths of the loops, so of each S's
-    // right loop. They are found last S first, so the forward pass pops them.
+    Ok((ends, splits))
+}
+
+/// Backwards over each component: the lengths of the loops, so of each S's
+/// right loop. They are found last S first, so the forward pass pops them.
+fn right_loop_lengths(code: &Connectivity, ends: &[usize], splits: usize) -> Result<Vec<u32>, CodingError> {
+    let symbols = &code.symbols;
     let mut right_lens: Vec<u32> = Vec::with_capacity(splits);
     let mut stack: Vec<u32> = Vec::new();
     let mut merge_index = code.merges.len();
@@ -941,19 +965,7 @@ fn decode_listed(code: &Connectivity, record: bool) -> Result<(Decoded, Vec<Met>
         }
         end = begin;
     }
-
-    if code.dummy_starts as usize > ends.len() {
-        return corrupt(format!("{} components start at a dummy, of {}", code.dummy_starts, ends.len()));
-    }
-    // Forwards: rebuild, popping the right loops' lengths.
-    let mut listed =
-        Listed { code, at: 0, component: 0, right_lens, merges: 0, met: record.then(|| Vec::with_capacity(symbols.len())), starting: false };
-    let (mut out, mut dummies) = rebuild(&mut listed, symbols.len(), code.triangle_count, code.vertex_count, code.dummy_starts)?;
-    // A dummy in two lists is refused as a repeat.
-    dummies.extend_from_slice(&code.dummies);
-    dummies.sort_unstable();
-    (out.keep, out.kept_vertices) = keep_vertices(code.vertex_count, &dummies, &code.copies)?;
-    Ok((out, listed.met.unwrap_or_default()))
+    Ok(right_lens)
 }
 
 /// One symbol of the walk with what comes with it.
