@@ -1045,144 +1045,47 @@ pub(crate) fn rebuild(
     if triangle_count > MAX_TRIANGLES || vertex_count > triangle_count.saturating_mul(3) || symbols > triangle_count as usize {
         return corrupt(format!("{triangle_count} triangles, {vertex_count} vertices, {symbols} symbols"));
     }
-    let mut out = Decoded {
-        triangles: Vec::with_capacity(triangle_count as usize),
-        predictors: Vec::with_capacity(vertex_count as usize),
-        keep: Vec::new(),
-        kept_vertices: 0,
+    let mut r = Rebuilder {
+        out: Decoded {
+            triangles: Vec::with_capacity(triangle_count as usize),
+            predictors: Vec::with_capacity(vertex_count as usize),
+            keep: Vec::new(),
+            kept_vertices: 0,
+        },
+        dummies: Vec::new(),
+        loops: Loops::default(),
+        waiting: Vec::new(),
+        vertex_count,
+        ring: Vec::new(),
+        facing: Vec::new(),
     };
-    let mut dummies = Vec::new();
-    let mut loops = Loops::default();
     // A node a vertex, and one more for each S's and M's tip.
-    loops.nodes.reserve(vertex_count as usize + symbols / 8);
-    let mut waiting: Vec<(u32, u32)> = Vec::new(); // (gate node, length)
-    let new_vertex = |out: &mut Decoded, predictor: [u32; 3]| -> Result<u32, CodingError> {
-        if out.predictors.len() as u32 >= vertex_count {
-            return corrupt(format!("more than the {vertex_count} vertices declared"));
-        }
-        out.predictors.push(predictor);
-        Ok(out.predictors.len() as u32 - 1)
-    };
-    let (mut ring, mut facing) = (Vec::new(), Vec::new());
+    r.loops.nodes.reserve(vertex_count as usize + symbols / 8);
     let (mut read, mut component) = (0usize, 0u32);
     while read < symbols {
-        let (mut gate, mut len) = if let Some(len) = walk.start()? {
-            // A boundary loop, each vertex predicted by the one before (on
-            // the Crytek Sponza's base, extending the edge before it cost
-            // 1.6 % more position bytes); its edges face the dummy, which is
-            // not decoded.
-            if len < 3 || len as usize > (vertex_count as usize).saturating_sub(out.predictors.len()) {
-                return corrupt(format!("a start loop of {len} vertices"));
-            }
-            ring.clear();
-            let mut previous = NONE;
-            for _ in 0..len {
-                previous = new_vertex(&mut out, [previous, NONE, NONE])?;
-                ring.push(previous);
-            }
-            facing.clear();
-            facing.resize(len as usize, NONE);
-            (loops.ring(&ring, &facing, 0), len)
-        } else {
-            let v0 = new_vertex(&mut out, [NONE; 3])?;
-            let v1 = new_vertex(&mut out, [v0, NONE, NONE])?;
-            let v2 = new_vertex(&mut out, [v0, v1, NONE])?;
-            if component < dummy_starts {
-                dummies.push(v0);
-            }
-            out.triangles.push([v0, v1, v2]);
-            (loops.ring(&[v0, v1, v2], &[v2, v0, v1], 0), 3)
-        };
+        let (mut gate, mut len) = r.first_loop(walk, component < dummy_starts)?;
         component += 1;
         loop {
             if read == symbols {
                 return corrupt("symbols end inside a component");
             }
-            if out.triangles.len() as u32 >= triangle_count {
+            if r.out.triangles.len() as u32 >= triangle_count {
                 return corrupt(format!("more than the {triangle_count} triangles declared"));
             }
-            let a = gate;
-            let b = loops.next(a);
             // (Only start loops' edges face no vertex. The edge before the
             // gate too, one more dependent load a symbol, slowed decoding by
             // 4 % for 0.4 % fewer bytes over 35 levels, none on the Crytek
             // Sponza's.)
-            let next_on_boundary = loops.nodes[b as usize].facing == NONE;
-            let Step { symbol: s, split, merge: m } = walk.step(Gate { length: len, next_on_boundary })?;
+            let next_on_boundary = r.loops.nodes[r.loops.next(gate) as usize].facing == NONE;
+            let step = walk.step(Gate { length: len, next_on_boundary })?;
             read += 1;
-            let (va, vb) = (loops.vertex(a), loops.vertex(b));
-            let w = match s {
-                C | D => {
-                    let w = new_vertex(&mut out, [va, vb, loops.nodes[a as usize].facing])?;
-                    if s == D {
-                        dummies.push(w);
-                    }
-                    loops.nodes[a as usize].facing = vb;
-                    gate = loops.add(w, a, b, va, 0);
-                    len += 1;
-                    w
-                }
-                L | R if len < 3 => return corrupt(format!("an {} on a loop of {len} at symbol {}", if s == L { 'L' } else { 'R' }, read - 1)),
-                L => {
-                    let p = loops.prev(a);
-                    loops.link(p, b);
-                    loops.nodes[p as usize].facing = va;
-                    gate = p;
-                    len -= 1;
-                    loops.vertex(p)
-                }
-                R => {
-                    let q = loops.next(b);
-                    loops.link(a, q);
-                    loops.nodes[a as usize].facing = vb;
-                    gate = a;
-                    len -= 1;
-                    loops.vertex(q)
-                }
-                E if len != 3 => return corrupt(format!("an E on a loop of {len} at symbol {}", read - 1)),
-                E => {
-                    let w = loops.vertex(loops.prev(a));
-                    out.triangles.push([vb, va, w]);
-                    match waiting.pop() {
-                        Some((g, l)) => {
-                            gate = g;
-                            len = l;
-                            continue;
-                        }
-                        None => break,
-                    }
-                }
-                S => {
-                    let l1 = split;
-                    let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2 && l1 >= 2) else {
-                        return corrupt(format!("S at symbol {} splits a loop of {len} at {l1}", read - 1));
-                    };
-                    let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
-                    loops.splice(a, nw, vb, va);
-                    waiting.push((a, l2));
-                    gate = nw;
-                    len = l1;
-                    loops.vertex(nw)
-                }
-                M => {
-                    let Some(at) = (waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else {
-                        return corrupt(format!("merge with loop {} of {} waiting", m.depth, waiting.len()));
-                    };
-                    let (g, length) = waiting.remove(at as usize);
-                    if length != m.length || m.offset >= length {
-                        return corrupt(format!("a merge names a loop of {} at {} that has {length}", m.length, m.offset));
-                    }
-                    let nw = loops.walk(g, m.offset, true);
-                    loops.splice(a, nw, vb, va);
-                    gate = nw;
-                    len += length + 1;
-                    loops.vertex(nw)
-                }
-                _ => return corrupt(format!("symbol {s}")),
-            };
-            out.triangles.push([vb, va, w]);
+            match r.apply(step, gate, len, read - 1)? {
+                Some(next) => (gate, len) = next,
+                None => break,
+            }
         }
     }
+    let Rebuilder { out, dummies, .. } = r;
     if out.triangles.len() as u32 != triangle_count || out.predictors.len() as u32 != vertex_count {
         return corrupt(format!(
             "{} triangles and {} vertices decoded, {triangle_count} and {vertex_count} declared",
@@ -1191,6 +1094,134 @@ pub(crate) fn rebuild(
         ));
     }
     Ok((out, dummies))
+}
+
+/// The decoder's state as it rebuilds the mesh.
+struct Rebuilder {
+    out: Decoded,
+    /// The dummy vertices met.
+    dummies: Vec<u32>,
+    loops: Loops,
+    /// Loops waiting after a split: (gate node, length).
+    waiting: Vec<(u32, u32)>,
+    vertex_count: u32,
+    /// A start loop's vertices and facing corners (kept to reuse their memory).
+    ring: Vec<u32>,
+    facing: Vec<u32>,
+}
+
+impl Rebuilder {
+    fn new_vertex(&mut self, predictor: [u32; 3]) -> Result<u32, CodingError> {
+        if self.out.predictors.len() as u32 >= self.vertex_count {
+            return corrupt(format!("more than the {} vertices declared", self.vertex_count));
+        }
+        self.out.predictors.push(predictor);
+        Ok(self.out.predictors.len() as u32 - 1)
+    }
+
+    /// A component's first loop: a start loop the walk names, or a first
+    /// triangle (its first vertex a dummy when `dummy`); returns its gate
+    /// and length.
+    #[inline]
+    fn first_loop(&mut self, walk: &mut impl Walk, dummy: bool) -> Result<(u32, u32), CodingError> {
+        if let Some(len) = walk.start()? {
+            // A boundary loop, each vertex predicted by the one before (on
+            // the Crytek Sponza's base, extending the edge before it cost
+            // 1.6 % more position bytes); its edges face the dummy, which is
+            // not decoded.
+            if len < 3 || len as usize > (self.vertex_count as usize).saturating_sub(self.out.predictors.len()) {
+                return corrupt(format!("a start loop of {len} vertices"));
+            }
+            let (mut ring, mut facing) = (std::mem::take(&mut self.ring), std::mem::take(&mut self.facing));
+            ring.clear();
+            let mut previous = NONE;
+            for _ in 0..len {
+                previous = self.new_vertex([previous, NONE, NONE])?;
+                ring.push(previous);
+            }
+            facing.clear();
+            facing.resize(len as usize, NONE);
+            let gate = self.loops.ring(&ring, &facing, 0);
+            (self.ring, self.facing) = (ring, facing);
+            Ok((gate, len))
+        } else {
+            let v0 = self.new_vertex([NONE; 3])?;
+            let v1 = self.new_vertex([v0, NONE, NONE])?;
+            let v2 = self.new_vertex([v0, v1, NONE])?;
+            if dummy {
+                self.dummies.push(v0);
+            }
+            self.out.triangles.push([v0, v1, v2]);
+            Ok((self.loops.ring(&[v0, v1, v2], &[v2, v0, v1], 0), 3))
+        }
+    }
+
+    /// Applies symbol number `at` at the gate of a loop of `len`: its
+    /// triangle, and the next gate and loop length (`None` when the
+    /// component is done).
+    #[inline]
+    fn apply(&mut self, step: Step, gate: u32, len: u32, at: usize) -> Result<Option<(u32, u32)>, CodingError> {
+        let Step { symbol: s, split, merge: m } = step;
+        let loops = &mut self.loops;
+        let a = gate;
+        let b = loops.next(a);
+        let (va, vb) = (loops.vertex(a), loops.vertex(b));
+        let (w, next) = match s {
+            C | D => {
+                let w = self.new_vertex([va, vb, self.loops.nodes[a as usize].facing])?;
+                if s == D {
+                    self.dummies.push(w);
+                }
+                let loops = &mut self.loops;
+                loops.nodes[a as usize].facing = vb;
+                (w, (loops.add(w, a, b, va, 0), len + 1))
+            }
+            L | R if len < 3 => return corrupt(format!("an {} on a loop of {len} at symbol {at}", if s == L { 'L' } else { 'R' })),
+            L => {
+                let p = loops.prev(a);
+                loops.link(p, b);
+                loops.nodes[p as usize].facing = va;
+                (loops.vertex(p), (p, len - 1))
+            }
+            R => {
+                let q = loops.next(b);
+                loops.link(a, q);
+                loops.nodes[a as usize].facing = vb;
+                (loops.vertex(q), (a, len - 1))
+            }
+            E if len != 3 => return corrupt(format!("an E on a loop of {len} at symbol {at}")),
+            E => {
+                let w = loops.vertex(loops.prev(a));
+                self.out.triangles.push([vb, va, w]);
+                return Ok(self.waiting.pop());
+            }
+            S => {
+                let l1 = split;
+                let Some(l2) = (len + 1).checked_sub(l1).filter(|&l2| l2 >= 2 && l1 >= 2) else {
+                    return corrupt(format!("S at symbol {at} splits a loop of {len} at {l1}"));
+                };
+                let nw = if l1 <= l2 { loops.walk(b, l1 - 1, true) } else { loops.walk(a, l2 - 1, false) };
+                loops.splice(a, nw, vb, va);
+                self.waiting.push((a, l2));
+                (loops.vertex(nw), (nw, l1))
+            }
+            M => {
+                let Some(at) = (self.waiting.len() as u32).checked_sub(m.depth.saturating_add(1)) else {
+                    return corrupt(format!("merge with loop {} of {} waiting", m.depth, self.waiting.len()));
+                };
+                let (g, length) = self.waiting.remove(at as usize);
+                if length != m.length || m.offset >= length {
+                    return corrupt(format!("a merge names a loop of {} at {} that has {length}", m.length, m.offset));
+                }
+                let nw = loops.walk(g, m.offset, true);
+                loops.splice(a, nw, vb, va);
+                (loops.vertex(nw), (nw, len + length + 1))
+            }
+            _ => return corrupt(format!("symbol {s}")),
+        };
+        self.out.triangles.push([vb, va, w]);
+        Ok(Some(next))
+    }
 }
 
 impl Decoded {
