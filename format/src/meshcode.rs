@@ -182,24 +182,8 @@ pub fn encode(mesh: &MeshData, bits: u32) -> Result<Encoded, CodingError> {
 pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let (version, mut input) = framed(bytes, MAGIC, 1..=VERSION, "coded mesh")?;
-    let body = input.bytes;
-    let mut count = || input.varint().and_then(|c| u32::try_from(c).map_err(|_| corrupt("count over 32 bits")));
-    let [triangle_count, vertex_count, symbol_count, merge_count] = [count()?, count()?, count()?, count()?];
-    // Version 1 has no count of dummy starts: every dummy is listed. Version
-    // 4 has start loops in that place.
-    let starts = if version > 1 { count()? } else { 0 };
-    let (dummy_starts, loop_count) = if version >= 4 { (0, starts) } else { (starts, 0) };
-    let [dummy_count, copy_count, group_count, has_colours, bits] = [count()?, count()?, count()?, count()?, count()?];
-    if triangle_count > edgebreaker::MAX_TRIANGLES
-        || symbol_count > triangle_count
-        || [merge_count, starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count)
-        || vertex_count > triangle_count.saturating_mul(3)
-        || !(1..=24).contains(&bits)
-        || has_colours > 1
-        || group_count == 0
-    {
-        return Err(corrupt("counts out of range"));
-    }
+    let body = input.bytes.len();
+    let header = Header::read(&mut input, version)?;
     let mut lo = [0f32; 3];
     let mut hi = [0f32; 3];
     for x in lo.iter_mut().chain(hi.iter_mut()) {
@@ -208,27 +192,11 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
     if lo.iter().chain(&hi).any(|x| !x.is_finite()) {
         return Err(corrupt("box is not finite"));
     }
-    let grid = Grid::new(lo, hi, bits);
-
-    let mut code = Connectivity { triangle_count, vertex_count, dummy_starts, ..Connectivity::default() };
-    // Room for the records up front (a few per cent of a small mesh's time),
-    // no more than the file's bytes could hold whatever counts it claims.
-    let room = |n: u32| (n as usize).min(body.len());
-    code.symbols.reserve(symbol_count as usize);
-    code.start_loops.reserve(room(loop_count));
-    code.merges.reserve(room(merge_count));
-    code.dummies.reserve(room(dummy_count));
-    code.copies.reserve(room(copy_count));
+    let grid = Grid::new(lo, hi, header.bits);
     let mut decoded = if version >= 5 {
-        // Versions 5 and 6 have, in the place of the dummies' count, the number of
-        // static models of the copies.
-        if dummy_count != copy_models(copy_count) as u32 {
-            return Err(corrupt("copy models"));
-        }
-        read_connectivity(&mut input, version, symbol_count, triangle_count, vertex_count, loop_count, merge_count, copy_count)?
+        read_connectivity(&mut input, &header)?
     } else {
-        read_static_connectivity(&mut input, &mut code, version, symbol_count, loop_count, merge_count, dummy_count, copy_count)?;
-        edgebreaker::decode(&code)?
+        edgebreaker::decode(&read_static_connectivity(&mut input, &header, body)?)?
     };
     let triangles = decoded.resolve();
     let mut source = Source::new(&mut input, 3)?;
@@ -236,13 +204,87 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
         decode_predicted(&mut source, &decoded, grid.max, [0; 3], |p, r| u32::try_from(p as i64 + unzigzag(r)).ok().filter(|&x| x <= grid.max))?;
     // (In place: a grid point and a position take the same room.)
     let positions: Vec<[f32; 3]> = quantized.into_iter().map(|q| grid.dequantize(q)).collect();
+    let groups = read_groups(&mut input, &header, triangles.len())?;
+    let mut source = Source::new(&mut input, 3)?;
+    let mut colours = Vec::new();
+    if header.has_colours == 1 {
+        let all = decode_predicted(&mut source, &decoded, 255, [128; 3], |p, r| Some((p as u8).wrapping_add(unzigzag(r) as u8) as u32))?;
+        colours = all.iter().map(|c| c.map(|x| x as u8)).collect();
+    }
+    if input.at != body {
+        return Err(corrupt("bytes left after the last section"));
+    }
+    Ok(MeshData { positions, triangles, groups, colours })
+}
 
-    let mut source = Source::new(&mut input, 1)?;
+/// A coded mesh's counts, after its version.
+struct Header {
+    version: u8,
+    triangle_count: u32,
+    vertex_count: u32,
+    symbol_count: u32,
+    merge_count: u32,
+    /// Version 1 has no count of dummy starts: every dummy is listed.
+    /// Version 4 and later have start loops in that place.
+    dummy_starts: u32,
+    loop_count: u32,
+    /// Versions 5 and 6 have, in the place of the dummies' count, the number
+    /// of static models of the copies.
+    dummy_count: u32,
+    copy_count: u32,
+    group_count: u32,
+    has_colours: u32,
+    bits: u32,
+}
+
+impl Header {
+    fn read(input: &mut Reader, version: u8) -> Result<Header, CodingError> {
+        let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+        let mut count = || input.varint().and_then(|c| u32::try_from(c).map_err(|_| corrupt("count over 32 bits")));
+        let [triangle_count, vertex_count, symbol_count, merge_count] = [count()?, count()?, count()?, count()?];
+        let starts = if version > 1 { count()? } else { 0 };
+        let (dummy_starts, loop_count) = if version >= 4 { (0, starts) } else { (starts, 0) };
+        let [dummy_count, copy_count, group_count, has_colours, bits] = [count()?, count()?, count()?, count()?, count()?];
+        if triangle_count > edgebreaker::MAX_TRIANGLES
+            || symbol_count > triangle_count
+            || [merge_count, starts, dummy_count, copy_count].iter().any(|&n| n > vertex_count)
+            || vertex_count > triangle_count.saturating_mul(3)
+            || !(1..=24).contains(&bits)
+            || has_colours > 1
+            || group_count == 0
+        {
+            return Err(corrupt("counts out of range"));
+        }
+        if version >= 5 && dummy_count != copy_models(copy_count) as u32 {
+            return Err(corrupt("copy models"));
+        }
+        let header = Header {
+            version,
+            triangle_count,
+            vertex_count,
+            symbol_count,
+            merge_count,
+            dummy_starts,
+            loop_count,
+            dummy_count,
+            copy_count,
+            group_count,
+            has_colours,
+            bits,
+        };
+        Ok(header)
+    }
+}
+
+/// The groups section: per triangle its group; in version 3 and later as
+/// runs, before it a flag a triangle (whether a new group, raw, follows).
+fn read_groups(input: &mut Reader, header: &Header, n: usize) -> Result<Vec<u32>, CodingError> {
+    let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
+    let group_count = header.group_count;
+    let mut source = Source::new(input, 1)?;
     let group_bits = bit_length(group_count - 1);
-    let mut groups = Vec::with_capacity(triangles.len());
-    let n = triangles.len();
-    if version < 3 {
-        // A flag a triangle: whether a new group (raw) follows.
+    let mut groups = Vec::with_capacity(n);
+    if header.version < 3 {
         let mut group = 0;
         for _ in 0..n {
             if source.symbol(0) == 1 {
@@ -269,17 +311,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, CodingError> {
             groups.resize(groups.len() + run + 1, group);
         }
     }
-
-    let mut source = Source::new(&mut input, 3)?;
-    let mut colours = Vec::new();
-    if has_colours == 1 {
-        let all = decode_predicted(&mut source, &decoded, 255, [128; 3], |p, r| Some((p as u8).wrapping_add(unzigzag(r) as u8) as u32))?;
-        colours = all.iter().map(|c| c.map(|x| x as u8)).collect();
-    }
-    if input.at != body.len() {
-        return Err(corrupt("bytes left after the last section"));
-    }
-    Ok(MeshData { positions, triangles, groups, colours })
+    Ok(groups)
 }
 
 /// How many static models the copies have: none (adaptive ones) under 64
@@ -343,17 +375,8 @@ fn connectivity_sink(code: &Connectivity, met: &[edgebreaker::Met]) -> Sink {
 /// and each M by its record; then the copies (index gaps and distances to
 /// their originals), under adaptive models but for 64 copies or more (see
 /// [`copy_models`]).
-#[allow(clippy::too_many_arguments)]
-fn read_connectivity(
-    input: &mut Reader,
-    version: u8,
-    symbol_count: u32,
-    triangle_count: u32,
-    vertex_count: u32,
-    loop_count: u32,
-    merge_count: u32,
-    copy_count: u32,
-) -> Result<Decoded, CodingError> {
+fn read_connectivity(input: &mut Reader, header: &Header) -> Result<Decoded, CodingError> {
+    let Header { version, symbol_count, triangle_count, vertex_count, loop_count, merge_count, copy_count, .. } = *header;
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     let fixed = copy_models(copy_count);
     let source = Source::new(input, fixed)?;
@@ -447,17 +470,17 @@ impl<const VERSION: u8> edgebreaker::Walk for Stream<'_, VERSION> {
 
 /// The connectivity section of versions 1 to 4: the symbols under static
 /// models, one per previous symbol, then the records' numbers under one more.
-#[allow(clippy::too_many_arguments)]
-fn read_static_connectivity(
-    input: &mut Reader,
-    code: &mut Connectivity,
-    version: u8,
-    symbol_count: u32,
-    loop_count: u32,
-    merge_count: u32,
-    dummy_count: u32,
-    copy_count: u32,
-) -> Result<(), CodingError> {
+fn read_static_connectivity(input: &mut Reader, header: &Header, body: usize) -> Result<Connectivity, CodingError> {
+    let Header { version, triangle_count, vertex_count, dummy_starts, symbol_count, loop_count, merge_count, dummy_count, copy_count, .. } = *header;
+    let mut code = Connectivity { triangle_count, vertex_count, dummy_starts, ..Connectivity::default() };
+    // Room for the records up front (a few per cent of a small mesh's time),
+    // no more than the file's bytes could hold whatever counts it claims.
+    let room = |n: u32| (n as usize).min(body);
+    code.symbols.reserve(symbol_count as usize);
+    code.start_loops.reserve(room(loop_count));
+    code.merges.reserve(room(merge_count));
+    code.dummies.reserve(room(dummy_count));
+    code.copies.reserve(room(copy_count));
     let corrupt = |m: &str| CodingError::Corrupt(m.to_string());
     // Versions before 4 have no D, so a model fewer.
     let symbols = if version >= 4 { edgebreaker::SYMBOLS } else { edgebreaker::D as usize };
@@ -490,7 +513,7 @@ fn read_static_connectivity(
         let original = last.checked_sub(source.value(values)?).ok_or_else(|| corrupt("copy original"))?;
         code.copies.push([last, original]);
     }
-    Ok(())
+    Ok(code)
 }
 
 /// The adaptive models of versions 5 and 6's connectivity.
