@@ -504,15 +504,16 @@ fn measure(scene: &Scene, rays: &RayScene, space: &FreeSpace, probes: &[Vec3], p
     for b in &baselines {
         curves.push((&b.report.curve, if b.name == "random" { RANDOM } else { GRID }));
     }
+    let subject = report::Subject { scene, rays, report: &report, probes };
     let mut images = vec![
         ("coverage_curve.png".to_string(), report::coverage_chart(&curves, (floor - 0.05).clamp(0.0, 0.9), 640, 400)),
-        ("coverage_top.png".to_string(), report::top_view(scene, rays, space, &report, probes, 800)),
+        ("coverage_top.png".to_string(), report::top_view(&subject, space, 800)),
     ];
     if let Some(eye) = space.most_open_point() {
         let e = scene.bounds().extent();
         let long = if e.x >= e.z { Vec3::X } else { Vec3::Z };
         for (k, forward) in [long, -long].into_iter().enumerate() {
-            images.push((format!("coverage_view_{k}.png"), report::perspective_view(scene, rays, &report, probes, eye, forward, 640)));
+            images.push((format!("coverage_view_{k}.png"), report::perspective_view(&subject, eye, forward, 640)));
         }
     }
     let per_material = report.per_group(&scene.triangle_material, &scene.materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>());

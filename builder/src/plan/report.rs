@@ -75,14 +75,13 @@ fn shade(ray_dir: Vec3, normal: Vec3, seen: Seen) -> Rgb<u8> {
 /// navigable space are judged by the probes, others drawn dimmed, or amber
 /// where the column holds only free space the navigable space leaves out.
 fn render(
-    rays: &RayScene,
+    subject: &Subject<'_>,
     reachable: &[bool],
-    probes: &[Vec3],
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     background: Rgb<u8>,
     ray_at: impl Fn(f32, f32) -> (Ray, Column),
 ) -> RgbImage {
+    let Subject { rays, probes, .. } = *subject;
     let (primary, column): (Vec<Ray>, Vec<Column>) =
         (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| ray_at(x as f32 + 0.5, y as f32 + 0.5)).unzip();
     let hits = rays.intersect_batch(&primary, Packing::Packets8);
@@ -140,11 +139,22 @@ fn dot(img: &mut RgbImage, x: f32, y: f32, colour: Rgb<u8>) {
     }
 }
 
+/// What the pictures show: the scene, its rays, the coverage report and
+/// the probes that made it.
+#[derive(Clone, Copy)]
+pub struct Subject<'a> {
+    pub scene: &'a Scene,
+    pub rays: &'a RayScene,
+    pub report: &'a CoverageReport,
+    pub probes: &'a [Vec3],
+}
+
 /// Orthographic top view, `width` pixels across. Each pixel's ray starts at the
 /// top of the navigable space in its column (a cutaway: interiors show their
 /// floors, not their roofs); columns without navigable space show the roof,
 /// amber where they hold free space the chosen space leaves out.
-pub fn top_view(scene: &Scene, rays: &RayScene, space: &FreeSpace, report: &CoverageReport, probes: &[Vec3], width: u32) -> RgbImage {
+pub fn top_view(subject: &Subject<'_>, space: &FreeSpace, width: u32) -> RgbImage {
+    let Subject { scene, report, probes, .. } = *subject;
     let reachable = reachable_triangles(scene, report);
     let b = scene.bounds();
     let e = b.extent();
@@ -176,7 +186,7 @@ pub fn top_view(scene: &Scene, rays: &RayScene, space: &FreeSpace, report: &Cove
         }
     };
     let to_world = |x: f32, y: f32| (b.min.x + x / width as f32 * e.x, b.min.z + y / height as f32 * e.z);
-    let mut img = render(rays, &reachable, probes, width, height, Rgb([24, 26, 32]), |x, y| {
+    let mut img = render(subject, &reachable, (width, height), Rgb([24, 26, 32]), |x, y| {
         let (wx, wz) = to_world(x, y);
         let (origin, column) = start(wx, wz);
         (Ray::new(origin, Vec3::NEG_Y), column)
@@ -188,14 +198,14 @@ pub fn top_view(scene: &Scene, rays: &RayScene, space: &FreeSpace, report: &Cove
 }
 
 /// A 90° perspective view from `eye` toward `forward`, 4:3, sky blue where nothing is hit.
-pub fn perspective_view(scene: &Scene, rays: &RayScene, report: &CoverageReport, probes: &[Vec3], eye: Vec3, forward: Vec3, width: u32) -> RgbImage {
-    let reachable = reachable_triangles(scene, report);
+pub fn perspective_view(subject: &Subject<'_>, eye: Vec3, forward: Vec3, width: u32) -> RgbImage {
+    let reachable = reachable_triangles(subject.scene, subject.report);
     let height = width * 3 / 4;
     let f = forward.normalize();
     let right = f.cross(Vec3::Y).normalize_or(Vec3::X);
     let up = right.cross(f);
     let aspect = height as f32 / width as f32;
-    render(rays, &reachable, probes, width, height, Rgb([150, 190, 230]), |x, y| {
+    render(subject, &reachable, (width, height), Rgb([150, 190, 230]), |x, y| {
         let sx = 2.0 * x / width as f32 - 1.0;
         let sy = (1.0 - 2.0 * y / height as f32) * aspect;
         (Ray::new(eye, (f + right * sx + up * sy).normalize()), Column::Navigable)

@@ -69,12 +69,12 @@ pub fn best_probes(rays: &RayScene, mesh: &Mesh, probes: &[Vec3], error: f32) ->
         .collect()
 }
 
-/// Probe `eye`'s depth cube of `size`² texels a face: what each texel's
-/// central direction hits (distance between `near` and `far`, log-coded) and
-/// the probe that sees that point best. `slack` absorbs float error.
-pub fn depth_map(rays: &RayScene, eye: Vec3, probes: &[Vec3], size: u32, near: f32, far: f32, slack: f32) -> DepthMap {
-    let mut map = DepthMap { size, near, far, depth: Vec::new(), best: Vec::new() };
-    let n = size as usize;
+/// Probe `eye`'s depth cube in `map` (empty, of `map.size`² texels a face):
+/// what each texel's central direction hits (distance between `map.near` and
+/// `map.far`, log-coded) and the probe that sees that point best. `slack`
+/// absorbs float error.
+pub fn depth_map(rays: &RayScene, eye: Vec3, probes: &[Vec3], mut map: DepthMap, slack: f32) -> DepthMap {
+    let n = map.size as usize;
     let texels: Vec<(Option<f32>, u32)> = (0..6 * n * n)
         .into_par_iter()
         .map(|i| {
@@ -148,7 +148,7 @@ mod tests {
     fn a_depth_map_holds_the_distance_each_way_and_the_probe_that_sees_that_wall_best() {
         let mesh = two_rooms();
         let rays = RayScene::new(&mesh.positions, &mesh.triangles, 0).unwrap();
-        let map = depth_map(&rays, PROBES[1], &PROBES, 32, 0.05, 20.0, 1e-3);
+        let map = depth_map(&rays, PROBES[1], &PROBES, DepthMap { size: 32, near: 0.05, far: 20.0, depth: vec![], best: vec![] }, 1e-3);
         // From probe 1 at x = 3: the left wall 3 away (probe 0 sees it best), the right
         // wall 1 away (probe 1 itself), the back wall (z = 0) 2 away.
         for (dir, distance, probe) in [([-1.0, 0.0, 0.0], 3.0, 0), ([1.0, 0.0, 0.0], 1.0, 1), ([0.0, 0.0, -1.0], 2.0, 1)] {

@@ -5,7 +5,7 @@
 use super::Settings;
 use crate::bundle::{write, BundleError};
 use crate::files::jpeg;
-use crate::tracer::{denoise, downsample, equirect_from_cube, photo_sphere_jpeg, Frame, Renderer};
+use crate::tracer::{denoise, downsample, equirect_from_cube, photo_sphere_jpeg, Frame, Perspective, Renderer};
 use exploremaps_format::{CubeLevel, Probe, Tiles, CUBE_FACES};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -89,6 +89,12 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
     let equirect = equirect_from_cube(&full, settings.face, pano_width);
     write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), QUALITY))?;
     let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));
-    let view = denoised(renderer.perspective(&settings.trace.panorama, eye, yaw, pitch, 1.0, 320, 180, crate::seeds::image::thumbnail(id as u32)))?;
+    let view = denoised(renderer.perspective(
+        &settings.trace.panorama,
+        Perspective { eye, yaw, pitch, fov_y: 1.0 },
+        320,
+        180,
+        crate::seeds::image::thumbnail(id as u32),
+    ))?;
     write(dir, &thumb, &jpeg(&renderer.to_image(320, 180, &view), 85))
 }

@@ -56,7 +56,8 @@ pub(super) fn render(
     let near = graph.scene.near_distance.unwrap_or(1e-3 * diagonal).max(1e-4 * diagonal);
     let mut depth_bytes = 0;
     for (id, &eye) in probes.iter().enumerate() {
-        let map = crate::proxy::seen::depth_map(renderer.tracer.rays, eye, &probes, DEPTH_MAP_SIZE, near, 2.0 * diagonal, 1e-4 * diagonal).encode();
+        let empty = exploremaps_format::depthmap::DepthMap { size: DEPTH_MAP_SIZE, near, far: 2.0 * diagonal, depth: Vec::new(), best: Vec::new() };
+        let map = crate::proxy::seen::depth_map(renderer.tracer.rays, eye, &probes, empty, 1e-4 * diagonal).encode();
         let file = format!("proxy/depth/{id}.emdm");
         write(dir, &file, &map)?;
         depth_bytes += map.len();

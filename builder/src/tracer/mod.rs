@@ -152,6 +152,16 @@ impl Settings {
     }
 }
 
+/// A camera at `eye` looking toward (`yaw`, `pitch`), with a vertical field
+/// of view of `fov_y` radians.
+#[derive(Clone, Copy, Debug)]
+pub struct Perspective {
+    pub eye: Vec3,
+    pub yaw: f32,
+    pub pitch: f32,
+    pub fov_y: f32,
+}
+
 /// A scene ready to render bundle assets: lights chosen, cache built,
 /// exposure fixed for the whole bundle.
 pub struct Renderer<'a> {
@@ -291,9 +301,9 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// A perspective view toward (yaw, pitch) with vertical field of view `fov_y`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn perspective(&self, params: &TraceParams, eye: Vec3, yaw: f32, pitch: f32, fov_y: f32, width: u32, height: u32, image: u64) -> Frame {
+    /// A perspective view of `width` × `height` pixels.
+    pub fn perspective(&self, params: &TraceParams, view: Perspective, width: u32, height: u32, image: u64) -> Frame {
+        let Perspective { eye, yaw, pitch, fov_y } = view;
         let forward = Vec3::from(direction(yaw, pitch));
         let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
         let up = right.cross(forward);

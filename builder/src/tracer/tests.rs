@@ -357,7 +357,7 @@ fn preview_and_final_renders_match_their_references() {
     let eyes = [Vec3::new(3.0, 1.6, 2.5), Vec3::new(9.0, 1.6, 2.5)];
     for quality in [Quality::Preview, Quality::Final] {
         let renderer = Renderer::new(&scene, &rays, &eyes, Settings::new(quality, 1));
-        let f = renderer.perspective(&renderer.settings.panorama, eyes[0], 1.2, -0.1, 1.2, 96, 64, 0);
+        let f = renderer.perspective(&renderer.settings.panorama, Perspective { eye: eyes[0], yaw: 1.2, pitch: -0.1, fov_y: 1.2 }, 96, 64, 0);
         // Renders differ slightly between CPUs (Embree's AVX2 and AVX-512
         // kernels give hit points that differ in their last bits; see the
         // test below for what that did to previews before the cache's grid
@@ -386,7 +386,7 @@ fn a_preview_does_not_change_when_the_scene_moves_by_a_hair() {
         let rays = ray_scene(scene);
         let eyes = eyes.map(|e| e + offset);
         let renderer = Renderer::new(scene, &rays, &eyes, Settings::new(Quality::Preview, 1));
-        let f = renderer.perspective(&renderer.settings.panorama, eyes[0], 1.2, -0.1, 1.2, 96, 64, 0);
+        let f = renderer.perspective(&renderer.settings.panorama, Perspective { eye: eyes[0], yaw: 1.2, pitch: -0.1, fov_y: 1.2 }, 96, 64, 0);
         renderer.to_image(96, 64, &f.color)
     };
     let db = psnr(&render(&scene, Vec3::ZERO), &render(&moved, shift));
@@ -898,7 +898,9 @@ fn renders_at_one_sample_a_pixel_read_textures_over_the_pixel() {
     let eye = Vec3::new(0.0, 1.6, 0.0);
     let renderer = Renderer::new(&scene, &rays, &[eye], Settings::new(Quality::Final, 1));
     let params = TraceParams { samples: 1, bounces: 0, baked_points: true, gather: None, antialias: false, sun_rays: 1, seed: 3 };
-    let view = |samples: u32| renderer.perspective(&TraceParams { samples, ..params }, eye, 0.0, -0.6, 0.9, 64, 48, 0).color;
+    let view = |samples: u32| {
+        renderer.perspective(&TraceParams { samples, ..params }, Perspective { eye, yaw: 0.0, pitch: -0.6, fov_y: 0.9 }, 64, 48, 0).color
+    };
     let (one, many) = (view(1), view(64));
     let floor: Vec<usize> = (0..one.len()).filter(|&i| many[i].x < 1.5 * mean(&many).x && one[i] != Vec3::ZERO).collect();
     let error = floor.iter().map(|&i| (one[i] - many[i]).abs().x).sum::<f32>() / floor.iter().map(|&i| many[i].x).sum::<f32>();
