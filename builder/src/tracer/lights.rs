@@ -40,7 +40,7 @@ const TABLES_SEED: u64 = 0x5EED;
 /// Where the reference's light samples come from.
 pub struct LightSampler {
     /// (triangle, corners, emitted radiance) of every emissive triangle.
-    emitters: Vec<(u32, [Vec3; 3], Vec3)>,
+    emitters: Vec<Emitter>,
     /// Chooses an emitter by area × luminance.
     emitter_table: Table,
     suns: Vec<SunSquare>,
@@ -135,8 +135,11 @@ fn balance(p: f32, q: f32) -> f32 {
     }
 }
 
-/// The emissive triangles (index, corners, emission) and the power of each.
-fn emitters(tracer: &Tracer, scene: &Scene) -> (Vec<(u32, [Vec3; 3], Vec3)>, Vec<f32>) {
+/// An emissive triangle: its index, corners and emission.
+type Emitter = (u32, [Vec3; 3], Vec3);
+
+/// The emissive triangles and the power of each.
+fn emitters(tracer: &Tracer, scene: &Scene) -> (Vec<Emitter>, Vec<f32>) {
     let mut emitters = Vec::new();
     let mut power = Vec::new();
     for (t, tri) in scene.triangles.iter().enumerate() {
