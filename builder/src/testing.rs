@@ -1,6 +1,6 @@
 //! Scenes with exact answers for the stage tests.
 
-use exploremaps_scenes::mesh::MeshBuilder;
+use exploremaps_scenes::mesh::{MeshBuilder, Wall};
 use exploremaps_scenes::Scene;
 use glam::Vec3;
 
@@ -19,11 +19,11 @@ pub fn rooms_with(count: usize, w: f32, h: f32, d: f32, doors: &[usize], furnish
     let e = 0.5 * t;
     m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(x1 + e, 0.0, d + e));
     m.cuboid(Vec3::new(-e, h, -e), Vec3::new(x1 + e, h + t, d + e));
-    m.wall(true, 0.0, 0.0, x1, 0.0, h, t, &[]);
-    m.wall(true, d, 0.0, x1, 0.0, h, t, &[]);
+    m.wall(Wall::along_x(0.0, 0.0, x1), 0.0..h, t, &[]);
+    m.wall(Wall::along_x(d, 0.0, x1), 0.0..h, t, &[]);
     for k in 0..=count {
         let door: &[(f32, f32, f32)] = if doors.contains(&k) { &[(0.5 * d, 1.2, 2.2)] } else { &[] };
-        m.wall(false, k as f32 * w, 0.0, d, 0.0, h, t, door);
+        m.wall(Wall::along_z(k as f32 * w, 0.0, d), 0.0..h, t, door);
     }
     furnish(&mut m);
     m.finish()
@@ -37,7 +37,7 @@ pub fn pillar_room(radius: f32) -> Scene {
     m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(w + e, 0.0, d + e));
     m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
     for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
-        m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
+        m.wall(Wall::new(along_x, line, 0.0, len), 0.0..h, t, &[]);
     }
     m.cylinder(Vec3::new(5.0, 0.0, 3.0), radius, h, 32);
     m.finish()

@@ -15,7 +15,7 @@
 //! | `suite` | inch | six rooms joined only through doors, closed outside |
 //! | `block_city` | m | a city of 1 m blocks, ~150 k triangles: streets, 1 m terraces, houses whose storeys are joined only by 1 m block stairs, one house sealed |
 
-use crate::mesh::MeshBuilder;
+use crate::mesh::{MeshBuilder, Wall};
 use crate::scene::{Light, Material, ScaleSource, Scene};
 use glam::{Vec2, Vec3};
 
@@ -75,10 +75,10 @@ fn room(m: &mut MeshBuilder, mat: [u32; 3], w: f32, h: f32, d: f32, doors: &[(us
     m.set_material(mat[0]);
     m.cuboid(Vec3::new(-t, h, -t), Vec3::new(w + t, h + t, d + t));
     let at = |k: usize| doors.iter().filter(|o| o.0 == k).map(|o| (o.1, o.2, 2.1)).collect::<Vec<_>>();
-    m.wall(true, -e, 0.0, w, 0.0, h, t, &at(0));
-    m.wall(true, d + e, 0.0, w, 0.0, h, t, &at(1));
-    m.wall(false, -e, 0.0, d, 0.0, h, t, &at(2));
-    m.wall(false, w + e, 0.0, d, 0.0, h, t, &at(3));
+    m.wall(Wall::along_x(-e, 0.0, w), 0.0..h, t, &at(0));
+    m.wall(Wall::along_x(d + e, 0.0, w), 0.0..h, t, &at(1));
+    m.wall(Wall::along_z(-e, 0.0, d), 0.0..h, t, &at(2));
+    m.wall(Wall::along_z(w + e, 0.0, d), 0.0..h, t, &at(3));
 }
 
 /// A table: top at `height`, four legs.
@@ -121,9 +121,9 @@ fn conference() -> Scene {
     m.cuboid(Vec3::new(-2.4, -0.2, -0.2), Vec3::new(-0.2, 0.0, 6.2));
     m.set_material(mat[0]);
     m.cuboid(Vec3::new(-2.4, 2.9, -0.2), Vec3::new(-0.2, 3.1, 6.2));
-    m.wall(false, -2.3, 0.0, 6.0, 0.0, 2.9, 0.2, &[]);
-    m.wall(true, -0.1, -2.4, -0.2, 0.0, 2.9, 0.2, &[]);
-    m.wall(true, 6.1, -2.4, -0.2, 0.0, 2.9, 0.2, &[]);
+    m.wall(Wall::along_z(-2.3, 0.0, 6.0), 0.0..2.9, 0.2, &[]);
+    m.wall(Wall::along_x(-0.1, -2.4, -0.2), 0.0..2.9, 0.2, &[]);
+    m.wall(Wall::along_x(6.1, -2.4, -0.2), 0.0..2.9, 0.2, &[]);
     m.begin_object("table");
     m.set_material(mat[2]);
     table(&mut m, Vec2::new(2.0, 2.3), Vec2::new(7.0, 3.7), 0.75);
@@ -234,10 +234,10 @@ fn atrium() -> Scene {
     m.set_material(mat[0]);
     m.slabs(&[[x0, z0, x1, 0.0], [x0, d, x1, z1], [x0, 0.0, 0.0, d], [w, 0.0, x1, d]], 2.0 * storey - t, 2.0 * storey);
     m.begin_object("walls");
-    m.wall(true, z0 - 0.5 * t, x0, x1, 0.0, 2.0 * storey, t, &[]);
-    m.wall(true, z1 + 0.5 * t, x0, x1, 0.0, 2.0 * storey, t, &[]);
-    m.wall(false, x0 - 0.5 * t, z0, z1, 0.0, 2.0 * storey, t, &[]);
-    m.wall(false, x1 + 0.5 * t, z0, z1, 0.0, 2.0 * storey, t, &[]);
+    m.wall(Wall::along_x(z0 - 0.5 * t, x0, x1), 0.0..2.0 * storey, t, &[]);
+    m.wall(Wall::along_x(z1 + 0.5 * t, x0, x1), 0.0..2.0 * storey, t, &[]);
+    m.wall(Wall::along_z(x0 - 0.5 * t, z0, z1), 0.0..2.0 * storey, t, &[]);
+    m.wall(Wall::along_z(x1 + 0.5 * t, z0, z1), 0.0..2.0 * storey, t, &[]);
     m.begin_object("columns");
     // Columns round the courtyard on both storeys, every 4 m; a parapet above.
     let mut posts = Vec::new();
@@ -278,18 +278,18 @@ fn suite() -> Scene {
     m.cuboid(Vec3::new(-t, -t, -t), Vec3::new(3.0 * w + t, 0.0, 2.0 * d + t));
     m.set_material(mat[0]);
     m.cuboid(Vec3::new(-t, h, -t), Vec3::new(3.0 * w + t, h + t, 2.0 * d + t));
-    m.wall(true, -0.5 * t, 0.0, 3.0 * w, 0.0, h, t, &[]);
-    m.wall(true, 2.0 * d + 0.5 * t, 0.0, 3.0 * w, 0.0, h, t, &[]);
-    m.wall(false, -0.5 * t, 0.0, 2.0 * d, 0.0, h, t, &[]);
-    m.wall(false, 3.0 * w + 0.5 * t, 0.0, 2.0 * d, 0.0, h, t, &[]);
+    m.wall(Wall::along_x(-0.5 * t, 0.0, 3.0 * w), 0.0..h, t, &[]);
+    m.wall(Wall::along_x(2.0 * d + 0.5 * t, 0.0, 3.0 * w), 0.0..h, t, &[]);
+    m.wall(Wall::along_z(-0.5 * t, 0.0, 2.0 * d), 0.0..h, t, &[]);
+    m.wall(Wall::along_z(3.0 * w + 0.5 * t, 0.0, 2.0 * d), 0.0..h, t, &[]);
     m.begin_object("partitions");
     // Between the rows: a door from the first room of each row only.
-    m.wall(true, d, 0.0, 3.0 * w, 0.0, h, 0.15, &[(0.5 * w, 0.9, 2.1)]);
+    m.wall(Wall::along_x(d, 0.0, 3.0 * w), 0.0..h, 0.15, &[(0.5 * w, 0.9, 2.1)]);
     // Across each row: doors off the rooms' middle lines.
     for k in 1..3 {
         let x = k as f32 * w;
-        m.wall(false, x, 0.0, d, 0.0, h, 0.15, &[(0.8 + k as f32 * 0.6, 0.9, 2.1)]);
-        m.wall(false, x, d, 2.0 * d, 0.0, h, 0.15, &[(d + 3.0 - k as f32 * 0.5, 0.9, 2.1)]);
+        m.wall(Wall::along_z(x, 0.0, d), 0.0..h, 0.15, &[(0.8 + k as f32 * 0.6, 0.9, 2.1)]);
+        m.wall(Wall::along_z(x, d, 2.0 * d), 0.0..h, 0.15, &[(d + 3.0 - k as f32 * 0.5, 0.9, 2.1)]);
     }
     m.begin_object("furniture");
     m.set_material(mat[2]);

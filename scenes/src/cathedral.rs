@@ -17,7 +17,7 @@
 //! an upper floor reached only by a long stair, openings at every height into
 //! open space outside, and solids beside the open square. About 3k triangles.
 
-use crate::mesh::{MeshBuilder, Opening};
+use crate::mesh::{MeshBuilder, Opening, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::{Vec2, Vec3};
@@ -69,11 +69,16 @@ pub fn cathedral(seed: u64) -> Scene {
     m.set_material(stone);
     // West front: the portal below, the rose window above.
     let door = |centre: f32, width: f32, head: f32| Opening { centre, width, sill: 0.0, head };
-    m.wall_with_openings(false, -HALF_L, -HALF_W, HALF_W, FLOOR, 10.0, FACADE_T, &[door(0.0, 3.0, 5.5)]);
-    m.wall_with_openings(false, -HALF_L, -HALF_W, HALF_W, 10.0, NAVE_TOP, FACADE_T, &[Opening { centre: 0.0, width: 3.5, sill: 1.5, head: 5.5 }]);
+    m.wall_with_openings(Wall::along_z(-HALF_L, -HALF_W, HALF_W), FLOOR..10.0, FACADE_T, &[door(0.0, 3.0, 5.5)]);
+    m.wall_with_openings(
+        Wall::along_z(-HALF_L, -HALF_W, HALF_W),
+        10.0..NAVE_TOP,
+        FACADE_T,
+        &[Opening { centre: 0.0, width: 3.5, sill: 1.5, head: 5.5 }],
+    );
     // East wall: three tall windows behind the altar.
     let tall = |centre: f32| Opening { centre, width: 1.2, sill: 4.0, head: 12.0 };
-    m.wall_with_openings(false, HALF_L, -HALF_W, HALF_W, FLOOR, NAVE_TOP, FACADE_T, &[tall(-3.0), tall(0.0), tall(3.0)]);
+    m.wall_with_openings(Wall::along_z(HALF_L, -HALF_W, HALF_W), FLOOR..NAVE_TOP, FACADE_T, &[tall(-3.0), tall(0.0), tall(3.0)]);
 
     let bays: Vec<f32> = (0..8).map(|k| -17.5 + 5.0 * k as f32).collect();
     let arches: Vec<f32> = (0..7).map(|k| -15.0 + 5.0 * k as f32).collect();
@@ -84,18 +89,18 @@ pub fn cathedral(seed: u64) -> Scene {
         if side < 0.0 {
             low[5] = door(bays[5], 2.0, 3.5);
         }
-        m.wall_with_openings(true, side * HALF_W, -inner_x, inner_x, FLOOR, AISLE_TOP, OUTER_T, &low);
+        m.wall_with_openings(Wall::along_x(side * HALF_W, -inner_x, inner_x), FLOOR..AISLE_TOP, OUTER_T, &low);
         let small: Vec<Opening> = bays.iter().map(|&x| Opening { centre: x, width: 1.0, sill: 1.0, head: 2.4 }).collect();
-        m.wall_with_openings(true, side * HALF_W, -inner_x, inner_x, GALLERY, GALLERY_TOP, OUTER_T, &small);
+        m.wall_with_openings(Wall::along_x(side * HALF_W, -inner_x, inner_x), GALLERY..GALLERY_TOP, OUTER_T, &small);
         // Arcade wall in three bands: arches, gallery openings (a doorway at
         // the west end onto the organ loft), clerestory windows.
         let arch: Vec<Opening> = arches.iter().map(|&x| door(x, 3.4, 6.8)).collect();
-        m.wall_with_openings(true, side * NAVE, -inner_x, inner_x, FLOOR, GALLERY, ARCADE_T, &arch);
+        m.wall_with_openings(Wall::along_x(side * NAVE, -inner_x, inner_x), FLOOR..GALLERY, ARCADE_T, &arch);
         let mut tribune: Vec<Opening> = arches.iter().map(|&x| Opening { centre: x, width: 3.0, sill: 1.0, head: 2.6 }).collect();
         tribune.insert(0, door(-18.2, 1.2, 2.4));
-        m.wall_with_openings(true, side * NAVE, -inner_x, inner_x, GALLERY, GALLERY_TOP + 0.4, ARCADE_T, &tribune);
+        m.wall_with_openings(Wall::along_x(side * NAVE, -inner_x, inner_x), GALLERY..GALLERY_TOP + 0.4, ARCADE_T, &tribune);
         let clerestory: Vec<Opening> = arches.iter().map(|&x| Opening { centre: x, width: 2.0, sill: 1.6, head: 5.6 }).collect();
-        m.wall_with_openings(true, side * NAVE, -inner_x, inner_x, GALLERY_TOP + 0.4, NAVE_TOP, ARCADE_T, &clerestory);
+        m.wall_with_openings(Wall::along_x(side * NAVE, -inner_x, inner_x), GALLERY_TOP + 0.4..NAVE_TOP, ARCADE_T, &clerestory);
         // Aisle ceiling (the gallery's floor) and the gallery's roof, through
         // the outer wall; the south one open over the stair's top.
         let (z_in, z_out) = (side * aisle_in, side * ow);

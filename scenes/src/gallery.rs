@@ -7,7 +7,7 @@
 //! open to the sky. Statues on plinths stand in every room; point lights light
 //! the rooms and a sun the courtyard. About 70k triangles, mostly statues.
 
-use crate::mesh::MeshBuilder;
+use crate::mesh::{MeshBuilder, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::Vec3;
@@ -108,8 +108,8 @@ pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64M
     let door = |c: f32| (c, DOOR_W, DOOR_H);
     let join = |on: bool, c: f32| if on { vec![door(c)] } else { Vec::new() };
     // (material, along x, line, from, to, doors) in wing coordinates.
-    type Wall = (u32, bool, f32, f32, f32, Vec<(f32, f32, f32)>);
-    let walls: [Wall; 12] = [
+    type Planned = (u32, bool, f32, f32, f32, Vec<(f32, f32, f32)>);
+    let walls: [Planned; 12] = [
         // Corridor walls: south (courtyard and D doors), north (A, B, C doors); outer walls.
         (mat.wall, true, 0.0, 0.0, 40.0, vec![door(12.0), door(32.0)]),
         (mat.wall, true, 4.0, 0.0, 40.0, vec![door(6.0), door(16.0), door(30.0)]),
@@ -128,7 +128,7 @@ pub(crate) fn wing(m: &mut MeshBuilder, mat: &GalleryMaterials, rng: &mut Pcg64M
         m.set_material(material);
         let (shift_line, shift_run) = if along_x { (o.z, o.x) } else { (o.x, o.z) };
         let doors: Vec<_> = doors.iter().map(|&(c, w, h)| (c + shift_run, w, h)).collect();
-        m.wall(along_x, line + shift_line, from + shift_run, to + shift_run, o.y, o.y + WALL_H, WALL_T, &doors);
+        m.wall(Wall::new(along_x, line + shift_line, from + shift_run, to + shift_run), o.y..o.y + WALL_H, WALL_T, &doors);
     }
 
     m.begin_object(&format!("{prefix}roof"));

@@ -11,7 +11,7 @@
 //! outer wall, no glass. Ceiling lights in each room and a sun. About 1.5k
 //! triangles: a scene for walking, not for detail.
 
-use crate::mesh::{MeshBuilder, Opening};
+use crate::mesh::{MeshBuilder, Opening, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::{Vec2, Vec3};
@@ -47,10 +47,10 @@ pub fn house(seed: u64) -> Scene {
     m.set_material(grass);
     m.cuboid(Vec3::new(-12.0, -0.3, -10.0), Vec3::new(12.0, 0.0, 10.0));
     m.set_material(stone);
-    m.wall(true, -9.9, -11.9, 11.9, 0.0, 1.0, 0.2, &[]);
-    m.wall(true, 9.9, -11.9, 11.9, 0.0, 1.0, 0.2, &[(0.0, 1.2, 1.0)]);
-    m.wall(false, -11.9, -9.9, 9.9, 0.0, 1.0, 0.2, &[]);
-    m.wall(false, 11.9, -9.9, 9.9, 0.0, 1.0, 0.2, &[]);
+    m.wall(Wall::along_x(-9.9, -11.9, 11.9), 0.0..1.0, 0.2, &[]);
+    m.wall(Wall::along_x(9.9, -11.9, 11.9), 0.0..1.0, 0.2, &[(0.0, 1.2, 1.0)]);
+    m.wall(Wall::along_z(-11.9, -9.9, 9.9), 0.0..1.0, 0.2, &[]);
+    m.wall(Wall::along_z(11.9, -9.9, 9.9), 0.0..1.0, 0.2, &[]);
 
     let (x0, x1, z0, z1) = (-6.0, 6.0, -4.5, 4.5);
     let upper = GROUND_FLOOR + STOREY;
@@ -82,16 +82,16 @@ pub fn house(seed: u64) -> Scene {
         } else {
             south.push(window(0.0));
         }
-        m.wall_with_openings(true, z1, x0, x1, floor, top, WALL_T, &south);
-        m.wall_with_openings(true, z0, x0, x1, floor, top, WALL_T, &[window(3.5)]);
-        m.wall_with_openings(false, x0, z0, z1, floor, top, WALL_T, &[window(0.0)]);
-        m.wall_with_openings(false, x1, z0, z1, floor, top, WALL_T, &[window(0.0)]);
+        m.wall_with_openings(Wall::along_x(z1, x0, x1), floor..top, WALL_T, &south);
+        m.wall_with_openings(Wall::along_x(z0, x0, x1), floor..top, WALL_T, &[window(3.5)]);
+        m.wall_with_openings(Wall::along_z(x0, z0, z1), floor..top, WALL_T, &[window(0.0)]);
+        m.wall_with_openings(Wall::along_z(x1, z0, z1), floor..top, WALL_T, &[window(0.0)]);
     }
     // Inner walls: ground floor living room | kitchen at x = 1 (a doorway at z = 1);
     // upper floor: bedrooms at x < -1 and x > 2 off a landing, their doors facing it.
-    m.wall(false, 1.0, z0, z1, GROUND_FLOOR, upper - SLAB, 0.15, &[(1.0, 1.0, 2.1)]);
-    m.wall(false, -1.0, -2.9, z1, upper, upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
-    m.wall(false, 2.5, -2.9, z1, upper, upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
+    m.wall(Wall::along_z(1.0, z0, z1), GROUND_FLOOR..upper - SLAB, 0.15, &[(1.0, 1.0, 2.1)]);
+    m.wall(Wall::along_z(-1.0, -2.9, z1), upper..upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
+    m.wall(Wall::along_z(2.5, -2.9, z1), upper..upper + STOREY - SLAB, 0.15, &[(0.0, 0.9, 2.1)]);
 
     // The staircase: solid steps from the ground floor up to the landing, each
     // tread overhanging its riser by a nosing with a chamfered edge, as real

@@ -7,7 +7,7 @@
 //! tunnel 4 m wide through it; a river channel across the island's east with a
 //! wooden bridge and railings; trees. A sun lights it. About 60k triangles.
 
-use crate::mesh::{MeshBuilder, Opening};
+use crate::mesh::{MeshBuilder, Opening, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::Vec3;
@@ -154,10 +154,10 @@ fn house(m: &mut MeshBuilder, name: &str, centre: Vec3, plaster: u32, wood: u32,
     m.set_material(plaster);
     let window = |c: f32| Opening { centre: c, width: 1.2, sill: 0.9, head: 2.1 };
     let door = Opening { centre: x0 + 0.3 * w, width: 1.0, sill: 0.0, head: 2.1 };
-    m.wall_with_openings(true, z0 + d, x0, x0 + w, floor, floor + WALL_H, t, &[door, window(x0 + 0.7 * w)]);
-    m.wall_with_openings(true, z0, x0, x0 + w, floor, floor + WALL_H, t, &[window(x0 + 0.3 * w), window(x0 + 0.7 * w)]);
-    m.wall_with_openings(false, x0, z0, z0 + d, floor, floor + WALL_H, t, &[window(z0 + 0.5 * d)]);
-    m.wall_with_openings(false, x0 + w, z0, z0 + d, floor, floor + WALL_H, t, &[window(z0 + 0.5 * d)]);
+    m.wall_with_openings(Wall::along_x(z0 + d, x0, x0 + w), floor..floor + WALL_H, t, &[door, window(x0 + 0.7 * w)]);
+    m.wall_with_openings(Wall::along_x(z0, x0, x0 + w), floor..floor + WALL_H, t, &[window(x0 + 0.3 * w), window(x0 + 0.7 * w)]);
+    m.wall_with_openings(Wall::along_z(x0, z0, z0 + d), floor..floor + WALL_H, t, &[window(z0 + 0.5 * d)]);
+    m.wall_with_openings(Wall::along_z(x0 + w, z0, z0 + d), floor..floor + WALL_H, t, &[window(z0 + 0.5 * d)]);
     m.set_material(roof);
     m.cuboid(Vec3::new(x0 - 0.5, floor + WALL_H, z0 - 0.5), Vec3::new(x0 + w + 0.5, floor + WALL_H + 0.3, z0 + d + 0.5));
     m.set_material(wood);

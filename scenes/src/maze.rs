@@ -2,7 +2,7 @@
 //! depth-first search so every cell is reachable by exactly one route. It
 //! stresses path finding: neighbouring probes are often far apart by corridor.
 
-use crate::mesh::MeshBuilder;
+use crate::mesh::{MeshBuilder, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::Vec3;
@@ -67,8 +67,8 @@ pub fn maze(seed: u64, cells: usize) -> Scene {
     m.cuboid(Vec3::new(-WALL_T, HEIGHT, -WALL_T), Vec3::new(size + WALL_T, HEIGHT + 0.2, size + WALL_T));
     m.begin_object("walls");
     m.set_material(wall);
-    m.wall(true, 0.0, 0.0, size, 0.0, HEIGHT, WALL_T, &[]);
-    m.wall(false, 0.0, 0.0, size, 0.0, HEIGHT, WALL_T, &[]);
+    m.wall(Wall::along_x(0.0, 0.0, size), 0.0..HEIGHT, WALL_T, &[]);
+    m.wall(Wall::along_z(0.0, 0.0, size), 0.0..HEIGHT, WALL_T, &[]);
     // Closed cell sides in a row along a line make one wall: walls meeting end
     // to end would overlap, their faces coincident.
     for i in 0..n {
@@ -81,7 +81,7 @@ pub fn maze(seed: u64, cells: usize) -> Scene {
                     j += 1;
                 }
                 if j > start {
-                    m.wall(along_x, line, start as f32 * CELL, j as f32 * CELL, 0.0, HEIGHT, WALL_T, &[]);
+                    m.wall(Wall::new(along_x, line, start as f32 * CELL, j as f32 * CELL), 0.0..HEIGHT, WALL_T, &[]);
                 }
                 j += 1;
             }

@@ -5,6 +5,31 @@
 
 use crate::scene::{Light, Material, Scene, Texture};
 use glam::{Vec2, Vec3};
+use std::ops::Range;
+
+/// Where a wall stands: on the line z = `line` from x = `from` to `to`
+/// (along x), or on x = `line` from z = `from` to `to` (along z).
+#[derive(Clone, Copy, Debug)]
+pub struct Wall {
+    pub along_x: bool,
+    pub line: f32,
+    pub from: f32,
+    pub to: f32,
+}
+
+impl Wall {
+    pub fn new(along_x: bool, line: f32, from: f32, to: f32) -> Wall {
+        Wall { along_x, line, from, to }
+    }
+
+    pub fn along_x(z: f32, from: f32, to: f32) -> Wall {
+        Wall::new(true, z, from, to)
+    }
+
+    pub fn along_z(x: f32, from: f32, to: f32) -> Wall {
+        Wall::new(false, x, from, to)
+    }
+}
 
 /// An opening in a wall: centre and width along it, sill and head heights above its floor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -166,19 +191,19 @@ impl MeshBuilder {
         }
     }
 
-    /// A wall of `thickness` centred on the line from `(a, z)` to `(b, z)` along x
-    /// (or along z with `along_x == false`), from `floor_y` to `top_y`, with door
-    /// openings given as (centre, width, height) along the wall.
-    #[allow(clippy::too_many_arguments)]
-    pub fn wall(&mut self, along_x: bool, line: f32, a: f32, b: f32, floor_y: f32, top_y: f32, thickness: f32, doors: &[(f32, f32, f32)]) {
+    /// A wall of `thickness` centred on `wall`'s line, over `height` (from
+    /// the floor to its top), with door openings given as (centre, width,
+    /// height) along the wall.
+    pub fn wall(&mut self, wall: Wall, height: Range<f32>, thickness: f32, doors: &[(f32, f32, f32)]) {
         let openings: Vec<Opening> = doors.iter().map(|&(centre, width, height)| Opening { centre, width, sill: 0.0, head: height }).collect();
-        self.wall_with_openings(along_x, line, a, b, floor_y, top_y, thickness, &openings);
+        self.wall_with_openings(wall, height, thickness, &openings);
     }
 
     /// A wall as [`MeshBuilder::wall`], with openings from `sill` to `head` above
-    /// `floor_y` (a door has sill 0; a window's sill is above the floor).
-    #[allow(clippy::too_many_arguments)]
-    pub fn wall_with_openings(&mut self, along_x: bool, line: f32, a: f32, b: f32, floor_y: f32, top_y: f32, thickness: f32, openings: &[Opening]) {
+    /// the floor (a door has sill 0; a window's sill is above the floor).
+    pub fn wall_with_openings(&mut self, wall: Wall, height: Range<f32>, thickness: f32, openings: &[Opening]) {
+        let Wall { along_x, line, from: a, to: b } = wall;
+        let Range { start: floor_y, end: top_y } = height;
         let h = 0.5 * thickness;
         let block = |s0: f32, s1: f32, y0: f32, y1: f32| {
             if along_x {

@@ -2,7 +2,7 @@
 //! small objects hidden behind them. It stresses coverage behind occluders:
 //! a probe sees the back of a column only from the far side.
 
-use crate::mesh::MeshBuilder;
+use crate::mesh::{MeshBuilder, Wall};
 use crate::scene::{Light, Material, Scene};
 use crate::textures;
 use glam::Vec3;
@@ -24,10 +24,10 @@ pub fn pillars(seed: u64) -> Scene {
     m.cuboid(Vec3::new(-0.3, -0.3, -0.3), Vec3::new(w + 0.3, 0.0, d + 0.3));
     m.set_material(wall);
     m.cuboid(Vec3::new(-0.3, h, -0.3), Vec3::new(w + 0.3, h + 0.3, d + 0.3));
-    m.wall(true, 0.0, 0.0, w, 0.0, h, 0.3, &[]);
-    m.wall(true, d, 0.0, w, 0.0, h, 0.3, &[]);
-    m.wall(false, 0.0, 0.0, d, 0.0, h, 0.3, &[]);
-    m.wall(false, w, 0.0, d, 0.0, h, 0.3, &[]);
+    m.wall(Wall::along_x(0.0, 0.0, w), 0.0..h, 0.3, &[]);
+    m.wall(Wall::along_x(d, 0.0, w), 0.0..h, 0.3, &[]);
+    m.wall(Wall::along_z(0.0, 0.0, d), 0.0..h, 0.3, &[]);
+    m.wall(Wall::along_z(w, 0.0, d), 0.0..h, 0.3, &[]);
     m.begin_object("columns");
     m.set_material(stone);
     let mut centres = Vec::new();

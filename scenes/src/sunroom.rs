@@ -8,7 +8,7 @@
 //! in the south wall, no glass; a sun 40° up from the south-south-east, and
 //! the sky, outside. A low white block stands in the room to cast a shadow.
 
-use crate::mesh::{MeshBuilder, Opening};
+use crate::mesh::{MeshBuilder, Opening, Wall};
 use crate::scene::{Light, Material, Scene};
 use glam::Vec3;
 
@@ -23,10 +23,10 @@ pub fn sunroom() -> Scene {
     m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(w + e, 0.0, d + e));
     m.set_material(white);
     m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
-    m.wall(true, 0.0, 0.0, w, 0.0, h, t, &[]);
-    m.wall_with_openings(true, d, 0.0, w, 0.0, h, t, &[Opening { centre: 0.5 * w, width: 1.6, sill: 0.9, head: 2.3 }]);
-    m.wall(false, 0.0, 0.0, d, 0.0, h, t, &[]);
-    m.wall(false, w, 0.0, d, 0.0, h, t, &[]);
+    m.wall(Wall::along_x(0.0, 0.0, w), 0.0..h, t, &[]);
+    m.wall_with_openings(Wall::along_x(d, 0.0, w), 0.0..h, t, &[Opening { centre: 0.5 * w, width: 1.6, sill: 0.9, head: 2.3 }]);
+    m.wall(Wall::along_z(0.0, 0.0, d), 0.0..h, t, &[]);
+    m.wall(Wall::along_z(w, 0.0, d), 0.0..h, t, &[]);
     m.begin_object("block");
     m.cuboid(Vec3::new(2.2, 0.0, 1.4), Vec3::new(3.0, 0.8, 2.2));
     // From the south-south-east, 40° up: through the window onto the floor.

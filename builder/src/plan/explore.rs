@@ -491,7 +491,7 @@ mod tests {
     use super::*;
     use crate::plan::freespace::{free_space, FreeSpaceParams, HeightMode, SpaceMode};
     use crate::testing::rooms;
-    use exploremaps_scenes::mesh::MeshBuilder;
+    use exploremaps_scenes::mesh::{MeshBuilder, Wall};
     use exploremaps_scenes::BuiltIn;
 
     fn plan(scene: &Scene, params: &ExploreParams) -> (Vec<Candidate>, ExploreStats, FreeSpace) {
@@ -578,12 +578,12 @@ mod tests {
             m.cuboid(Vec3::new(-e, y0, -e), Vec3::new(12.0 + e, y1, 2.0 + e));
             m.cuboid(Vec3::new(10.0 - e, y0, 2.0 + e), Vec3::new(12.0 + e, y1, 12.0 + e));
         }
-        m.wall(true, 0.0, 0.0, 12.0, 0.0, h, t, &[]);
-        m.wall(true, 2.0, 0.0, 10.0, 0.0, h, t, &[]);
-        m.wall(false, 0.0, 0.0, 2.0, 0.0, h, t, &[]);
-        m.wall(false, 12.0, 0.0, 12.0, 0.0, h, t, &[]);
-        m.wall(false, 10.0, 2.0, 12.0, 0.0, h, t, &[]);
-        m.wall(true, 12.0, 10.0, 12.0, 0.0, h, t, &[]);
+        m.wall(Wall::along_x(0.0, 0.0, 12.0), 0.0..h, t, &[]);
+        m.wall(Wall::along_x(2.0, 0.0, 10.0), 0.0..h, t, &[]);
+        m.wall(Wall::along_z(0.0, 0.0, 2.0), 0.0..h, t, &[]);
+        m.wall(Wall::along_z(12.0, 0.0, 12.0), 0.0..h, t, &[]);
+        m.wall(Wall::along_z(10.0, 2.0, 12.0), 0.0..h, t, &[]);
+        m.wall(Wall::along_x(12.0, 10.0, 12.0), 0.0..h, t, &[]);
         let scene = m.finish();
         // The corridor's inside (the space around it in the box is open too).
         let inside =
@@ -622,7 +622,7 @@ mod tests {
         m.cuboid(Vec3::new(-e, -t, -e), Vec3::new(w + e, 0.0, d + e));
         m.cuboid(Vec3::new(-e, h, -e), Vec3::new(w + e, h + t, d + e));
         for (along_x, line, len) in [(true, 0.0, w), (true, d, w), (false, 0.0, d), (false, w, d)] {
-            m.wall(along_x, line, 0.0, len, 0.0, h, t, &[]);
+            m.wall(Wall::new(along_x, line, 0.0, len), 0.0..h, t, &[]);
         }
         m.begin_object("plinth");
         m.cuboid(Vec3::new(29.7, 0.0, 19.7), Vec3::new(30.3, 1.0, 20.3));

@@ -1456,7 +1456,7 @@ fn faced_votes(scene: &Scene, grid: &Grid, labels: &[u32], count: usize, near: f
 mod tests {
     use super::*;
     use crate::testing::{rooms, rooms_with};
-    use exploremaps_scenes::mesh::MeshBuilder;
+    use exploremaps_scenes::mesh::{MeshBuilder, Wall};
     use exploremaps_scenes::BuiltIn;
 
     fn run(scene: &Scene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), FreeSpaceError> {
@@ -1756,13 +1756,13 @@ mod tests {
         // small) and a strip of ground walled off at the edge (open to the world).
         let mut m = MeshBuilder::new("town");
         m.terrain(-30.0, -30.0, 30.0, 30.0, 8, |_, _| 0.0);
-        m.wall(true, 0.0, 0.0, 5.2, 0.0, 5.0, 0.2, &[]);
-        m.wall(true, 4.2, 0.0, 5.2, 0.0, 5.0, 0.2, &[]);
-        m.wall(false, 0.0, 0.0, 4.2, 0.0, 5.0, 0.2, &[]);
-        m.wall(false, 5.2, 0.0, 4.2, 0.0, 5.0, 0.2, &[]);
+        m.wall(Wall::along_x(0.0, 0.0, 5.2), 0.0..5.0, 0.2, &[]);
+        m.wall(Wall::along_x(4.2, 0.0, 5.2), 0.0..5.0, 0.2, &[]);
+        m.wall(Wall::along_z(0.0, 0.0, 4.2), 0.0..5.0, 0.2, &[]);
+        m.wall(Wall::along_z(5.2, 0.0, 4.2), 0.0..5.0, 0.2, &[]);
         m.cuboid(Vec3::new(-15.0, 0.0, -15.0), Vec3::new(-13.0, 0.8, -13.0));
         // A wall cutting off a 4 m strip at the town's edge: open to the world, no door.
-        m.wall(true, 26.0, -30.0, 30.0, 0.0, 5.0, 0.2, &[]);
+        m.wall(Wall::along_x(26.0, -30.0, 30.0), 0.0..5.0, 0.2, &[]);
         let mut town = m.finish();
         (town.scale_source, town.metres_per_unit) = (ScaleSource::File, 1.0);
         let (walk, stats) = run(&town, &FreeSpaceParams::default()).unwrap();

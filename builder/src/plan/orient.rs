@@ -186,7 +186,7 @@ fn upright(d: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use exploremaps_scenes::mesh::MeshBuilder;
+    use exploremaps_scenes::mesh::{MeshBuilder, Wall};
 
     #[test]
     fn yaw_pitch_convention_round_trips() {
@@ -203,10 +203,10 @@ mod tests {
         let mut m = MeshBuilder::new("corridor");
         m.cuboid(Vec3::new(-0.2, -0.2, -0.2), Vec3::new(30.2, 0.0, 2.2));
         m.cuboid(Vec3::new(-0.2, 3.0, -0.2), Vec3::new(30.2, 3.2, 2.2));
-        m.wall(true, 0.0, 0.0, 30.0, 0.0, 3.0, 0.2, &[]);
-        m.wall(true, 2.0, 0.0, 30.0, 0.0, 3.0, 0.2, &[]);
-        m.wall(false, 0.0, 0.0, 2.0, 0.0, 3.0, 0.2, &[]);
-        m.wall(false, 30.0, 0.0, 2.0, 0.0, 3.0, 0.2, &[]);
+        m.wall(Wall::along_x(0.0, 0.0, 30.0), 0.0..3.0, 0.2, &[]);
+        m.wall(Wall::along_x(2.0, 0.0, 30.0), 0.0..3.0, 0.2, &[]);
+        m.wall(Wall::along_z(0.0, 0.0, 2.0), 0.0..3.0, 0.2, &[]);
+        m.wall(Wall::along_z(30.0, 0.0, 2.0), 0.0..3.0, 0.2, &[]);
         let scene = m.finish();
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
         let probe = Vec3::new(8.0, 1.5, 1.0);
@@ -247,7 +247,7 @@ mod tests {
         m.cuboid(Vec3::new(-0.2, -0.2, -0.2), Vec3::new(20.2, 0.0, 20.2));
         m.cuboid(Vec3::new(-0.2, 3.0, -0.2), Vec3::new(20.2, 3.2, 20.2));
         for (along_x, line) in [(true, 0.0), (true, 20.0), (false, 0.0), (false, 20.0)] {
-            m.wall(along_x, line, 0.0, 20.0, 0.0, 3.0, 0.2, &[]);
+            m.wall(Wall::new(along_x, line, 0.0, 20.0), 0.0..3.0, 0.2, &[]);
         }
         let scene = m.finish();
         let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
