@@ -28,75 +28,123 @@ const WALL_H: f32 = 3.0;
 pub fn island(seed: u64) -> Scene {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x6973_6c61);
     let mut m = MeshBuilder::new("island");
-    let grass = m.add_material(Material::diffuse("grass", [0.25, 0.42, 0.16]));
-    let water = m.add_material(Material::diffuse("sea", [0.08, 0.2, 0.32]));
-    let rock = m.add_material(Material::diffuse("rock", [0.45, 0.42, 0.38]));
-    let plaster_tex = m.add_texture(textures::plaster([0.9, 0.86, 0.78], seed as u32));
-    let plaster = m.add_material(Material { base_color_texture: Some(plaster_tex), ..Material::diffuse("house_plaster", [1.0; 3]) });
-    let roof = m.add_material(Material::diffuse("roof", [0.5, 0.2, 0.15]));
-    let floor_tex = m.add_texture(textures::planks(seed as u32));
-    let wood = m.add_material(Material { base_color_texture: Some(floor_tex), ..Material::diffuse("wood", [1.0; 3]) });
-    let bark = m.add_material(Material::diffuse("bark", [0.3, 0.2, 0.12]));
-    let leaves = m.add_material(Material::diffuse("leaves", [0.15, 0.35, 0.12]));
-
-    // Hills: a few seeded bumps, kept away from the levelled sites.
-    let hills: Vec<(f32, f32, f32, f32)> = (0..6)
-        .map(|_| (rng.random_range(-45.0..45.0), rng.random_range(-45.0..45.0), rng.random_range(8.0..17.0), rng.random_range(10.0..16.0)))
-        .collect();
-    let sites: Vec<(f32, f32, f32)> = HOUSES
-        .iter()
-        .map(|&(x, z)| (x, z, 9.0))
-        .chain([(TUNNEL.0, TUNNEL.1, 12.0), (RIVER_X - 7.0, BRIDGE_Z, 4.0), (RIVER_X + 7.0, BRIDGE_Z, 4.0)])
-        .collect();
-    let natural = |x: f32, z: f32| {
-        let r = (x * x + z * z).sqrt();
-        let shore = 2.0 - 5.0 * smoothstep(RADIUS - 12.0, RADIUS + 4.0, r);
-        let bumps: f32 = hills.iter().map(|&(hx, hz, h, s)| h * (-((x - hx).powi(2) + (z - hz).powi(2)) / (2.0 * s * s)).exp()).sum();
-        let ripples = 0.4 * (0.21 * x).sin() * (0.17 * z).cos();
-        shore + (bumps + ripples) * (1.0 - smoothstep(RADIUS - 20.0, RADIUS, r))
-    };
-    // Levelled ground at each site, blended into the hills around it.
-    let level = |x: f32, z: f32| {
-        let mut h = natural(x, z);
-        for &(sx, sz, radius) in &sites {
-            let d = ((x - sx).powi(2) + (z - sz).powi(2)).sqrt();
-            let w = 1.0 - smoothstep(radius, radius + 8.0, d);
-            h = h * (1.0 - w) + site_height(sx, sz, &natural) * w;
-        }
-        h
-    };
-    // The river: a channel 8 m wide down to 2 m below the sea, across the island.
-    let height = |x: f32, z: f32| {
-        let d = (x - RIVER_X).abs();
-        let w = 1.0 - smoothstep(3.0, 6.0, d);
-        let h = level(x, z);
-        h * (1.0 - w) + (-2.0) * w
-    };
+    let mat = Materials::new(&mut m, seed);
+    let ground = Ground::new(&mut rng);
     m.begin_object("terrain");
-    m.set_material(grass);
-    m.terrain(-HALF, -HALF, HALF, HALF, 128, height);
+    m.set_material(mat.grass);
+    m.terrain(-HALF, -HALF, HALF, HALF, 128, |x, z| ground.height(x, z));
     m.begin_object("sea");
-    m.set_material(water);
+    m.set_material(mat.water);
     m.quad([Vec3::new(-HALF, 0.0, HALF), Vec3::new(HALF, 0.0, HALF), Vec3::new(HALF, 0.0, -HALF), Vec3::new(-HALF, 0.0, -HALF)]);
-
     for (k, &(x, z)) in HOUSES.iter().enumerate() {
-        let ground = site_height(x, z, &natural);
-        house(&mut m, &format!("house_{k}"), Vec3::new(x, ground, z), plaster, wood, roof, k);
+        house(&mut m, &mat, &format!("house_{k}"), Vec3::new(x, ground.site_height(x, z), z), k);
+    }
+    tunnel(&mut m, &mat, &ground);
+    bridge(&mut m, &mat, &ground);
+    trees(&mut m, &mat, &ground, &mut rng);
+    m.add_light(Light::Sun { direction: Vec3::new(-0.35, 0.83, 0.43), irradiance: Vec3::new(3.2, 3.0, 2.7) });
+    m.finish()
+}
+
+struct Materials {
+    grass: u32,
+    water: u32,
+    rock: u32,
+    plaster: u32,
+    roof: u32,
+    wood: u32,
+    bark: u32,
+    leaves: u32,
+}
+
+impl Materials {
+    fn new(m: &mut MeshBuilder, seed: u64) -> Materials {
+        let grass = m.add_material(Material::diffuse("grass", [0.25, 0.42, 0.16]));
+        let water = m.add_material(Material::diffuse("sea", [0.08, 0.2, 0.32]));
+        let rock = m.add_material(Material::diffuse("rock", [0.45, 0.42, 0.38]));
+        let plaster_tex = m.add_texture(textures::plaster([0.9, 0.86, 0.78], seed as u32));
+        let plaster = m.add_material(Material { base_color_texture: Some(plaster_tex), ..Material::diffuse("house_plaster", [1.0; 3]) });
+        let roof = m.add_material(Material::diffuse("roof", [0.5, 0.2, 0.15]));
+        let floor_tex = m.add_texture(textures::planks(seed as u32));
+        let wood = m.add_material(Material { base_color_texture: Some(floor_tex), ..Material::diffuse("wood", [1.0; 3]) });
+        let bark = m.add_material(Material::diffuse("bark", [0.3, 0.2, 0.12]));
+        let leaves = m.add_material(Material::diffuse("leaves", [0.15, 0.35, 0.12]));
+        Materials { grass, water, rock, plaster, roof, wood, bark, leaves }
+    }
+}
+
+/// The island's ground: seeded hills, levelled sites (the houses, the
+/// tunnel, the bridge's ends) and the river.
+struct Ground {
+    /// (x, z, height, spread) of each hill.
+    hills: Vec<(f32, f32, f32, f32)>,
+    /// (x, z, radius) of each levelled site.
+    sites: Vec<(f32, f32, f32)>,
+}
+
+impl Ground {
+    /// A few seeded bumps, kept away from the levelled sites.
+    fn new(rng: &mut Pcg64Mcg) -> Ground {
+        let hills = (0..6)
+            .map(|_| (rng.random_range(-45.0..45.0), rng.random_range(-45.0..45.0), rng.random_range(8.0..17.0), rng.random_range(10.0..16.0)))
+            .collect();
+        let sites = HOUSES
+            .iter()
+            .map(|&(x, z)| (x, z, 9.0))
+            .chain([(TUNNEL.0, TUNNEL.1, 12.0), (RIVER_X - 7.0, BRIDGE_Z, 4.0), (RIVER_X + 7.0, BRIDGE_Z, 4.0)])
+            .collect();
+        Ground { hills, sites }
     }
 
-    // The rock and its tunnel (along z): two side blocks and a ceiling block.
-    let g = site_height(TUNNEL.0, TUNNEL.1, &natural);
+    fn natural(&self, x: f32, z: f32) -> f32 {
+        let r = (x * x + z * z).sqrt();
+        let shore = 2.0 - 5.0 * smoothstep(RADIUS - 12.0, RADIUS + 4.0, r);
+        let bumps: f32 = self.hills.iter().map(|&(hx, hz, h, s)| h * (-((x - hx).powi(2) + (z - hz).powi(2)) / (2.0 * s * s)).exp()).sum();
+        let ripples = 0.4 * (0.21 * x).sin() * (0.17 * z).cos();
+        shore + (bumps + ripples) * (1.0 - smoothstep(RADIUS - 20.0, RADIUS, r))
+    }
+
+    /// Ground height of a levelled site: the natural height at its centre, at least 1 m above the sea.
+    fn site_height(&self, x: f32, z: f32) -> f32 {
+        self.natural(x, z).max(1.0)
+    }
+
+    /// Levelled ground at each site, blended into the hills around it.
+    fn level(&self, x: f32, z: f32) -> f32 {
+        let mut h = self.natural(x, z);
+        for &(sx, sz, radius) in &self.sites {
+            let d = ((x - sx).powi(2) + (z - sz).powi(2)).sqrt();
+            let w = 1.0 - smoothstep(radius, radius + 8.0, d);
+            h = h * (1.0 - w) + self.site_height(sx, sz) * w;
+        }
+        h
+    }
+
+    /// The ground with the river: a channel 8 m wide down to 2 m below the sea, across the island.
+    fn height(&self, x: f32, z: f32) -> f32 {
+        let d = (x - RIVER_X).abs();
+        let w = 1.0 - smoothstep(3.0, 6.0, d);
+        let h = self.level(x, z);
+        h * (1.0 - w) + (-2.0) * w
+    }
+}
+
+/// The rock and its tunnel (along z): two side blocks and a ceiling block.
+fn tunnel(m: &mut MeshBuilder, mat: &Materials, ground: &Ground) {
+    let g = ground.site_height(TUNNEL.0, TUNNEL.1);
     let (tx, tz) = TUNNEL;
     m.begin_object("rock_tunnel");
-    m.set_material(rock);
+    m.set_material(mat.rock);
     m.cuboid(Vec3::new(tx - 9.0, g - 1.0, tz - 7.0), Vec3::new(tx - 2.0, g + 8.0, tz + 7.0));
     m.cuboid(Vec3::new(tx + 2.0, g - 1.0, tz - 7.0), Vec3::new(tx + 9.0, g + 8.0, tz + 7.0));
     m.cuboid(Vec3::new(tx - 2.0, g + 3.4, tz - 7.0), Vec3::new(tx + 2.0, g + 8.0, tz + 7.0));
+}
 
-    // The bridge over the river: a deck at the banks' height with railings.
-    let bank = site_height(RIVER_X - 7.0, BRIDGE_Z, &natural).max(site_height(RIVER_X + 7.0, BRIDGE_Z, &natural));
+/// The bridge over the river: a deck at the banks' height with railings.
+fn bridge(m: &mut MeshBuilder, mat: &Materials, ground: &Ground) {
+    let bank = ground.site_height(RIVER_X - 7.0, BRIDGE_Z).max(ground.site_height(RIVER_X + 7.0, BRIDGE_Z));
     m.begin_object("bridge");
-    m.set_material(wood);
+    m.set_material(mat.wood);
     let (x0, x1) = (RIVER_X - 9.0, RIVER_X + 9.0);
     m.cuboid(Vec3::new(x0, bank - 0.25, BRIDGE_Z - 1.5), Vec3::new(x1, bank + 0.05, BRIDGE_Z + 1.5));
     for side in [-1.0f32, 1.0] {
@@ -107,31 +155,26 @@ pub fn island(seed: u64) -> Scene {
             m.cuboid(Vec3::new(x - 0.06, bank + 0.05, z - 0.06), Vec3::new(x + 0.06, bank + 0.95, z + 0.06));
         }
     }
+}
 
-    // Trees on open ground.
+/// Twelve trees on open ground, away from the sites and the river.
+fn trees(m: &mut MeshBuilder, mat: &Materials, ground: &Ground, rng: &mut Pcg64Mcg) {
     let mut planted = 0;
     while planted < 12 {
         let (x, z) = (rng.random_range(-50.0..50.0f32), rng.random_range(-50.0..50.0f32));
-        let clear = sites.iter().all(|&(sx, sz, r)| (x - sx).powi(2) + (z - sz).powi(2) > (r + 6.0).powi(2)) && (x - RIVER_X).abs() > 8.0;
+        let clear = ground.sites.iter().all(|&(sx, sz, r)| (x - sx).powi(2) + (z - sz).powi(2) > (r + 6.0).powi(2)) && (x - RIVER_X).abs() > 8.0;
         if !clear || (x * x + z * z).sqrt() > RADIUS - 14.0 {
             continue;
         }
-        let base = Vec3::new(x, height(x, z) - 0.3, z);
+        let base = Vec3::new(x, ground.height(x, z) - 0.3, z);
         m.begin_object(&format!("tree_{planted}"));
-        m.set_material(bark);
+        m.set_material(mat.bark);
         m.cylinder(base, 0.3, 4.5, 10);
-        m.set_material(leaves);
+        m.set_material(mat.leaves);
         let crown = rng.random_range(2.0..3.0);
         m.blob(base + Vec3::Y * (4.5 + 0.6 * crown), Vec3::new(crown, crown * 0.8, crown), 3, |d| 1.0 + 0.12 * (5.0 * d.x).sin() * (4.0 * d.z).cos());
         planted += 1;
     }
-    m.add_light(Light::Sun { direction: Vec3::new(-0.35, 0.83, 0.43), irradiance: Vec3::new(3.2, 3.0, 2.7) });
-    m.finish()
-}
-
-/// Ground height of a levelled site: the natural height at its centre, at least 1 m above the sea.
-fn site_height(x: f32, z: f32, natural: &impl Fn(f32, f32) -> f32) -> f32 {
-    natural(x, z).max(1.0)
 }
 
 fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
@@ -143,8 +186,8 @@ fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
 /// wall, windows in the others (and one beside the door), a flat roof slab, a
 /// table inside. Its foundation reaches 0.6 below the ground so slopes never
 /// show under it.
-#[allow(clippy::too_many_arguments)]
-fn house(m: &mut MeshBuilder, name: &str, centre: Vec3, plaster: u32, wood: u32, roof: u32, k: usize) {
+fn house(m: &mut MeshBuilder, mat: &Materials, name: &str, centre: Vec3, k: usize) {
+    let (plaster, wood, roof) = (mat.plaster, mat.wood, mat.roof);
     let (w, d, t) = (HOUSE_W, HOUSE_D, 0.25);
     let (x0, z0) = (centre.x - 0.5 * w, centre.z - 0.5 * d);
     let floor = centre.y + 0.15;
