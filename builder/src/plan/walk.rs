@@ -697,7 +697,6 @@ struct Ledge {
 }
 
 /// The ledges between regions, keyed (higher region, lower region).
-#[allow(clippy::too_many_arguments)] // the walking grid's parts, as walk_space holds them
 fn ledges(grid: &Grid, standing: &Standing, region_of: &[u32], gauge: &Gauge, rays: &RayScene) -> BTreeMap<(u32, u32), Ledge> {
     let (by_column, standing) = (&standing.by_column, &standing.cells);
     let (step, metre, eye) = (gauge.step, 1.0 / gauge.metres_per_unit, gauge.eye);

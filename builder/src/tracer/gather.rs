@@ -39,7 +39,7 @@
 //! point), so the result does not depend on the thread count.
 
 use super::surface::{cosine_direction, Surface, Which};
-use super::trace::{sampler, Tracer, Work};
+use super::trace::{sampler, Shot, Tracer, Work};
 use crate::raycast::{Hit, Ray};
 use glam::{Vec2, Vec3};
 use rand::Rng;
@@ -168,21 +168,29 @@ fn ward(d: f32, harmonic: f32, spread: f32, footprint: f32) -> f32 {
     (-x * x).exp()
 }
 
+/// How one grid of a gather field is gathered: its random streams (`seed`,
+/// `work`), `side`² rays a point, and whether the light from beyond the
+/// near reach is taken (`far`).
+#[derive(Clone, Copy)]
+struct GridPass {
+    seed: u64,
+    work: Work,
+    side: u32,
+    far: bool,
+}
+
 impl Tracer<'_> {
     /// Gathers the indirect light seen through a `width` × `height` frame
     /// (as [`Tracer::render`] projects it) on a grid every `params.step`
     /// pixels, and its near field where that grid found surfaces close.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn gather_field(
+    pub(super) fn gather_field<P: Fn(f32, f32) -> Vec3 + Sync>(
         &self,
         params: &GatherParams,
         seed: u64,
-        eye: Vec3,
-        (width, height): (u32, u32),
-        image: u64,
-        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
+        shot: &Shot<&P>,
         traced: &(impl Fn(u32, u32) -> bool + Sync),
     ) -> Field {
+        let (project, (width, height)) = (shot.project, shot.size);
         let step = params.step.max(1);
         let centre = project(0.5, 0.5);
         let pixel_angle = centre.angle_between(project(0.5 + 1.0 / width as f32, 0.5)).max(1e-6);
@@ -192,7 +200,8 @@ impl Tracer<'_> {
         let reach_at = |depth: f32| reach * unit * depth;
         let side = (params.rays as f32).sqrt().ceil().max(1.0) as u32;
         // Only at pixels the frame traces.
-        far.points = self.gather_grid(&far, (seed, Work::Gather, image), eye, side, &reach_at, true, project, |x, y| traced(x as u32, y as u32));
+        let pass = GridPass { seed, work: Work::Gather, side, far: true };
+        far.points = self.gather_grid(&far, shot, pass, &reach_at, |x, y| traced(x as u32, y as u32));
         for pass in 0..params.passes {
             far.filter(1 << pass, false, None);
         }
@@ -203,7 +212,8 @@ impl Tracer<'_> {
             let side = (rays as f32).sqrt().ceil().max(1.0) as u32;
             // Only where a coarse point around had surfaces within reach.
             let crowded = |x: f32, y: f32| far.around(x, y, 1).any(|p| p.open < 1.0);
-            near.points = self.gather_grid(&near, (seed, Work::NearGather, image), eye, side, &reach_at, false, project, crowded);
+            let pass = GridPass { seed, work: Work::NearGather, side, far: false };
+            near.points = self.gather_grid(&near, shot, pass, &reach_at, crowded);
             for pass in 0..passes {
                 near.filter(1 << pass, true, None);
             }
@@ -213,20 +223,18 @@ impl Tracer<'_> {
     }
 
     /// The points of `grid` (where `wanted` at their pixel), each gathered by
-    /// side² rays split at `reach_at(depth)` (the light from beyond it only
-    /// when `far`).
-    #[allow(clippy::too_many_arguments)]
-    fn gather_grid(
+    /// `pass.side`² rays split at `reach_at(depth)` (the light from beyond it
+    /// only when `pass.far`).
+    fn gather_grid<P: Fn(f32, f32) -> Vec3 + Sync>(
         &self,
         grid: &Grid,
-        (seed, work, image): (u64, Work, u64),
-        eye: Vec3,
-        side: u32,
+        shot: &Shot<&P>,
+        pass: GridPass,
         reach_at: &(impl Fn(f32) -> f32 + Sync),
-        far: bool,
-        project: &(impl Fn(f32, f32) -> Vec3 + Sync),
         wanted: impl Fn(f32, f32) -> bool + Sync,
     ) -> Vec<Option<Point>> {
+        let GridPass { seed, work, side, far } = pass;
+        let (eye, image, project) = (shot.eye, shot.image, shot.project);
         let (gw, gh) = grid.size();
         let (width, height, step) = (grid.width as f32, grid.height as f32, grid.step as f32);
         (0..gw * gh)

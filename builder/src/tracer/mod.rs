@@ -41,6 +41,7 @@ pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
 pub use gather::GatherParams;
 pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
+use trace::Shot;
 pub use trace::{Frame, TraceParams, Tracer};
 
 use crate::colour::linear_to_srgb;
@@ -259,7 +260,12 @@ impl<'a> Renderer<'a> {
         let n = eyes.len();
         let columns = equirect_rows(width);
         let render = |params: &TraceParams, i: usize, reuse: reuse::Reuse| {
-            self.tracer.render_reusing(params, eyes[i], (width, width / 2), image + i as u64, equirect_direction, reuse, &columns)
+            self.tracer.render_reusing(
+                params,
+                Shot { eye: eyes[i], size: (width, width / 2), image: image + i as u64, project: equirect_direction },
+                reuse,
+                &columns,
+            )
         };
         if params.samples != 1 || interval <= 1 || n < 3 {
             for i in 0..n {

@@ -198,7 +198,10 @@ fn a_thinned_equirect_frame_keeps_its_traced_pixels_and_interpolates_the_rest() 
     let (width, height) = (256u32, 128u32);
     let params = renderer.settings.video;
     let full = renderer.tracer.render(&params, eye, width, height, 0, equirect_direction);
-    let thinned = renderer.tracer.render_reusing(&params, eye, (width, height), 0, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0;
+    let thinned = renderer
+        .tracer
+        .render_reusing(&params, Shot { eye, size: (width, height), image: 0, project: equirect_direction }, reuse::Reuse::Off, &equirect_rows(width))
+        .0;
     let (mut traced, mut skipped) = (Vec::new(), Vec::new());
     for y in 0..height {
         let columns = equirect_columns(width, height, y);
@@ -567,7 +570,15 @@ fn frames_between_key_frames_match_frames_lit_in_full() {
     assert_eq!(frames.iter().map(|f| f.0).collect::<Vec<_>>(), (0..9).collect::<Vec<_>>(), "frames come in order");
     // Lit alone as path frames are, rows thinned toward the poles.
     let alone = |params: &TraceParams, i: usize| {
-        renderer.tracer.render_reusing(params, eyes[i], (width, width / 2), i as u64, equirect_direction, reuse::Reuse::Off, &equirect_rows(width)).0
+        renderer
+            .tracer
+            .render_reusing(
+                params,
+                Shot { eye: eyes[i], size: (width, width / 2), image: i as u64, project: equirect_direction },
+                reuse::Reuse::Off,
+                &equirect_rows(width),
+            )
+            .0
     };
     let full = alone(&video, 4);
     let cache_only = alone(&TraceParams { gather: None, ..video }, 4);

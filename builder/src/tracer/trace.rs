@@ -230,7 +230,7 @@ impl<'a> Tracer<'a> {
     /// direction through image coordinates in [0, 1]² (t down). `image`
     /// separates the random streams of different images.
     pub fn render(&self, params: &TraceParams, eye: Vec3, width: u32, height: u32, image: u64, project: impl Fn(f32, f32) -> Vec3 + Sync) -> Frame {
-        self.render_reusing(params, eye, (width, height), image, project, Reuse::Off, &[]).0
+        self.render_reusing(params, Shot { eye, size: (width, height), image, project }, Reuse::Off, &[]).0
     }
 
     /// [`Tracer::render`], reusing light along a path as `reuse` says
@@ -239,17 +239,14 @@ impl<'a> Tracer<'a> {
     /// y traces only every `columns[y]`-th pixel from column 0 and fills the
     /// rest by interpolating along the row, wrapping around
     /// ([`super::equirect_columns`]); empty traces every pixel.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn render_reusing(
         &self,
         params: &TraceParams,
-        eye: Vec3,
-        (width, height): (u32, u32),
-        image: u64,
-        project: impl Fn(f32, f32) -> Vec3 + Sync,
+        shot: Shot<impl Fn(f32, f32) -> Vec3 + Sync>,
         reuse: Reuse,
         columns: &[u32],
     ) -> (Frame, Option<Lit>) {
+        let Shot { eye, size: (width, height), image, project } = shot;
         debug_assert!(columns.is_empty() || (columns.len() == height as usize && columns.iter().all(|&c| c >= 1 && width % c == 0)));
         let traced = |x: u32, y: u32| columns.get(y as usize).is_none_or(|&c| x.is_multiple_of(c));
         let keep = matches!(reuse, Reuse::Key { .. });
@@ -259,7 +256,7 @@ impl<'a> Tracer<'a> {
         // Frames between key frames gather nothing: the keys did.
         let field = match (&params.gather, &self.cache, params.bounces, reuse) {
             (Some(g), Some(_), 0, Reuse::Off | Reuse::Key { .. }) => {
-                Some(self.gather_field(g, params.seed, eye, (width, height), image, &project, &traced))
+                Some(self.gather_field(g, params.seed, &Shot { eye, size: (width, height), image, project: &project }, &traced))
             }
             _ => None,
         };
@@ -524,6 +521,16 @@ impl<'a> Tracer<'a> {
             }
         }
     }
+}
+
+/// A frame to trace: from `eye`, `size` pixels, image number `image` (which
+/// separates the random streams of images), and `project(s, t)` the
+/// direction through image coordinates in [0, 1]² (t down).
+pub(super) struct Shot<P> {
+    pub eye: Vec3,
+    pub size: (u32, u32),
+    pub image: u64,
+    pub project: P,
 }
 
 /// What every tile of a frame shares: how it is traced, from where, its size
