@@ -14,8 +14,8 @@
 //!   segment to them is free (8-wide occlusion packets); the candidate seeing
 //!   the most still-unseen samples is taken until `coverage_target` of them is
 //!   seen, and then, for any object still under the target minus 2 points,
-//!   the candidate seeing most of those objects' unseen samples. On the Crytek Sponza it needs 12 probes for 95 % and 29 for 98 % by
-//!   the independent metric, against 116 for 90 % with the paper's strategy.
+//!   the candidate seeing most of those objects' unseen samples (how many
+//!   probes each scene needs: `cargo bench --bench map`).
 //! * [`Strategy::Occluded`] (the paper's): a probe sees through a cube map of
 //!   `face_res`² pixels per face (coherent 4×2 packets). Where neighbouring
 //!   pixels jump in depth (either point more than τ off the other's tangent

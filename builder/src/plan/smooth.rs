@@ -1,6 +1,4 @@
-//! Smooth: mass-spring smoothing of raw paths, then camera timing
-//! (the ExploreMaps paper, section 6, spends up to 3,012 s here; this takes
-//! milliseconds a path).
+//! Smooth: mass-spring smoothing of raw paths, then camera timing.
 //!
 //! Inputs: a raw polyline between two probes, the ray-casting scene, the
 //! navigable [`FreeSpace`]. Output: a smooth polyline with clearance ≥ r, its
