@@ -15,7 +15,7 @@
 //!   the most still-unseen samples is taken until `coverage_target` of them is
 //!   seen, and then, for any object still under the target minus 2 points,
 //!   the candidate seeing most of those objects' unseen samples (how many
-//!   probes each scene needs: `cargo bench --bench map`).
+//!   probes each scene needs: `cargo bench -p exploremaps-builder --bench map`).
 //! * [`Strategy::Occluded`] (the paper's): a probe sees through a cube map of
 //!   `face_res`² pixels per face (coherent 4×2 packets). Where neighbouring
 //!   pixels jump in depth (either point more than τ off the other's tangent
