@@ -446,93 +446,144 @@ impl FreeSpace {
 /// one), the parts kept, and the eye-height band when walking.
 pub fn free_space(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), FreeSpaceError> {
     let started = Instant::now();
-    if !(8..=2048).contains(&params.max_cells) {
-        return Err(FreeSpaceError::BadResolution(params.max_cells));
-    }
-    let bounds = scene.bounds();
-    let mut near = match params.near_m {
-        Some(m) => m / scene.metres_per_unit,
-        None => params.near_rel * bounds.diagonal(),
-    };
-    let kind = SceneKind::judge(scene, rays, &bounds, params);
-    let (room, sky) = if kind.inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
-    let vol = Volumes::new(scene, rays, &room, params);
-    let mut ray_count = vol.solids.rays + FACING_SAMPLES + if kind.evidence.is_some() { KIND_RAYS } else { 0 };
-    let (space, space_reason) = kind.space(params.space, vol.solids.enclosure, sky.then_some((&bounds, &room)));
-
-    // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
-    // stated, or guessed with rooms of a plausible height.
-    let eye = params.eye_height_m / scene.metres_per_unit;
-    let water = walk::water_triangles(scene);
-    let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk)
-        .then(|| walk::floor_cells(&vol.grid, &vol.occupied, &vol.open, rays, scene.metres_per_unit, &water));
-    let judged = scale_judgement(scene, floors.as_ref());
-    let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
-    let (walking, mut height_reason) = walk_or_fly(params.height, space, has_floors, &judged);
-    // With a scale to trust, or walking, r is at most a person's half width:
-    // a probe passes any door a visitor passes, however large the scene.
-    if params.near_m.is_none() && (judged.is_ok() || walking) {
-        near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
-    }
-    // A large scene's grid is coarser than a door: walk on a finer one. It
-    // can also close every corridor of a large interior (a 200 m maze of 2 m
-    // corridors on 0.86 m voxels keeps no floor): with a scale to trust, look
-    // for floors again on the walking grid.
-    let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
-    let look_again = !has_floors && judged.is_ok() && space == SpaceMode::Inside && params.height == HeightMode::Auto;
-    if (walking || look_again) && vol.grid.voxel > 1.001 * walk_voxel {
-        let finer = make_grid(&room, params.max_cells, Some(walk_voxel)).voxel;
-        let door_m = 2.0 * finer * scene.metres_per_unit;
-        if params.voxel.is_none() && finer < 0.999 * vol.grid.voxel {
-            let height = if walking { HeightMode::Walk } else { params.height };
-            let (fs, mut stats) = free_space(scene, rays, &FreeSpaceParams { space, height, voxel: Some(finer), ..params.clone() })?;
-            stats.space_reason = space_reason;
-            stats.height_reason = if walking {
-                format!("{height_reason}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", finer * scene.metres_per_unit)
+    let mut survey = Survey::new(scene, rays, params)?;
+    let (fs, mut stats) = match survey.finer_grid(scene, params) {
+        // Surveyed again on the finer grid, with the first survey's choices.
+        Some(finer) => {
+            let (fs, mut stats) = Survey::new(scene, rays, &finer)?.build(scene, rays, &finer)?;
+            let voxel = finer.voxel.expect("a finer grid's voxel");
+            let door_m = 2.0 * voxel * scene.metres_per_unit;
+            stats.height_reason = if survey.walking {
+                format!("{}; on a {:.2} m grid, so doors {door_m:.1} m wide are open", survey.height_reason, voxel * scene.metres_per_unit)
             } else {
-                format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, vol.grid.voxel * scene.metres_per_unit)
+                format!("{}; no floor was left on {:.2} m voxels", stats.height_reason, survey.vol.grid.voxel * scene.metres_per_unit)
             };
-            stats.rays += ray_count;
-            stats.seconds = started.elapsed().as_secs_f64();
-            return Ok((fs, stats));
+            stats.space_reason = survey.space_reason;
+            stats.rays += survey.ray_count;
+            (fs, stats)
         }
-        if walking && finer > 1.001 * walk_voxel {
-            height_reason =
-                format!("{height_reason}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed");
+        None => survey.build(scene, rays, params)?,
+    };
+    stats.seconds = started.elapsed().as_secs_f64();
+    Ok((fs, stats))
+}
+
+/// What the free space is decided from, before the parts are kept: the
+/// kind of scene, its box and voxels, the space chosen, the floors, and walk
+/// or fly.
+struct Survey {
+    bounds: Aabb,
+    kind: SceneKind,
+    room: Aabb,
+    vol: Volumes,
+    space: SpaceMode,
+    space_reason: String,
+    water: Vec<bool>,
+    floors: Option<walk::Floors>,
+    has_floors: bool,
+    /// Whether the scale is one to trust.
+    trusted: bool,
+    walking: bool,
+    height_reason: String,
+    near: f32,
+    ray_count: usize,
+}
+
+impl Survey {
+    fn new(scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<Survey, FreeSpaceError> {
+        if !(8..=2048).contains(&params.max_cells) {
+            return Err(FreeSpaceError::BadResolution(params.max_cells));
         }
+        let bounds = scene.bounds();
+        let mut near = match params.near_m {
+            Some(m) => m / scene.metres_per_unit,
+            None => params.near_rel * bounds.diagonal(),
+        };
+        let kind = SceneKind::judge(scene, rays, &bounds, params);
+        let (room, sky) = if kind.inside { room_box(&bounds, params.eye_height_m, scene.metres_per_unit) } else { (bounds, false) };
+        let vol = Volumes::new(scene, rays, &room, params);
+        let ray_count = vol.solids.rays + FACING_SAMPLES + if kind.evidence.is_some() { KIND_RAYS } else { 0 };
+        let (space, space_reason) = kind.space(params.space, vol.solids.enclosure, sky.then_some((&bounds, &room)));
+        // Walk or fly: walking needs a scene to be in, floors, and a scale to trust:
+        // stated, or guessed with rooms of a plausible height.
+        let water = walk::water_triangles(scene);
+        let floors = (space == SpaceMode::Inside || params.height == HeightMode::Walk)
+            .then(|| walk::floor_cells(&vol.grid, &vol.occupied, &vol.open, rays, scene.metres_per_unit, &water));
+        let judged = scale_judgement(scene, floors.as_ref());
+        let has_floors = floors.as_ref().is_some_and(|f| !f.cells.is_empty());
+        let (walking, height_reason) = walk_or_fly(params.height, space, has_floors, &judged);
+        // With a scale to trust, or walking, r is at most a person's half width:
+        // a probe passes any door a visitor passes, however large the scene.
+        if params.near_m.is_none() && (judged.is_ok() || walking) {
+            near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
+        }
+        let trusted = judged.is_ok();
+        Ok(Survey { bounds, kind, room, vol, space, space_reason, water, floors, has_floors, trusted, walking, height_reason, near, ray_count })
     }
 
-    let choice = Choice { space, walking, near };
-    let parts = keep_parts(scene, rays, &vol, &water, &choice, params.start)?;
-    let (solid, enclosure) = ((0..vol.grid.len()).filter(|&i| vol.free_in_box[i] && !vol.open[i]).count(), vol.solids.enclosure);
-    let mut fs = vol.into_space(&parts, &choice, bounds);
-    let walk_stats = match walking {
-        true => Some(fs.walk_on(floors.as_ref().expect("computed when walking"), rays, eye, scene.metres_per_unit, params.start)?),
-        false => None,
-    };
-    ray_count += walk_stats.as_ref().map_or(0, |w| w.rays);
-    let stats = FreeSpaceStats {
-        dims: fs.grid.dims,
-        voxel: fs.grid.voxel,
-        near,
-        occupied: fs.occupied.iter().filter(|&&o| o).count(),
-        open: fs.open.iter().filter(|&&o| o).count(),
-        solid,
-        components: parts.kept.len(),
-        components_kept: parts.kept.iter().filter(|&&k| k).count(),
-        left_out: parts.left_out,
-        navigable: fs.navigable.iter().filter(|&&n| n).count(),
-        enclosure,
-        facing_out: kind.facing_out,
-        space: space.name(),
-        space_reason,
-        height: if walking { "walk" } else { "fly" },
-        height_reason,
-        walk: walk_stats,
-        rays: ray_count,
-        seconds: started.elapsed().as_secs_f64(),
-    };
-    Ok((fs, stats))
+    /// The parameters to survey again with on a finer grid, when one is
+    /// needed and the budget allows it. A large scene's grid is coarser than
+    /// a door: walk on a finer one. It can also close every corridor of a
+    /// large interior (a 200 m maze of 2 m corridors on 0.86 m voxels keeps
+    /// no floor): with a scale to trust, look for floors again on the
+    /// walking grid. (The grid cannot be decided before the first survey:
+    /// walking, and the floors, are found on it.)
+    fn finer_grid(&mut self, scene: &Scene, params: &FreeSpaceParams) -> Option<FreeSpaceParams> {
+        let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
+        let look_again = !self.has_floors && self.trusted && self.space == SpaceMode::Inside && params.height == HeightMode::Auto;
+        if !((self.walking || look_again) && self.vol.grid.voxel > 1.001 * walk_voxel) {
+            return None;
+        }
+        let finer = make_grid(&self.room, params.max_cells, Some(walk_voxel)).voxel;
+        if params.voxel.is_none() && finer < 0.999 * self.vol.grid.voxel {
+            let height = if self.walking { HeightMode::Walk } else { params.height };
+            return Some(FreeSpaceParams { space: self.space, height, voxel: Some(finer), ..params.clone() });
+        }
+        if self.walking && finer > 1.001 * walk_voxel {
+            let door_m = 2.0 * finer * scene.metres_per_unit;
+            self.height_reason =
+                format!("{}; the grid is as fine as its cell budget allows: doors narrower than {door_m:.1} m may be closed", self.height_reason);
+        }
+        None
+    }
+
+    /// The free space on this survey's grid: the parts kept, and the
+    /// eye-height band when walking. (`seconds` is left to the caller.)
+    fn build(self, scene: &Scene, rays: &RayScene, params: &FreeSpaceParams) -> Result<(FreeSpace, FreeSpaceStats), FreeSpaceError> {
+        let Survey { bounds, kind, vol, space, space_reason, water, floors, walking, height_reason, near, mut ray_count, .. } = self;
+        let eye = params.eye_height_m / scene.metres_per_unit;
+        let choice = Choice { space, walking, near };
+        let parts = keep_parts(scene, rays, &vol, &water, &choice, params.start)?;
+        let (solid, enclosure) = ((0..vol.grid.len()).filter(|&i| vol.free_in_box[i] && !vol.open[i]).count(), vol.solids.enclosure);
+        let mut fs = vol.into_space(&parts, &choice, bounds);
+        let walk_stats = match walking {
+            true => Some(fs.walk_on(floors.as_ref().expect("computed when walking"), rays, eye, scene.metres_per_unit, params.start)?),
+            false => None,
+        };
+        ray_count += walk_stats.as_ref().map_or(0, |w| w.rays);
+        let stats = FreeSpaceStats {
+            dims: fs.grid.dims,
+            voxel: fs.grid.voxel,
+            near,
+            occupied: fs.occupied.iter().filter(|&&o| o).count(),
+            open: fs.open.iter().filter(|&&o| o).count(),
+            solid,
+            components: parts.kept.len(),
+            components_kept: parts.kept.iter().filter(|&&k| k).count(),
+            left_out: parts.left_out,
+            navigable: fs.navigable.iter().filter(|&&n| n).count(),
+            enclosure,
+            facing_out: kind.facing_out,
+            space: space.name(),
+            space_reason,
+            height: if walking { "walk" } else { "fly" },
+            height_reason,
+            walk: walk_stats,
+            rays: ray_count,
+            seconds: 0.0,
+        };
+        Ok((fs, stats))
+    }
 }
 
 impl FreeSpace {
