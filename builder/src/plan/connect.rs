@@ -120,7 +120,7 @@ pub fn connect(rays: &RayScene, space: &FreeSpace, probes: &[Vec3], params: &Con
         crate::plan::freespace::components_26(&space.grid, &space.navigable).0
     };
     let routing = Routing { rays, space, probes, part };
-    routing.search(&searches, params.prune_ratio, &mut paths, &mut stats);
+    routing.search(searches, params.prune_ratio, &mut paths, &mut stats);
     routing.join_groups(&mut paths, &mut stats);
     let before = paths.len();
     let paths = prune(probes.len(), paths, params.prune_ratio);
@@ -230,9 +230,8 @@ impl Routing<'_> {
     /// the straight line). In batches of a fixed size, whatever the thread
     /// count: a batch's pairs are checked for detours against the paths
     /// found before it, then searched in parallel.
-    fn search(&self, searches: &[(usize, usize)], prune_ratio: f32, paths: &mut Vec<RawPath>, stats: &mut ConnectStats) {
+    fn search(&self, mut searches: Vec<(usize, usize)>, prune_ratio: f32, paths: &mut Vec<RawPath>, stats: &mut ConnectStats) {
         let probes = self.probes;
-        let mut searches = searches.to_vec();
         searches.sort_by(|x, y| (probes[x.0] - probes[x.1]).length().total_cmp(&(probes[y.0] - probes[y.1]).length()).then(x.cmp(y)));
         for batch in searches.chunks(SEARCH_BATCH) {
             let mut wanted = Vec::with_capacity(batch.len());

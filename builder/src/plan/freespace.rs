@@ -480,7 +480,6 @@ struct Survey {
     space_reason: String,
     water: Vec<bool>,
     floors: Option<walk::Floors>,
-    has_floors: bool,
     /// Whether the scale is one to trust.
     trusted: bool,
     walking: bool,
@@ -518,7 +517,7 @@ impl Survey {
             near = near.min(PERSON_NEAR_M / scene.metres_per_unit);
         }
         let trusted = judged.is_ok();
-        Ok(Survey { bounds, kind, room, vol, space, space_reason, water, floors, has_floors, trusted, walking, height_reason, near, ray_count })
+        Ok(Survey { bounds, kind, room, vol, space, space_reason, water, floors, trusted, walking, height_reason, near, ray_count })
     }
 
     /// The parameters to survey again with on a finer grid, when one is
@@ -530,7 +529,8 @@ impl Survey {
     /// walking, and the floors, are found on it.)
     fn finer_grid(&mut self, scene: &Scene, params: &FreeSpaceParams) -> Option<FreeSpaceParams> {
         let walk_voxel = params.walk_voxel_m / scene.metres_per_unit;
-        let look_again = !self.has_floors && self.trusted && self.space == SpaceMode::Inside && params.height == HeightMode::Auto;
+        let has_floors = self.floors.as_ref().is_some_and(|f| !f.cells.is_empty());
+        let look_again = !has_floors && self.trusted && self.space == SpaceMode::Inside && params.height == HeightMode::Auto;
         if !((self.walking || look_again) && self.vol.grid.voxel > 1.001 * walk_voxel) {
             return None;
         }
