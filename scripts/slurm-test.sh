@@ -100,6 +100,8 @@ for attempt in 1 2 3; do
     for _ in $(seq 600); do [ "$(squeue -h -j "${job}_2" -o %T 2>/dev/null)" = RUNNING ] && break; sleep 0.05; done
     scancel "${job}_2"
     wait_job "$job"
+    # The queue can empty before the signalled process is gone; wait for it.
+    for _ in $(seq 200); do pgrep -f "render $work/killed " >/dev/null || break; sleep 0.1; done
     [ -e "$work/killed/shards/2-of-4.json" ] || break
     [ "$attempt" -lt 3 ] || fail "task 2 finished before each of three cancels"
     echo "slurm-test: task 2 finished before its cancel (attempt $attempt); again"

@@ -267,28 +267,9 @@ fn plan_user_probes_and_bad_planning_arguments() {
     assert!(stderr(&run).contains("graph.json") && stderr(&run).contains("start point"), "{}", stderr(&run));
 }
 
-#[test]
-fn render_fills_in_assets_resumably_and_in_shards() {
-    let dir = tempfile::tempdir().unwrap();
-    let one = dir.path().join("one");
-    let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
-    assert!(run.status.success(), "{}", stderr(&run));
-    let sharded = dir.path().join("sharded");
-    std::fs::create_dir_all(&sharded).unwrap();
-    for entry in std::fs::read_dir(&one).unwrap().flatten() {
-        std::fs::copy(entry.path(), sharded.join(entry.file_name())).unwrap();
-    }
-    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100"];
-    let render = |bundle: &std::path::Path, extra: &[&str]| {
-        let mut args = vec!["render", bundle.to_str().unwrap()];
-        args.extend(small);
-        args.extend(extra);
-        exploremaps(&args)
-    };
-    let run = render(&one, &[]);
-    assert!(run.status.success(), "{}", stderr(&run));
-    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(one.join("graph.json")).unwrap()).unwrap();
-    assert!(!graph.paths.is_empty());
+/// Every probe's panorama, thumbnail and faces and every path's video and
+/// poster are there at the sizes asked (`--face 64 --video-width 128`).
+fn assert_assets_decode(one: &std::path::Path, graph: &exploremaps_format::Graph) {
     for p in &graph.probes {
         let pano = p.assets.equirect.as_ref().expect("graph.json lists the panorama");
         let img = image::open(one.join(pano)).unwrap();
@@ -306,6 +287,11 @@ fn render_fills_in_assets_resumably_and_in_shards() {
         assert_eq!((frames[0].width, frames[0].height), (128, 64));
         assert!(one.join(p.assets.poster.as_ref().unwrap()).exists());
     }
+}
+
+/// The 3D proxy: coded levels with a colour per vertex, vertex splits that
+/// rebuild the finest level from the coarsest, and a GLB another parser reads.
+fn assert_proxy_rebuilds(one: &std::path::Path, graph: &exploremaps_format::Graph) {
     // The 3D proxy: coded levels with a colour per vertex, and a GLB another parser reads.
     let proxy = graph.proxy.as_ref().expect("graph.json lists the proxy");
     assert!(!proxy.levels.is_empty());
@@ -340,6 +326,32 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let reader = primitive.reader(|b| Some(&buffers[b.index()]));
     assert_eq!(reader.read_indices().unwrap().into_u32().count() as u64, 3 * proxy.levels[0].triangles);
     assert_eq!(reader.read_colors(0).expect("vertex colours").into_rgb_f32().count(), reader.read_positions().unwrap().count());
+}
+
+#[test]
+fn render_fills_in_assets_resumably_and_in_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let run = exploremaps(&["plan", "maze:3", "-o", one.to_str().unwrap(), "--samples", "5000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let sharded = dir.path().join("sharded");
+    std::fs::create_dir_all(&sharded).unwrap();
+    for entry in std::fs::read_dir(&one).unwrap().flatten() {
+        std::fs::copy(entry.path(), sharded.join(entry.file_name())).unwrap();
+    }
+    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100"];
+    let render = |bundle: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["render", bundle.to_str().unwrap()];
+        args.extend(small);
+        args.extend(extra);
+        exploremaps(&args)
+    };
+    let run = render(&one, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(one.join("graph.json")).unwrap()).unwrap();
+    assert!(!graph.paths.is_empty());
+    assert_assets_decode(&one, &graph);
+    assert_proxy_rebuilds(&one, &graph);
     // Resuming renders nothing new and leaves the files untouched.
     let before = std::fs::metadata(one.join("probes/0/pano.jpg")).unwrap().modified().unwrap();
     let run = render(&one, &[]);

@@ -84,6 +84,18 @@ pub(super) fn push_path(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
 pub fn synthetic_bundle(dir: &Path) {
     let mut graph = Graph::new(synthetic_scene("synthetic"));
     let write = writer(dir);
+    push_probes(&mut graph, &write);
+    push_path(&mut graph, &write);
+    graph.bar_order = vec![0, 1, 2];
+    let (levels, stream) = proxy_levels(&write);
+    let depth_maps = depth_maps(&write, graph.probes.len() as u32);
+    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps, stream });
+    graph.validate().unwrap();
+    write("graph.json", graph.to_json().as_bytes());
+}
+
+/// The three probes, each with two cube levels (probe 2's first face corrupt).
+fn push_probes(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
     let positions = [[0.0, 1.5, 0.0], [4.0, 1.5, 0.0], [0.0, 1.5, 8.0]];
     let facing = [0.0, std::f32::consts::PI, 0.0];
     for (p, position) in positions.iter().enumerate() {
@@ -110,8 +122,11 @@ pub fn synthetic_bundle(dir: &Path) {
             assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail), tiles: None },
         });
     }
-    push_path(&mut graph, &write);
-    graph.bar_order = vec![0, 1, 2];
+}
+
+/// The proxy's two levels (a ground of two coloured quads) and the vertex
+/// split that refines the coarse one into the fine one.
+fn proxy_levels(write: &impl Fn(&str, &[u8])) -> (Vec<exploremaps_format::ProxyLevel>, Option<exploremaps_format::ProxyStream>) {
     let mut ground = exploremaps_format::meshcode::MeshData::default();
     for (x0, x1, colour) in [(-5.0, 2.0, WEST), (2.0, 9.0, EAST)] {
         let base = ground.positions.len() as u32;
@@ -169,9 +184,13 @@ pub fn synthetic_bundle(dir: &Path) {
     let packets =
         vec![exploremaps_format::ProxyPacket { file: "proxy/splits-0.emvs".into(), offset: 0, bytes: packet.bytes.len() as u64, triangles: 4 }];
     let stream = Some(exploremaps_format::ProxyStream { from: 1, to: 0, packets });
-    // Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
+    (levels, stream)
+}
+
+/// Depth maps: everything 3 away; from probe 0, what lies toward −Z is seen best from probe 1.
+fn depth_maps(write: &impl Fn(&str, &[u8]), probes: u32) -> Vec<String> {
     let mut depth_maps = Vec::new();
-    for p in 0..positions.len() as u32 {
+    for p in 0..probes {
         let size = 16;
         let mut map = exploremaps_format::depthmap::DepthMap { size, near: 0.1, far: 40.0, depth: Vec::new(), best: Vec::new() };
         for face in 0..6 {
@@ -185,9 +204,7 @@ pub fn synthetic_bundle(dir: &Path) {
         write(&file, &map.encode());
         depth_maps.push(file);
     }
-    graph.proxy = Some(exploremaps_format::Proxy { levels, glb: None, floors: vec![], depth_maps, stream });
-    graph.validate().unwrap();
-    write("graph.json", graph.to_json().as_bytes());
+    depth_maps
 }
 
 /// The synthetic bundle in a temporary folder (as `b`), changed by

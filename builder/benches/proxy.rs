@@ -77,6 +77,27 @@ fn median_of_3<T>(mut f: impl FnMut() -> T) -> (T, f64) {
 const SAMPLES: usize = 100_000;
 
 fn main() {
+    let scenes = load_scenes();
+    let mut goals = Goals::default();
+    let (coding, streams) = compare_simplification(&scenes, &mut goals);
+    compare_colour_simplification(&scenes);
+    if std::env::var("PROXY_BENCH").as_deref() == Ok("simplify") {
+        goals.print();
+        return; // only section 1, for quick comparisons
+    }
+    compare_coding(&coding, &mut goals);
+    let curves = measure_streams(&streams);
+    let svg = stream_chart(&curves);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/proxy-stream.svg");
+    match std::fs::write(&path, svg) {
+        Ok(()) => println!("curves: {}", path.display()),
+        Err(e) => println!("curves not written to {}: {e}", path.display()),
+    }
+    goals.print();
+}
+
+/// The gallery and the shared scenes (ONLY narrows them).
+fn load_scenes() -> Vec<(String, Scene)> {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
     let mut scenes: Vec<(String, Scene)> = vec![("gallery".into(), BuiltIn::Gallery.generate(1))];
     for file in ["stanford_bunny/bun_zipper.ply", "sponza_crytek/sponza_crytek.obj", "sponza_dabrovic/sponza.obj"] {
@@ -89,29 +110,40 @@ fn main() {
             Err(e) => println!("skipped {}: {e}", path.display()),
         }
     }
-    let mut coding = Vec::new();
-    let mut goals = Goals::default();
-    let mut streams = Vec::new();
+    scenes
+}
+
+/// A welded mesh and what its errors are measured against.
+struct Input {
+    mesh: Mesh,
+    diagonal: f32,
+    tree: TriMesh,
+    samples: Vec<Vec3>,
+}
+
+impl Input {
+    fn new(mesh: Mesh, diagonal: f32) -> Input {
+        Input { tree: tree(&mesh.positions, &mesh.triangles), samples: sample(&mesh.positions, &mesh.triangles), mesh, diagonal }
+    }
+
+    /// (Hausdorff, RMS) distances of a mesh from this one, in % of the diagonal.
+    fn error(&self, positions: &[Vec3], triangles: &[[u32; 3]]) -> (f32, f32) {
+        let (h, r) = distances(&self.tree, &self.samples, positions, triangles);
+        (100.0 * h / self.diagonal, 100.0 * r / self.diagonal)
+    }
+}
+
+/// Section 1: returns the meshes to code (section 2) and the welded scenes
+/// to stream (section 3).
+fn compare_simplification(scenes: &[(String, Scene)], goals: &mut Goals) -> (Vec<(String, Mesh)>, Vec<(String, Mesh, f32)>) {
+    let (mut coding, mut streams) = (Vec::new(), Vec::new());
     println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way; seconds: median of 3 runs)");
+    #[rustfmt::skip]
     println!(
         "{:<16} {:>5} {:>8} | {:>8} {:>7} {:>9} {:>8} {:>4} | {:>8} {:>7} {:>9} {:>8} | {:>8} {:>9} {:>8}",
-        "scene",
-        "ratio",
-        "input",
-        "reached",
-        "seconds",
-        "Hausdorff",
-        "RMS",
-        "flip",
-        "reached",
-        "seconds",
-        "Hausdorff",
-        "RMS",
-        "seams: reached",
-        "Hausdorff",
-        "RMS"
+        "scene", "ratio", "input", "reached", "seconds", "Hausdorff", "RMS", "flip", "reached", "seconds", "Hausdorff", "RMS", "seams: reached", "Hausdorff", "RMS"
     );
-    for (name, scene) in &scenes {
+    for (name, scene) in scenes {
         let t = Instant::now();
         let diagonal = scene.bounds().diagonal();
         let (mut mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
@@ -127,79 +159,81 @@ fn main() {
             stats.duplicates,
             t.elapsed().as_secs_f64()
         );
-        let input_tree = tree(&mesh.positions, &mesh.triangles);
-        let input_samples = sample(&mesh.positions, &mesh.triangles);
-        let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-        // The same mesh with a vertex per (vertex, material) pair: material
-        // borders become seams, which meshoptimizer keeps.
-        let (seam_positions, seam_indices) = {
-            let mut at = std::collections::HashMap::new();
-            let mut positions = Vec::new();
-            let mut indices = Vec::new();
-            for (t, tri) in mesh.triangles.iter().enumerate() {
-                for &v in tri {
-                    indices.push(*at.entry((v, mesh.groups[t])).or_insert_with(|| {
-                        positions.push(mesh.positions[v as usize].to_array());
-                        positions.len() as u32 - 1
-                    }));
-                }
-            }
-            (positions, indices)
-        };
-        let seam_points: Vec<Vec3> = seam_positions.iter().map(|&p| Vec3::from(p)).collect();
         coding.push((format!("{name} 100%"), mesh.clone()));
         streams.push((name.clone(), mesh.clone(), diagonal));
+        let input = Input::new(mesh, diagonal);
         for ratio in [0.5, 0.1, 0.02, 0.01] {
-            let target = (mesh.triangles.len() as f64 * ratio) as usize;
-            let (s, ours_seconds) = median_of_3(|| simplify(&mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY }));
-            let normal = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
-            let flipped = (0..mesh.triangles.len())
-                .filter(|&t| s.alive[t])
-                .filter(|&t| {
-                    normal(mesh.triangles[t].map(|v| mesh.positions[v as usize]))
-                        .dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize])))
-                        < 0.0
-                })
-                .count();
-            let ours = s.compact();
-            let (oh, or) = distances(&input_tree, &input_samples, &ours.positions, &ours.triangles);
-
-            let (simplified, theirs_seconds) =
-                median_of_3(|| meshopt::simplify_decoder(&indices, &positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None));
-            let theirs: Vec<[u32; 3]> = simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-            let (th, tr) = distances(&input_tree, &input_samples, &mesh.positions, &theirs);
-            let seamed: Vec<[u32; 3]> =
-                meshopt::simplify_decoder(&seam_indices, &seam_positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None)
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]])
-                    .collect();
-            let (sh, sr) = distances(&input_tree, &input_samples, &seam_points, &seamed);
-            let pct = |x: f32| 100.0 * x / diagonal;
-            println!(
-                "{name:<16} {:>4.0}% {:>8} | {:>8} {ours_seconds:>7.3} {:>9.4} {:>8.4} {flipped:>4} | {:>8} {theirs_seconds:>7.3} {:>9.4} {:>8.4} | {:>14} {:>9.4} {:>8.4}",
-                ratio * 100.0,
-                mesh.triangles.len(),
-                ours.triangles.len(),
-                pct(oh),
-                pct(or),
-                theirs.len(),
-                pct(th),
-                pct(tr),
-                seamed.len(),
-                pct(sh),
-                pct(sr)
-            );
-            goals.error.push((format!("{name} {:.0}%", ratio * 100.0), oh / th, or / tr));
-            if name == "sponza_crytek" && ratio == 0.1 {
-                goals.sponza_seconds = Some((ours.triangles.len(), mesh.triangles.len(), ours_seconds));
-            }
+            let ours = simplify_both(name, &input, ratio, goals);
             if ratio == 0.1 || ratio == 0.01 {
                 coding.push((format!("{name} {:.0}%", ratio * 100.0), ours));
             }
         }
     }
+    (coding, streams)
+}
 
+/// One row of section 1: ours and meshoptimizer's (plain and with seams) at
+/// `ratio` of the triangles. Returns ours.
+fn simplify_both(name: &str, input: &Input, ratio: f64, goals: &mut Goals) -> Mesh {
+    let mesh = &input.mesh;
+    let target = (mesh.triangles.len() as f64 * ratio) as usize;
+    let (s, ours_seconds) = median_of_3(|| simplify(mesh, &SimplifyParams { target_triangles: target, max_error: f32::INFINITY }));
+    let normal = |p: [Vec3; 3]| (p[1] - p[0]).cross(p[2] - p[0]);
+    let flipped = (0..mesh.triangles.len())
+        .filter(|&t| s.alive[t])
+        .filter(|&t| {
+            normal(mesh.triangles[t].map(|v| mesh.positions[v as usize])).dot(normal(s.mesh.triangles[t].map(|v| s.mesh.positions[v as usize]))) < 0.0
+        })
+        .count();
+    let ours = s.compact();
+    let (oh, or) = input.error(&ours.positions, &ours.triangles);
+
+    let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let meshopt = |indices: &[u32], positions: &[[f32; 3]]| -> Vec<[u32; 3]> {
+        let simplified = meshopt::simplify_decoder(indices, positions, target * 3, f32::MAX, meshopt::SimplifyOptions::Prune, None);
+        simplified.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+    };
+    let (theirs, theirs_seconds) = median_of_3(|| meshopt(&indices, &positions));
+    let (th, tr) = input.error(&mesh.positions, &theirs);
+    let (seam_positions, seam_indices) = split_at_materials(mesh);
+    let seamed = meshopt(&seam_indices, &seam_positions);
+    let seam_points: Vec<Vec3> = seam_positions.iter().map(|&p| Vec3::from(p)).collect();
+    let (sh, sr) = input.error(&seam_points, &seamed);
+    println!(
+        "{name:<16} {:>4.0}% {:>8} | {:>8} {ours_seconds:>7.3} {oh:>9.4} {or:>8.4} {flipped:>4} | {:>8} {theirs_seconds:>7.3} {th:>9.4} {tr:>8.4} | {:>14} {sh:>9.4} {sr:>8.4}",
+        ratio * 100.0,
+        mesh.triangles.len(),
+        ours.triangles.len(),
+        theirs.len(),
+        seamed.len(),
+    );
+    goals.error.push((format!("{name} {:.0}%", ratio * 100.0), oh / th, or / tr));
+    if name == "sponza_crytek" && ratio == 0.1 {
+        goals.sponza_seconds = Some((ours.triangles.len(), mesh.triangles.len(), ours_seconds));
+    }
+    ours
+}
+
+/// The mesh with a vertex per (vertex, material) pair: material borders
+/// become seams, which meshoptimizer keeps. (positions, indices)
+fn split_at_materials(mesh: &Mesh) -> (Vec<[f32; 3]>, Vec<u32>) {
+    let mut at = std::collections::HashMap::new();
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            indices.push(*at.entry((v, mesh.groups[t])).or_insert_with(|| {
+                positions.push(mesh.positions[v as usize].to_array());
+                positions.len() as u32 - 1
+            }));
+        }
+    }
+    (positions, indices)
+}
+
+/// Section 1b: colour-aware simplification against geometry alone.
+fn compare_colour_simplification(scenes: &[(String, Scene)]) {
     let colour_weight = std::env::var("COLOUR_WEIGHT").ok().and_then(|w| w.parse().ok()).unwrap_or(COLOUR_WEIGHT);
     println!(
         "\n== colour-aware simplification (a full colour step counts as {} % of the diagonal): geometry only | with colour",
@@ -210,7 +244,7 @@ fn main() {
         "{:<16} {:>5} | {:>7} {:>9} {:>8} {:>9} | {:>7} {:>9} {:>8} {:>9}",
         "scene", "ratio", "seconds", "Hausdorff", "RMS", "colour", "seconds", "Hausdorff", "RMS", "colour"
     );
-    for (name, scene) in &scenes {
+    for (name, scene) in scenes {
         let diagonal = scene.bounds().diagonal();
         let (mesh, stats) = weld_scene(scene, 1e-5 * diagonal);
         let colours = vertex_albedo(scene, &mesh, &stats.sources);
@@ -219,15 +253,13 @@ fn main() {
             println!("{name:<16} one colour throughout: skipped");
             continue;
         }
-        let input_tree = tree(&mesh.positions, &mesh.triangles);
-        let input_samples = sample(&mesh.positions, &mesh.triangles);
+        let input = Input::new(mesh, diagonal);
         for ratio in [0.1, 0.02] {
-            let params = SimplifyParams { target_triangles: (mesh.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY };
-            let pct = |x: f32| 100.0 * x / diagonal;
+            let params = SimplifyParams { target_triangles: (input.mesh.triangles.len() as f64 * ratio) as usize, max_error: f32::INFINITY };
             let mut row = format!("{name:<16} {:>4.0}%", ratio * 100.0);
             for with in [false, true] {
                 let (s, seconds) = median_of_3(|| {
-                    simplify_with_colours(&mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params)
+                    simplify_with_colours(&input.mesh, with.then_some(Colours { values: &colours, weight: colour_weight * diagonal }), &params)
                 });
                 let (out, out_colours) = if with {
                     s.compact_with_colours()
@@ -236,25 +268,24 @@ fn main() {
                     let colourful = Simplified { colours: colours.clone(), ..s };
                     colourful.compact_with_colours()
                 };
-                let (h, r) = distances(&input_tree, &input_samples, &out.positions, &out.triangles);
-                let c = colour_rms(&mesh, &colours, &out, &out_colours);
-                row += &format!(" | {seconds:>7.3} {:>9.4} {:>8.4} {:>9.2}", pct(h), pct(r), 255.0 * c);
+                let (h, r) = input.error(&out.positions, &out.triangles);
+                let c = colour_rms(&input.mesh, &colours, &out, &out_colours);
+                row += &format!(" | {seconds:>7.3} {h:>9.4} {r:>8.4} {:>9.2}", 255.0 * c);
             }
             println!("{row}");
         }
     }
+}
 
-    if std::env::var("PROXY_BENCH").as_deref() == Ok("simplify") {
-        goals.print();
-        return; // only section 1, for quick comparisons
-    }
+/// Section 2: each level coded whole, ours against meshoptimizer's codecs and Draco.
+fn compare_coding(coding: &[(String, Mesh)], goals: &mut Goals) {
     let wasm = wasm_module().map_err(|e| println!("wasm decode skipped: {e}")).ok();
     println!("\n== coding each level whole: meshcode (Edgebreaker, 14-bit parallelogram) | meshoptimizer codecs (16-bit) + gzip -9");
     println!(
         "{:<22} {:>8} {:>10} {:>9} {:>9} {:>8} {:>10} {:>9} | {:>9} {:>8} | {:>9} {:>8} {:>10}",
         "mesh", "tris", "conn b/t", "conn B", "bytes", "B/tri", "decode M/s", "wasm M/s", "meshopt B", "B/tri", "Draco B", "B/tri", "wasm M/s"
     );
-    for (name, mesh) in &coding {
+    for (name, mesh) in coding {
         let encoded = meshcode::encode(&mesh.to_coded(), 14).expect("codes");
         let n = mesh.triangles.len() as f64;
         let decode_rate = n * median_rate(|| {
@@ -285,12 +316,14 @@ fn main() {
             draco_bytes as f64 / n
         );
     }
+}
 
+/// Section 3: the progressive stream of each scene; returns its curve.
+fn measure_streams(streams: &[(String, Mesh, f32)]) -> Vec<Curve> {
     println!("\n== progressive stream: base 2 500 + vertex splits to 25 000 (14-bit, geometry only; error as in 1, in % of the diagonal)");
-    // Per scene: (bytes received, RMS %) after the base and each packet, and the level sent whole.
-    let mut curves: Vec<Curve> = Vec::new();
     println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
-    for (name, mesh, diagonal) in &streams {
+    let mut curves = Vec::new();
+    for (name, mesh, diagonal) in streams {
         let detail = if mesh.triangles.len() > 25_000 {
             simplify(mesh, &SimplifyParams { target_triangles: 25_000, max_error: f32::INFINITY }).compact()
         } else {
@@ -300,58 +333,55 @@ fn main() {
             println!("{name:<16} skipped: {} triangles, no stream", detail.triangles.len());
             continue;
         }
-        let s = simplify(&detail, &SimplifyParams { target_triangles: 2_500, max_error: f32::INFINITY });
-        let mut pm = Progressive::new(&detail, &s);
-        let base = meshcode::encode(&pm.base.to_coded(), 14).expect("codes");
-        let decoded = meshcode::decode(&base.bytes).expect("decodes");
-        pm.renumber_base(&base.order.vertices, &base.order.triangles);
-        let packets = splits::encode(&decoded, &pm.refinements, 14, 750).expect("codes");
-        let input_tree = tree(&mesh.positions, &mesh.triangles);
-        let input_samples = sample(&mesh.positions, &mesh.triangles);
-        let pct = |x: f32| 100.0 * x / diagonal;
-        let mut refiner = splits::Refiner::new(decoded.clone()).expect("a valid base");
-        let mut bytes = base.bytes.len();
-        let mut curve = Vec::new();
-        for k in 0..=packets.len() {
-            if k > 0 {
-                refiner.apply_packet(&packets[k - 1].bytes).expect("applies");
-                bytes += packets[k - 1].bytes.len();
-            }
-            let positions: Vec<Vec3> = refiner.mesh.positions.iter().map(|&p| Vec3::from(p)).collect();
-            let (h, r) = distances(&input_tree, &input_samples, &positions, &refiner.mesh.triangles);
-            let label = if k == 0 { "base".to_string() } else { k.to_string() };
-            println!("{name:<16} {label:>7} {:>9} {bytes:>10} {:>9.4} {:>8.4}", refiner.mesh.triangles.len(), pct(h), pct(r));
-            curve.push((bytes as f64, pct(r) as f64));
+        curves.push(measure_stream(name, &Input::new(mesh.clone(), *diagonal), &detail));
+    }
+    curves
+}
+
+/// One scene's stream: (bytes received, RMS %) after the base and each
+/// packet, and the level sent whole.
+fn measure_stream(name: &str, input: &Input, detail: &Mesh) -> Curve {
+    let s = simplify(detail, &SimplifyParams { target_triangles: 2_500, max_error: f32::INFINITY });
+    let mut pm = Progressive::new(detail, &s);
+    let base = meshcode::encode(&pm.base.to_coded(), 14).expect("codes");
+    let decoded = meshcode::decode(&base.bytes).expect("decodes");
+    pm.renumber_base(&base.order.vertices, &base.order.triangles);
+    let packets = splits::encode(&decoded, &pm.refinements, 14, 750).expect("codes");
+    let mut refiner = splits::Refiner::new(decoded.clone()).expect("a valid base");
+    let mut bytes = base.bytes.len();
+    let mut curve = Vec::new();
+    for k in 0..=packets.len() {
+        if k > 0 {
+            refiner.apply_packet(&packets[k - 1].bytes).expect("applies");
+            bytes += packets[k - 1].bytes.len();
         }
-        let split_bytes: usize = packets.iter().map(|p| p.bytes.len()).sum();
-        let added = detail.triangles.len() - decoded.triangles.len();
-        let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
-        let last_error = curve.last().map_or(0.0, |p| p.1);
-        curves.push((name.clone(), curve, (whole as f64, last_error)));
-        let rate = added as f64
-            * median_rate(|| {
-                let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
-                for p in &packets {
-                    r.apply_packet(&p.bytes).expect("applies");
-                }
-                std::hint::black_box(r);
-            })
-            / 1e6;
-        println!(
-            "{name:<16} splits {split_bytes} B for {added} triangles ({:.2} B/tri, {} packets); base + splits {} B vs the level whole {whole} B ({:.2}x); apply {rate:.1} M tri/s",
-            split_bytes as f64 / added as f64,
-            packets.len(),
-            base.bytes.len() + split_bytes,
-            (base.bytes.len() + split_bytes) as f64 / whole as f64
-        );
+        let positions: Vec<Vec3> = refiner.mesh.positions.iter().map(|&p| Vec3::from(p)).collect();
+        let (h, r) = input.error(&positions, &refiner.mesh.triangles);
+        let label = if k == 0 { "base".to_string() } else { k.to_string() };
+        println!("{name:<16} {label:>7} {:>9} {bytes:>10} {h:>9.4} {r:>8.4}", refiner.mesh.triangles.len());
+        curve.push((bytes as f64, r as f64));
     }
-    let svg = stream_chart(&curves);
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/proxy-stream.svg");
-    match std::fs::write(&path, svg) {
-        Ok(()) => println!("curves: {}", path.display()),
-        Err(e) => println!("curves not written to {}: {e}", path.display()),
-    }
-    goals.print();
+    let split_bytes: usize = packets.iter().map(|p| p.bytes.len()).sum();
+    let added = detail.triangles.len() - decoded.triangles.len();
+    let whole = meshcode::encode(&detail.to_coded(), 14).expect("codes").bytes.len();
+    let last_error = curve.last().map_or(0.0, |p| p.1);
+    let rate = added as f64
+        * median_rate(|| {
+            let mut r = splits::Refiner::new(decoded.clone()).expect("a valid base");
+            for p in &packets {
+                r.apply_packet(&p.bytes).expect("applies");
+            }
+            std::hint::black_box(r);
+        })
+        / 1e6;
+    println!(
+        "{name:<16} splits {split_bytes} B for {added} triangles ({:.2} B/tri, {} packets); base + splits {} B vs the level whole {whole} B ({:.2}x); apply {rate:.1} M tri/s",
+        split_bytes as f64 / added as f64,
+        packets.len(),
+        base.bytes.len() + split_bytes,
+        (base.bytes.len() + split_bytes) as f64 / whole as f64
+    );
+    (name.to_string(), curve, (whole as f64, last_error))
 }
 
 /// The figures with a goal, as this run measured them.

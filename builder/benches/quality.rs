@@ -50,28 +50,92 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// What the bench compares and how, from the environment (see the header).
+struct Options {
+    out: PathBuf,
+    python: PathBuf,
+    has_flip: bool,
+    scenes: Vec<String>,
+    face: u32,
+    ref_spp: u32,
+    /// The compared cube faces (0-5: +x -x +y -y +z -z), as 90° views.
+    views: Vec<usize>,
+    /// The face size both renderers render at for the Cycles comparison (0: none).
+    cycles_face: u32,
+    cycles_ref: u32,
+    cycles_spp: Vec<u32>,
+    lights: Option<String>,
+    untextured: bool,
+    drop: Option<String>,
+    ref_bounces: Option<u32>,
+}
+
+fn var<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok().and_then(|s| s.parse().ok())
+}
+
+impl Options {
+    fn from_env(root: &Path) -> Options {
+        let out = root.join("target/bench-quality");
+        std::fs::create_dir_all(&out).unwrap();
+        let python = root.join("target/bench-py/bin/python");
+        let imports =
+            |module: &str| std::process::Command::new(&python).args(["-c", &format!("import {module}")]).output().is_ok_and(|o| o.status.success());
+        let has_flip = imports("flip_evaluator");
+        if !has_flip {
+            println!("no FLIP package: run scripts/bench-env.sh once; PSNR only");
+        }
+        // FACES=2,4: a reference at 1024² costs hours for six faces here.
+        let views: Vec<usize> =
+            std::env::var("FACES").map_or((0..6).collect(), |v| v.split(',').filter_map(|f| f.trim().parse().ok()).filter(|&f| f < 6).collect());
+        assert!(!views.is_empty(), "FACES names no face of 0-5");
+        let list = |v: String| v.split(',').map(|s| s.trim().to_string()).collect::<Vec<_>>();
+        Options {
+            out,
+            has_flip,
+            scenes: std::env::var("SCENES").map_or(vec!["sunroom".into(), "gallery".into(), "crytek".into()], list),
+            face: var("FACE").unwrap_or(1024),
+            ref_spp: var("REF_SPP").unwrap_or(1024),
+            views,
+            cycles_face: var("CYCLES_FACE").unwrap_or(if imports("bpy") { 2048 } else { 0 }),
+            cycles_ref: var("CYCLES_REF_SPP").unwrap_or(1024),
+            cycles_spp: list(std::env::var("CYCLES_SPP").unwrap_or("1,4,16,64".into())).iter().filter_map(|n| n.parse().ok()).collect(),
+            lights: std::env::var("LIGHTS").ok(),
+            untextured: std::env::var("NO_TEXTURES").is_ok_and(|v| v == "1"),
+            drop: std::env::var("DROP_OBJECTS").ok(),
+            ref_bounces: var::<u32>("REF_BOUNCES").filter(|&n| n > 0),
+            python,
+        }
+    }
+
+    /// Whether LIGHTS keeps this kind of light (sun, sky, points, emitters).
+    fn keep(&self, kind: &str) -> bool {
+        self.lights.as_ref().is_none_or(|l| l.split(',').any(|k| k == kind))
+    }
+
+    /// What the options change, for the cached files' names.
+    fn tag(&self) -> String {
+        self.lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+")))
+            + if self.untextured { "-untextured" } else { "" }
+            + &self.drop.as_ref().map_or(String::new(), |d| format!("-without-{}", d.replace(',', "+")))
+            + &self.ref_bounces.map_or(String::new(), |n| format!("-b{n}"))
+    }
+}
+
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = root.join("target/bench-quality");
-    std::fs::create_dir_all(&out).unwrap();
-    let python = root.join("target/bench-py/bin/python");
-    let flip_script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/flip.py");
-    let has_flip = std::process::Command::new(&python).args(["-c", "import flip_evaluator"]).output().is_ok_and(|o| o.status.success());
-    if !has_flip {
-        println!("no FLIP package: run scripts/bench-env.sh once; PSNR only");
+    let options = Options::from_env(&root);
+    let mut report = Report::default();
+    for (name, mut scene) in load_scenes(&root, &options) {
+        restrict(&mut scene, &options);
+        compare_scene(&options, &name, &scene, &mut report);
     }
-    let only: Option<Vec<String>> = std::env::var("SCENES").ok().map(|s| s.split(',').map(str::to_string).collect());
-    let face: u32 = std::env::var("FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
-    let ref_spp: u32 = std::env::var("REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
-    // FACES=2,4 compares only those cube faces (0-5: +x -x +y -y +z -z), as 90° views:
-    // a reference at 1024² costs hours for six faces here.
-    let views: Vec<usize> =
-        std::env::var("FACES").map_or((0..6).collect(), |v| v.split(',').filter_map(|f| f.trim().parse().ok()).filter(|&f| f < 6).collect());
-    assert!(!views.is_empty(), "FACES names no face of 0-5");
-    let mut scenes: Vec<(&str, Scene)> = Vec::new();
-    // The three scenes of the protocol, or any built-in scene SCENES names.
-    let names: Vec<&str> = only.as_ref().map_or(vec!["sunroom", "gallery", "crytek"], |o| o.iter().map(String::as_str).collect());
-    // Shared scenes by short name: (file, metres a unit when the file does not say).
+    report.print(&options.out);
+}
+
+/// The scenes SCENES names: built-in ones by name, shared ones by short name.
+fn load_scenes(root: &Path, options: &Options) -> Vec<(String, Scene)> {
+    // (file, metres a unit when the file does not say).
     let shared = |name: &str| match name {
         "crytek" => Some(("sponza_crytek/sponza_crytek.obj", Some(0.2))),
         "staircase" => Some(("wooden_staircase/wooden_staircase.obj", Some(1.0))),
@@ -79,359 +143,448 @@ fn main() {
         "apartment" => Some(("dream_apartment/dream_apartment.glb", None)),
         _ => None,
     };
-    for name in names {
+    let mut scenes = Vec::new();
+    for name in &options.scenes {
         if let Some((file, metres_per_unit)) = shared(name) {
             match load(&root.join("../shared/scenes").join(file), &LoadOptions { metres_per_unit, ..Default::default() }) {
-                Ok(s) => scenes.push((name, s)),
+                Ok(s) => scenes.push((name.clone(), s)),
                 Err(e) => println!("SKIPPED {name}: {e}"),
             }
         } else {
             match BuiltIn::parse(name) {
-                Some(b) => scenes.push((name, b.generate(1))),
+                Some(b) => scenes.push((name.clone(), b.generate(1))),
                 None => println!("SKIPPED {name}: not a built-in scene"),
             }
         }
     }
-    let mut table = Vec::new();
-    let mut summary = Vec::new();
-    // CYCLES_FACE: the face size both renderers render at for the comparison (0: none).
-    let has_bpy = std::process::Command::new(&python).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
-    let cycles_face: u32 = std::env::var("CYCLES_FACE").ok().and_then(|s| s.parse().ok()).unwrap_or(if has_bpy { 2048 } else { 0 });
-    let cycles_ref: u32 = std::env::var("CYCLES_REF_SPP").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
-    let cycles_spp: Vec<u32> = std::env::var("CYCLES_SPP").unwrap_or("1,4,16,64".into()).split(',').filter_map(|n| n.trim().parse().ok()).collect();
-    // LIGHTS=sun,sky,points,emitters keeps only those lights, NO_TEXTURES=1
-    // only the materials' factors (to check each against Cycles).
-    let lights = std::env::var("LIGHTS").ok();
-    let keep = |kind: &str| lights.as_ref().is_none_or(|l| l.split(',').any(|k| k == kind));
-    let untextured = std::env::var("NO_TEXTURES").is_ok_and(|v| v == "1");
-    for (_, scene) in &mut scenes {
-        scene.lights.retain(|l| match l {
-            exploremaps_scenes::Light::Sun { .. } => keep("sun"),
-            exploremaps_scenes::Light::Point { .. } => keep("points"),
-        });
-        for m in &mut scene.materials {
-            if !keep("emitters") {
-                m.emissive = Vec3::ZERO;
-            }
-            if untextured {
-                m.base_color_texture = None;
-            }
+    scenes
+}
+
+/// LIGHTS, NO_TEXTURES and DROP_OBJECTS: leaves out lights, textures and
+/// objects (to find which part of a scene two renderers disagree on).
+fn restrict(scene: &mut Scene, options: &Options) {
+    scene.lights.retain(|l| match l {
+        exploremaps_scenes::Light::Sun { .. } => options.keep("sun"),
+        exploremaps_scenes::Light::Point { .. } => options.keep("points"),
+    });
+    for m in &mut scene.materials {
+        if !options.keep("emitters") {
+            m.emissive = Vec3::ZERO;
+        }
+        if options.untextured {
+            m.base_color_texture = None;
         }
     }
-    // DROP_OBJECTS=a,b leaves out the triangles of objects whose names start so (to find
-    // which part of a scene two renderers disagree on).
-    let drop = std::env::var("DROP_OBJECTS").ok();
-    if let Some(prefixes) = &drop {
-        for (_, scene) in &mut scenes {
-            let gone: Vec<bool> = scene.objects.iter().map(|o| prefixes.split(',').any(|p| o.starts_with(p))).collect();
-            let keep: Vec<usize> = (0..scene.triangles.len()).filter(|&t| !scene.triangle_object.get(t).is_some_and(|&o| gone[o as usize])).collect();
-            scene.triangles = keep.iter().map(|&t| scene.triangles[t]).collect();
-            scene.triangle_material = keep.iter().filter_map(|&t| scene.triangle_material.get(t).copied()).collect();
-            scene.triangle_object = keep.iter().filter_map(|&t| scene.triangle_object.get(t).copied()).collect();
+    if let Some(prefixes) = &options.drop {
+        let gone: Vec<bool> = scene.objects.iter().map(|o| prefixes.split(',').any(|p| o.starts_with(p))).collect();
+        let keep: Vec<usize> = (0..scene.triangles.len()).filter(|&t| !scene.triangle_object.get(t).is_some_and(|&o| gone[o as usize])).collect();
+        scene.triangles = keep.iter().map(|&t| scene.triangles[t]).collect();
+        scene.triangle_material = keep.iter().filter_map(|&t| scene.triangle_material.get(t).copied()).collect();
+        scene.triangle_object = keep.iter().filter_map(|&t| scene.triangle_object.get(t).copied()).collect();
+    }
+}
+
+/// `final` settings with the environment's overrides (VIDEO_KEYS,
+/// VIDEO_ANTIALIAS, SUN_RAYS, CACHE_GATHER, *_GATHER, *_WIDEN, VIDEO_HISTORY, *_SPREAD).
+fn tuned_settings() -> Settings {
+    let mut settings = Settings::new(Quality::Final, 1);
+    if let Some(n) = var("VIDEO_KEYS") {
+        settings.video_keys = n;
+    }
+    settings.video.antialias &= std::env::var("VIDEO_ANTIALIAS").map_or(true, |v| v != "0");
+    if let Some(n) = var("SUN_RAYS") {
+        (settings.panorama.sun_rays, settings.video.sun_rays) = (n, n);
+    }
+    if let Some(n) = var("CACHE_GATHER") {
+        settings.gather_rays = n;
+    }
+    for (prefix, params) in [("VIDEO", &mut settings.video), ("PANORAMA", &mut settings.panorama)] {
+        let Some(g) = params.gather.as_mut() else { continue };
+        // rays,step[,passes[,near]]
+        let n: Vec<u32> = std::env::var(format!("{prefix}_GATHER")).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
+        if let &[rays, step, ..] = &n[..] {
+            (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
+        }
+        // passes,x: at most that many more passes where the filter reaches less than x R.
+        let widen =
+            std::env::var(format!("{prefix}_WIDEN")).ok().and_then(|v| v.split_once(',').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))));
+        if let Some(widen) = widen {
+            g.widen = widen;
+        }
+        if let Some(x) = var(&format!("{prefix}_SPREAD")) {
+            g.spread = x;
         }
     }
-    // REF_BOUNCES=n caps the bounces of the reference and of Cycles' renders.
-    let ref_bounces: Option<u32> = std::env::var("REF_BOUNCES").ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0);
-    let tag = lights.as_ref().map_or(String::new(), |l| format!("-{}", l.replace(',', "+")))
-        + if untextured { "-untextured" } else { "" }
-        + &drop.map_or(String::new(), |d| format!("-without-{}", d.replace(',', "+")))
-        + &ref_bounces.map_or(String::new(), |n| format!("-b{n}"));
-    for (name, scene) in &scenes {
+    // Rays of video keys that average with the key before (0: keys gather alone).
+    if let (Some(g), Some(n)) = (settings.video.gather.as_mut(), var("VIDEO_HISTORY")) {
+        g.history_rays = n;
+    }
+    settings
+}
+
+/// One scene under comparison: its renderer (cache baked) and the eye, the
+/// first probe of a default plan.
+struct Subject<'a> {
+    name: &'a str,
+    scene: &'a Scene,
+    options: &'a Options,
+    renderer: Renderer<'a>,
+    eye: Vec3,
+    /// Seconds the cache took to bake, and how many probes share it.
+    bake: f64,
+    probes: usize,
+    video_width: u32,
+}
+
+impl<'a> Subject<'a> {
+    fn new(options: &'a Options, name: &'a str, scene: &'a Scene, rays: &'a RayScene) -> Subject<'a> {
         let planned = plan(scene, name, &PlanParams::default()).expect("plan");
         let graph = &planned.graph;
         let mut viewpoints: Vec<Vec3> = graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
         viewpoints.extend(graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
-        let eye = viewpoints[0];
-        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-        let mut settings = Settings::new(Quality::Final, 1);
-        let video_width = exploremaps_builder::render::Settings::new(Quality::Final, 1).video_width;
-        // VIDEO_KEYS=n tries another key-frame interval.
-        if let Some(n) = std::env::var("VIDEO_KEYS").ok().and_then(|v| v.parse().ok()) {
-            settings.video_keys = n;
-        }
-        // VIDEO_ANTIALIAS=0 turns the video frames' adaptive antialiasing off.
-        settings.video.antialias &= std::env::var("VIDEO_ANTIALIAS").map_or(true, |v| v != "0");
-        // SUN_RAYS=n tries another count of shadow rays toward the sun (panoramas and video keys).
-        if let Some(n) = std::env::var("SUN_RAYS").ok().and_then(|v| v.parse().ok()) {
-            (settings.panorama.sun_rays, settings.video.sun_rays) = (n, n);
-        }
-        // CACHE_GATHER=n tries another count of gather rays a radiance cache cell.
-        if let Some(n) = std::env::var("CACHE_GATHER").ok().and_then(|v| v.parse().ok()) {
-            settings.gather_rays = n;
-        }
-        // VIDEO_GATHER / PANORAMA_GATHER=rays,step[,passes[,near]] try another gather.
-        for (var, params) in [("VIDEO_GATHER", &mut settings.video), ("PANORAMA_GATHER", &mut settings.panorama)] {
-            let n: Vec<u32> = std::env::var(var).unwrap_or_default().split(',').filter_map(|x| x.parse().ok()).collect();
-            if let (Some(g), &[rays, step, ..]) = (params.gather.as_mut(), &n[..]) {
-                (g.rays, g.step, g.passes, g.near) = (rays, step, n.get(2).copied().unwrap_or(g.passes), n.get(3).copied().unwrap_or(g.near));
-            }
-        }
-        // VIDEO_WIDEN / PANORAMA_WIDEN=passes,x: at most that many more passes where the filter reaches less than x R.
-        for (var, params) in [("VIDEO_WIDEN", &mut settings.video), ("PANORAMA_WIDEN", &mut settings.panorama)] {
-            let widen = std::env::var(var).ok().and_then(|v| v.split_once(',').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?))));
-            if let (Some(g), Some(widen)) = (params.gather.as_mut(), widen) {
-                g.widen = widen;
-            }
-        }
-        // VIDEO_HISTORY=n: rays of video keys that average with the key before (0: keys gather alone).
-        if let (Some(g), Some(n)) = (settings.video.gather.as_mut(), std::env::var("VIDEO_HISTORY").ok().and_then(|v| v.parse().ok())) {
-            g.history_rays = n;
-        }
-        // VIDEO_SPREAD / PANORAMA_SPREAD=x try another spread of a gather point's light.
-        for (var, params) in [("VIDEO_SPREAD", &mut settings.video), ("PANORAMA_SPREAD", &mut settings.panorama)] {
-            if let (Some(g), Some(x)) = (params.gather.as_mut(), std::env::var(var).ok().and_then(|v| v.parse().ok())) {
-                g.spread = x;
-            }
-        }
         let t = Instant::now();
-        let mut renderer = Renderer::new(scene, &rays, &viewpoints, settings.clone());
-        if !keep("sky") {
+        let mut renderer = Renderer::new(scene, rays, &viewpoints, tuned_settings());
+        if !options.keep("sky") {
             renderer.tracer.lighting.sky = exploremaps_builder::tracer::Sky::NONE;
         }
         let bake = t.elapsed().as_secs_f64();
-        let exposure = renderer.exposure;
-        // Images of the compared faces (`views`, in that order).
-        let save = |tag: &str, size: u32, faces: &[Vec<Vec3>]| -> Vec<PathBuf> {
-            faces
-                .iter()
-                .zip(&views)
-                .map(|(c, f)| {
-                    let path = out.join(format!("{name}-{tag}-{f}.png"));
-                    to_image(size, size, c, exposure).save(&path).unwrap();
-                    path
-                })
-                .collect()
-        };
+        let video_width = exploremaps_builder::render::Settings::new(Quality::Final, 1).video_width;
+        Subject { name, scene, options, renderer, eye: viewpoints[0], bake, probes: graph.probes.len().max(1), video_width }
+    }
 
-        // The reference, at half and at all of its samples.
-        let pure = Tracer::path_traced(scene, &rays, renderer.tracer.lighting.clone(), &[eye]);
-        // ALBEDO=1: compare only the two renderers' first-hit albedo, what
-        // each takes every surface's reflectance to be; then the next scene.
-        if albedo_only() {
-            let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
-            let ours: Vec<Vec<Vec3>> =
-                views.iter().map(|&f| pure.render(&params, eye, face, face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
-            save("albedo", face, &ours);
-            match cycles(&python, scene, &renderer, eye, &[("albedo".into(), 64, false, face)], 0, &out.join(format!("cycles-albedo-{name}"))) {
-                Err(e) => println!("Cycles albedo comparison failed: {e}"),
-                Ok(done) => {
-                    let theirs: Vec<Vec<Vec3>> = views.iter().map(|&f| done[0].3[f].clone()).collect();
-                    save("cycles_albedo", face, &theirs);
-                    let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
-                    let ratios: Vec<String> = theirs.iter().zip(&ours).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
-                    println!("{name}: Cycles' first-hit albedo over ours, per face (r, g, b): {}", ratios.join(" "));
-                }
-            }
-            continue;
-        }
-        let (half_ref, full_ref, ref_s) =
-            reference(&pure, &out, &format!("{name}{tag}-{:08x}", fingerprint(scene)), eye, face, ref_spp, ref_bounces.unwrap_or(0), &views);
-        let ref_paths = save("reference", face, &full_ref);
-        let half_paths = save(&format!("reference-{}spp", ref_spp / 2), face, &half_ref);
+    /// Saves the compared faces (`views`, in that order) as images.
+    fn save(&self, tag: &str, size: u32, faces: &[Vec<Vec3>]) -> Vec<PathBuf> {
+        faces
+            .iter()
+            .zip(&self.options.views)
+            .map(|(c, f)| {
+                let path = self.options.out.join(format!("{}-{tag}-{f}.png", self.name));
+                to_image(size, size, c, self.renderer.exposure).save(&path).unwrap();
+                path
+            })
+            .collect()
+    }
+
+    /// The compared faces of a cube from `faces` (all six), box-filtered to FACE.
+    fn views_of(&self, faces: &[exploremaps_builder::tracer::Frame], size: u32) -> Vec<Vec<Vec3>> {
+        self.options.views.iter().map(|&f| shrink(&faces[f].color, size, self.options.face)).collect()
+    }
+
+    /// The compared faces of an equirectangular frame, at `size`.
+    fn views_of_frame(&self, frame: &[Vec3], size: u32) -> Vec<Vec<Vec3>> {
+        self.options.views.iter().map(|&f| cube_from_equirect(frame, self.video_width, f, size)).collect()
+    }
+}
+
+/// One method's images beside the reference's (and the reference's at half its samples).
+struct Row {
+    method: String,
+    seconds: f64,
+    images: Vec<PathBuf>,
+    reference: Vec<PathBuf>,
+    half: Option<Vec<PathBuf>>,
+}
+
+/// The converged reference's images: at FACE, and at the video frames' size
+/// (`small`), each also at half the samples.
+struct References {
+    full: Vec<Vec<Vec3>>,
+    paths: Vec<PathBuf>,
+    half_paths: Vec<PathBuf>,
+    small: u32,
+    small_paths: Vec<PathBuf>,
+    small_half_paths: Vec<PathBuf>,
+    seconds: f64,
+}
+
+impl References {
+    fn new(subject: &Subject, pure: &Tracer) -> References {
+        let o = subject.options;
+        let key = format!("{}{}-{:08x}", subject.name, o.tag(), fingerprint(subject.scene));
+        let (half, full, seconds) = reference(pure, o, &key, subject.eye);
         // Video frames are compared at about their own resolution (or FACE, when smaller).
-        let small = face.min(256);
-        let small_ref: Vec<Vec<Vec3>> = full_ref.iter().map(|f| shrink(f, face, small)).collect();
-        let small_ref_paths = save("reference-small", small, &small_ref);
-        let small_half: Vec<Vec<Vec3>> = half_ref.iter().map(|f| shrink(f, face, small)).collect();
-        let small_half_paths = save("reference-small-half", small, &small_half);
+        let small = o.face.min(256);
+        let small_of = |img: &[Vec<Vec3>]| -> Vec<Vec<Vec3>> { img.iter().map(|f| shrink(f, o.face, small)).collect() };
+        References {
+            paths: subject.save("reference", o.face, &full),
+            half_paths: subject.save(&format!("reference-{}spp", o.ref_spp / 2), o.face, &half),
+            small_paths: subject.save("reference-small", small, &small_of(&full)),
+            small_half_paths: subject.save("reference-small-half", small, &small_of(&half)),
+            full,
+            small,
+            seconds,
+        }
+    }
 
-        // (method, seconds, its images, the reference's, the reference's at half its samples).
-        type Row = (String, f64, Vec<PathBuf>, Vec<PathBuf>, Option<Vec<PathBuf>>);
-        let mut rows: Vec<Row> = Vec::new();
-        rows.push((format!("reference at {} spp vs {ref_spp}", ref_spp / 2), ref_s, half_paths.clone(), ref_paths.clone(), None));
-        let before = TraceParams { gather: None, ..settings.panorama };
-        for (tag, params) in [("cache at first hit (before)", before), ("final panorama", settings.panorama)] {
-            let t = Instant::now();
-            let faces = renderer.cube(&params, eye, 2048, 0);
-            let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, 2048, face)).collect();
-            rows.push((tag.to_string(), seconds, save(&tag.replace(' ', "_"), face, &faces), ref_paths.clone(), Some(half_paths.clone())));
-        }
-        for (tag, params) in [
-            ("video, cache at first hit (before)", TraceParams { gather: None, ..settings.video }),
-            ("video, centres only (no antialiasing)", TraceParams { antialias: false, ..settings.video }),
-            ("final video frame", settings.video),
-        ] {
-            let t = Instant::now();
-            let frame = renderer.equirect(&params, eye, video_width, 0);
-            let seconds = t.elapsed().as_secs_f64();
-            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, video_width, f, small)).collect();
-            rows.push((
-                tag.to_string(),
-                seconds,
-                save(&tag.replace([' ', ','], "_"), small, &faces),
-                small_ref_paths.clone(),
-                Some(small_half_paths.clone()),
-            ));
-        }
-        {
-            // A walk back and forth through the eye at 1.4 m/s, 25 frames a
-            // second, four key frames long (so keys carry the history of the
-            // keys before, as along a real path): the frame at the eye in the
-            // last stretch is the one farthest from both key frames.
-            let interval = settings.video_keys as usize;
-            let walk = Vec3::X * (1.4 / 25.0 / scene.metres_per_unit);
-            let along = |i: usize| {
-                let p = i % (2 * interval);
-                (if p <= interval { p } else { 2 * interval - p }) as f32 - (interval / 2) as f32
-            };
-            let eyes: Vec<Vec3> = (0..=3 * interval).map(|i| eye + walk * along(i)).collect();
-            let t = Instant::now();
-            let mut middle = None;
-            let mut done = vec![];
-            renderer.path_frames(&settings.video, &eyes, video_width, 0, settings.video_keys, |i, frame| {
-                done.push(t.elapsed().as_secs_f64());
-                if i == 2 * interval + interval / 2 {
-                    middle = Some(frame);
-                }
-                std::ops::ControlFlow::Continue(())
-            });
-            let seconds = t.elapsed().as_secs_f64() / eyes.len() as f64;
-            // Frames between keys are handed over as each is rendered: the median gap is one's cost.
-            let mut gaps: Vec<f64> = done.windows(2).map(|w| w[1] - w[0]).collect();
-            gaps.sort_by(f64::total_cmp);
-            let between = gaps[gaps.len() / 2];
-            let frame = middle.expect("the middle frame");
-            let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| cube_from_equirect(&frame.color, video_width, f, small)).collect();
-            let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
-            rows.push((tag, seconds, save("final_video_between_keys", small, &faces), small_ref_paths.clone(), Some(small_half_paths.clone())));
-        }
-        // Cycles: its converged reference against ours, then its samples with OIDN.
-        let mut cycles_rows = Vec::new();
-        if cycles_face > 0 {
-            let dir = out.join(format!("cycles-{name}{tag}"));
-            // The sweep at the compared renders' size; Cycles' own reference at the scored size.
-            let runs: Vec<(String, u32, bool, u32)> = cycles_spp
-                .iter()
-                .map(|&n| (format!("{n}-oidn-{cycles_face}"), n, true, cycles_face))
-                .chain([(format!("{cycles_ref}-reference-{face}"), cycles_ref, false, face)])
-                .collect();
-            match cycles(&python, scene, &renderer, eye, &runs, ref_bounces.unwrap_or(64), &dir) {
-                Err(e) => println!("Cycles comparison failed: {e}"),
-                Ok(done) => {
-                    // Ours at the same face size, when that is not the bundle's 2048.
-                    if cycles_face != 2048 {
-                        let t = Instant::now();
-                        let faces = renderer.cube(&settings.panorama, eye, cycles_face, 0);
-                        let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| shrink(&faces[f].color, cycles_face, face)).collect();
-                        let seconds = t.elapsed().as_secs_f64();
-                        cycles_rows.push((rows.len(), 0, seconds));
-                        rows.push((
-                            format!("final panorama, {cycles_face}² faces"),
-                            seconds,
-                            save(&format!("final_{cycles_face}"), face, &faces),
-                            ref_paths.clone(),
-                            Some(half_paths.clone()),
-                        ));
-                    } else {
-                        cycles_rows.push((2, 0, rows[2].1));
-                    }
-                    for (tag, samples, size, faces, seconds) in done {
-                        let faces: Vec<Vec<Vec3>> = views.iter().map(|&f| faces[f].clone()).collect();
-                        if tag.contains("reference") {
-                            // Noise aside, do the two renderers compute the same light? Mean radiance per face.
-                            let mean = |f: &[Vec3]| f.iter().map(|c| c.dot(Vec3::ONE)).sum::<f32>() / f.len() as f32;
-                            let ratios: Vec<String> = faces.iter().zip(&full_ref).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
-                            println!("{name}: Cycles' {samples}-sample mean radiance over the reference's, per face: {}", ratios.join(" "));
-                        }
-                        let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, size, face)).collect();
-                        cycles_rows.push((rows.len(), samples, seconds));
-                        let tag = if tag.contains("reference") {
-                            format!("Cycles {samples} spp, no denoiser, {size}²")
-                        } else {
-                            format!("Cycles {samples} spp + OIDN, {size}² faces")
-                        };
-                        rows.push((
-                            tag.clone(),
-                            seconds,
-                            save(&tag.replace([' ', ',', '²', '+'], "_"), face, &faces),
-                            ref_paths.clone(),
-                            Some(half_paths.clone()),
-                        ));
-                    }
-                }
-            }
-        }
-        // Mean FLIP of each row against the reference, and against the reference at half its samples.
-        let flips: Vec<Option<(f64, Option<f64>)>> = if has_flip {
-            let args: Vec<&PathBuf> = rows
-                .iter()
-                .flat_map(|r| {
-                    let full = r.3.iter().zip(&r.2).flat_map(|(a, b)| [a, b]);
-                    let half = r.4.iter().flat_map(|h| h.iter().zip(&r.2).flat_map(|(a, b)| [a, b]));
-                    full.chain(half)
-                })
-                .collect();
-            let run = std::process::Command::new(&python).arg(&flip_script).args(&args).output().expect("python");
-            let values: Vec<f64> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| l.trim().parse().ok()).collect();
-            if values.len() != args.len() / 2 {
-                println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
-            }
-            let mut next = values.chunks(views.len()).map(|v| v.iter().sum::<f64>() / v.len() as f64);
-            let complete = values.len() == args.len() / 2;
-            rows.iter()
-                .map(|r| {
-                    let full = next.next();
-                    let half = if r.4.is_some() { next.next() } else { None };
-                    complete.then(|| (full.unwrap_or(f64::NAN), half))
-                })
-                .collect()
-        } else {
-            vec![None; rows.len()]
-        };
+    /// A row scored against the reference at FACE.
+    fn row(&self, method: String, seconds: f64, images: Vec<PathBuf>) -> Row {
+        Row { method, seconds, images, reference: self.paths.clone(), half: Some(self.half_paths.clone()) }
+    }
+
+    /// A row scored against the reference at the video frames' size.
+    fn small_row(&self, method: String, seconds: f64, images: Vec<PathBuf>) -> Row {
+        Row { method, seconds, images, reference: self.small_paths.clone(), half: Some(self.small_half_paths.clone()) }
+    }
+}
+
+/// The tables printed at the end, over all scenes.
+#[derive(Default)]
+struct Report {
+    table: Vec<String>,
+    summary: Vec<String>,
+}
+
+impl Report {
+    fn print(&self, out: &Path) {
+        println!("\nscene    method                                  FLIP  doubling  PSNR  seconds");
         println!(
-            "\n{name}: eye {eye:.2}, {} triangles, cache bake {bake:.1} s ({}), exposure {exposure:.2}",
-            scene.triangles.len(),
-            renderer.tracer.lighting.description
+            "(goals: panorama ≤ 0.05, video ≤ 0.08; the reference is converged for a row when doubling its samples moves the row's FLIP by < 0.005)"
         );
-        for ((tag, seconds, test, refs, _), flip) in rows.iter().zip(&flips) {
-            let db: f64 =
-                test.iter().zip(refs).map(|(a, b)| psnr(&image::open(a).unwrap().to_rgb8(), &image::open(b).unwrap().to_rgb8())).sum::<f64>()
-                    / views.len() as f64;
-            // How much the score moves when the reference's samples double.
-            let change = match flip {
-                Some((f, Some(h))) => format!("{:+.4}", f - h),
-                _ => "-".to_string(),
-            };
-            let flip = flip.map_or("-".to_string(), |f| format!("{:.4}", f.0));
-            println!("  {tag:<38} FLIP {flip:>7} ({change:>7} on doubling the reference)   PSNR {db:>5.1} dB   {seconds:>7.2} s");
-            table.push(format!("{name:<8} {tag:<38} {flip:>7} {change:>8} {db:>5.1} {seconds:>7.2}"));
+        for line in self.table.iter().chain(&self.summary) {
+            println!("{line}");
         }
-        if let Some(&(ours_row, _, ours_s)) = cycles_rows.first() {
-            // Seconds Cycles (with OIDN) needs to reach our panorama's FLIP, interpolated
-            // between its sample counts on log time; our side carries its share of the bake.
-            let flip_of = |row: usize| flips[row].map(|f| f.0);
-            let probes = graph.probes.len().max(1);
-            let ours = ours_s + bake / probes as f64;
-            let denoised: Vec<(f64, f64)> =
-                cycles_rows[1..].iter().filter(|r| !rows[r.0].0.contains("no denoiser")).filter_map(|r| flip_of(r.0).map(|f| (r.2, f))).collect();
-            if let Some(target) = flip_of(ours_row) {
-                let reach = denoised.windows(2).find_map(|w| {
-                    let ((t0, f0), (t1, f1)) = (w[0], w[1]);
-                    (f1 <= target && f0 > target).then(|| (t0.ln() + (t1.ln() - t0.ln()) * (f0 - target) / (f0 - f1)).exp())
-                });
-                let first = denoised.first().filter(|d| d.1 <= target);
-                let line = match reach {
-                    None if first.is_some() => format!("{name}: Cycles + OIDN's fewest samples already reach our panorama's FLIP {target:.4} ({:.4}) in {:.1} s: at most {:.1}x against our {ours:.1} s", first.unwrap().1, first.unwrap().0, first.unwrap().0 / ours),
-                    Some(t) => format!("{name}: Cycles + OIDN reaches our panorama's FLIP {target:.4} in {t:.1} s; ours {ours:.1} s ({ours_s:.1} s + the bake's {:.1} s shared by {probes} probes): {:.1}x (goal ≥ 5x)", bake / probes as f64, t / ours),
-                    None => format!("{name}: Cycles + OIDN did not reach our panorama's FLIP {target:.4} within its sweep: more than {:.1}x", denoised.last().map_or(0.0, |d| d.0) / ours),
-                };
-                println!("{line}");
-                summary.push(line);
-            }
+        println!("images in {}", out.display());
+    }
+}
+
+fn compare_scene(options: &Options, name: &str, scene: &Scene, report: &mut Report) {
+    let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+    let subject = Subject::new(options, name, scene, &rays);
+    let pure = Tracer::path_traced(scene, &rays, subject.renderer.tracer.lighting.clone(), &[subject.eye]);
+    // ALBEDO=1: compare only the two renderers' first-hit albedo, what
+    // each takes every surface's reflectance to be.
+    if albedo_only() {
+        compare_albedo(&subject, &pure);
+        return;
+    }
+    let refs = References::new(&subject, &pure);
+    let (o, settings) = (options, &subject.renderer.settings);
+    let mut rows = vec![Row {
+        method: format!("reference at {} spp vs {}", o.ref_spp / 2, o.ref_spp),
+        seconds: refs.seconds,
+        images: refs.half_paths.clone(),
+        reference: refs.paths.clone(),
+        half: None,
+    }];
+    let before = TraceParams { gather: None, ..settings.panorama };
+    for (tag, params) in [("cache at first hit (before)", before), ("final panorama", settings.panorama)] {
+        rows.push(panorama_row(&subject, &refs, tag, &params, 2048));
+    }
+    for (tag, params) in [
+        ("video, cache at first hit (before)", TraceParams { gather: None, ..settings.video }),
+        ("video, centres only (no antialiasing)", TraceParams { antialias: false, ..settings.video }),
+        ("final video frame", settings.video),
+    ] {
+        let t = Instant::now();
+        let frame = subject.renderer.equirect(&params, subject.eye, subject.video_width, 0);
+        let seconds = t.elapsed().as_secs_f64();
+        let faces = subject.views_of_frame(&frame.color, refs.small);
+        rows.push(refs.small_row(tag.to_string(), seconds, subject.save(&tag.replace([' ', ','], "_"), refs.small, &faces)));
+    }
+    rows.push(walk_row(&subject, &refs));
+    let cycles_rows = if o.cycles_face > 0 { compare_cycles(&subject, &refs, &mut rows) } else { Vec::new() };
+    let flips = score(o, &rows);
+    print_rows(&subject, &rows, &flips, report);
+    if let Some(line) = cycles_speed(&subject, &rows, &cycles_rows, &flips) {
+        println!("{line}");
+        report.summary.push(line);
+    }
+}
+
+/// A panorama rendered with `params` at `size`² faces, scored at FACE.
+fn panorama_row(subject: &Subject, refs: &References, tag: &str, params: &TraceParams, size: u32) -> Row {
+    let t = Instant::now();
+    let faces = subject.renderer.cube(params, subject.eye, size, 0);
+    let seconds = t.elapsed().as_secs_f64();
+    let faces = subject.views_of(&faces, size);
+    refs.row(tag.to_string(), seconds, subject.save(&tag.replace([' ', ',', '²'], "_"), subject.options.face, &faces))
+}
+
+/// A walk back and forth through the eye at 1.4 m/s, 25 frames a second,
+/// four key frames long (so keys carry the history of the keys before, as
+/// along a real path): the frame at the eye in the last stretch is the one
+/// farthest from both key frames.
+fn walk_row(subject: &Subject, refs: &References) -> Row {
+    let settings = &subject.renderer.settings;
+    let interval = settings.video_keys as usize;
+    let walk = Vec3::X * (1.4 / 25.0 / subject.scene.metres_per_unit);
+    let along = |i: usize| {
+        let p = i % (2 * interval);
+        (if p <= interval { p } else { 2 * interval - p }) as f32 - (interval / 2) as f32
+    };
+    let eyes: Vec<Vec3> = (0..=3 * interval).map(|i| subject.eye + walk * along(i)).collect();
+    let t = Instant::now();
+    let mut middle = None;
+    let mut done = vec![];
+    subject.renderer.path_frames(&settings.video, &eyes, subject.video_width, 0, settings.video_keys, |i, frame| {
+        done.push(t.elapsed().as_secs_f64());
+        if i == 2 * interval + interval / 2 {
+            middle = Some(frame);
+        }
+        std::ops::ControlFlow::Continue(())
+    });
+    let seconds = t.elapsed().as_secs_f64() / eyes.len() as f64;
+    // Frames between keys are handed over as each is rendered: the median gap is one's cost.
+    let mut gaps: Vec<f64> = done.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_by(f64::total_cmp);
+    let between = gaps[gaps.len() / 2];
+    let faces = subject.views_of_frame(&middle.expect("the middle frame").color, refs.small);
+    let tag = format!("final video, between keys ({between:.3} s; mean of {})", eyes.len());
+    refs.small_row(tag, seconds, subject.save("final_video_between_keys", refs.small, &faces))
+}
+
+/// ALBEDO=1: the first-hit albedo of both renderers, and Cycles' over ours per face.
+fn compare_albedo(subject: &Subject, pure: &Tracer) {
+    let (o, eye, name) = (subject.options, subject.eye, subject.name);
+    let params = TraceParams { samples: 64, bounces: 1, baked_points: false, gather: None, antialias: false, sun_rays: 1, seed: 7 };
+    let ours: Vec<Vec<Vec3>> =
+        o.views.iter().map(|&f| pure.render(&params, eye, o.face, o.face, f as u64, |a, b| Vec3::from(cube_direction(f, a, b))).albedo).collect();
+    subject.save("albedo", o.face, &ours);
+    match cycles(subject, &[("albedo".into(), 64, false, o.face)], 0, &o.out.join(format!("cycles-albedo-{name}"))) {
+        Err(e) => println!("Cycles albedo comparison failed: {e}"),
+        Ok(done) => {
+            let theirs: Vec<Vec<Vec3>> = o.views.iter().map(|&f| done[0].3[f].clone()).collect();
+            subject.save("cycles_albedo", o.face, &theirs);
+            let mean = |f: &[Vec3]| f.iter().copied().sum::<Vec3>() / f.len() as f32;
+            let ratios: Vec<String> = theirs.iter().zip(&ours).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
+            println!("{name}: Cycles' first-hit albedo over ours, per face (r, g, b): {}", ratios.join(" "));
         }
     }
-    println!("\nscene    method                                  FLIP  doubling  PSNR  seconds");
+}
+
+/// Cycles: its converged reference against ours, then its samples with OIDN.
+/// Adds their rows (and ours at CYCLES_FACE when that is not the bundle's
+/// 2048); returns (row, samples, seconds) of ours and then each Cycles row.
+fn compare_cycles(subject: &Subject, refs: &References, rows: &mut Vec<Row>) -> Vec<(usize, u32, f64)> {
+    let (o, name) = (subject.options, subject.name);
+    let dir = o.out.join(format!("cycles-{name}{}", o.tag()));
+    // The sweep at the compared renders' size; Cycles' own reference at the scored size.
+    let runs: Vec<(String, u32, bool, u32)> = o
+        .cycles_spp
+        .iter()
+        .map(|&n| (format!("{n}-oidn-{}", o.cycles_face), n, true, o.cycles_face))
+        .chain([(format!("{}-reference-{}", o.cycles_ref, o.face), o.cycles_ref, false, o.face)])
+        .collect();
+    let done = match cycles(subject, &runs, o.ref_bounces.unwrap_or(64), &dir) {
+        Err(e) => {
+            println!("Cycles comparison failed: {e}");
+            return Vec::new();
+        }
+        Ok(done) => done,
+    };
+    let mut cycles_rows = Vec::new();
+    if o.cycles_face != 2048 {
+        let tag = format!("final panorama, {}² faces", o.cycles_face);
+        let row = panorama_row(subject, refs, &tag, &subject.renderer.settings.panorama, o.cycles_face);
+        cycles_rows.push((rows.len(), 0, row.seconds));
+        rows.push(row);
+    } else {
+        cycles_rows.push((2, 0, rows[2].seconds));
+    }
+    for (tag, samples, size, faces, seconds) in done {
+        let faces: Vec<Vec<Vec3>> = o.views.iter().map(|&f| faces[f].clone()).collect();
+        if tag.contains("reference") {
+            // Noise aside, do the two renderers compute the same light? Mean radiance per face.
+            let mean = |f: &[Vec3]| f.iter().map(|c| c.dot(Vec3::ONE)).sum::<f32>() / f.len() as f32;
+            let ratios: Vec<String> = faces.iter().zip(&refs.full).map(|(c, o)| format!("{:.3}", mean(c) / mean(o))).collect();
+            println!("{name}: Cycles' {samples}-sample mean radiance over the reference's, per face: {}", ratios.join(" "));
+        }
+        let faces: Vec<Vec<Vec3>> = faces.iter().map(|f| shrink(f, size, o.face)).collect();
+        cycles_rows.push((rows.len(), samples, seconds));
+        let tag = if tag.contains("reference") {
+            format!("Cycles {samples} spp, no denoiser, {size}²")
+        } else {
+            format!("Cycles {samples} spp + OIDN, {size}² faces")
+        };
+        let images = subject.save(&tag.replace([' ', ',', '²', '+'], "_"), o.face, &faces);
+        rows.push(refs.row(tag, seconds, images));
+    }
+    cycles_rows
+}
+
+/// Mean FLIP of each row against the reference, and against the reference at
+/// half its samples (None without FLIP or when it failed).
+fn score(options: &Options, rows: &[Row]) -> Vec<Option<(f64, Option<f64>)>> {
+    if !options.has_flip {
+        return vec![None; rows.len()];
+    }
+    let args: Vec<&PathBuf> = rows
+        .iter()
+        .flat_map(|r| {
+            let full = r.reference.iter().zip(&r.images).flat_map(|(a, b)| [a, b]);
+            let half = r.half.iter().flat_map(|h| h.iter().zip(&r.images).flat_map(|(a, b)| [a, b]));
+            full.chain(half)
+        })
+        .collect();
+    let flip_script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/flip.py");
+    let run = std::process::Command::new(&options.python).arg(&flip_script).args(&args).output().expect("python");
+    let values: Vec<f64> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| l.trim().parse().ok()).collect();
+    let complete = values.len() == args.len() / 2;
+    if !complete {
+        println!("FLIP failed: {}", String::from_utf8_lossy(&run.stderr));
+    }
+    let mut next = values.chunks(options.views.len()).map(|v| v.iter().sum::<f64>() / v.len() as f64);
+    rows.iter()
+        .map(|r| {
+            let full = next.next();
+            let half = if r.half.is_some() { next.next() } else { None };
+            complete.then(|| (full.unwrap_or(f64::NAN), half))
+        })
+        .collect()
+}
+
+/// Prints a scene's rows and adds them to the final table.
+fn print_rows(subject: &Subject, rows: &[Row], flips: &[Option<(f64, Option<f64>)>], report: &mut Report) {
+    let name = subject.name;
     println!(
-        "(goals: panorama ≤ 0.05, video ≤ 0.08; the reference is converged for a row when doubling its samples moves the row's FLIP by < 0.005)"
+        "\n{name}: eye {:.2}, {} triangles, cache bake {:.1} s ({}), exposure {:.2}",
+        subject.eye,
+        subject.scene.triangles.len(),
+        subject.bake,
+        subject.renderer.tracer.lighting.description,
+        subject.renderer.exposure
     );
-    for line in table {
-        println!("{line}");
+    for (row, flip) in rows.iter().zip(flips) {
+        let db: f64 = row
+            .images
+            .iter()
+            .zip(&row.reference)
+            .map(|(a, b)| psnr(&image::open(a).unwrap().to_rgb8(), &image::open(b).unwrap().to_rgb8()))
+            .sum::<f64>()
+            / subject.options.views.len() as f64;
+        // How much the score moves when the reference's samples double.
+        let change = match flip {
+            Some((f, Some(h))) => format!("{:+.4}", f - h),
+            _ => "-".to_string(),
+        };
+        let flip = flip.map_or("-".to_string(), |f| format!("{:.4}", f.0));
+        let (tag, seconds) = (&row.method, row.seconds);
+        println!("  {tag:<38} FLIP {flip:>7} ({change:>7} on doubling the reference)   PSNR {db:>5.1} dB   {seconds:>7.2} s");
+        report.table.push(format!("{name:<8} {tag:<38} {flip:>7} {change:>8} {db:>5.1} {seconds:>7.2}"));
     }
-    for line in summary {
-        println!("{line}");
-    }
-    println!("images in {}", out.display());
+}
+
+/// Seconds Cycles (with OIDN) needs to reach our panorama's FLIP, interpolated
+/// between its sample counts on log time; our side carries its share of the bake.
+fn cycles_speed(subject: &Subject, rows: &[Row], cycles_rows: &[(usize, u32, f64)], flips: &[Option<(f64, Option<f64>)>]) -> Option<String> {
+    let name = subject.name;
+    let &(ours_row, _, ours_s) = cycles_rows.first()?;
+    let flip_of = |row: usize| flips[row].map(|f| f.0);
+    let (probes, share) = (subject.probes, subject.bake / subject.probes as f64);
+    let ours = ours_s + share;
+    let denoised: Vec<(f64, f64)> =
+        cycles_rows[1..].iter().filter(|r| !rows[r.0].method.contains("no denoiser")).filter_map(|r| flip_of(r.0).map(|f| (r.2, f))).collect();
+    let target = flip_of(ours_row)?;
+    let reach = denoised.windows(2).find_map(|w| {
+        let ((t0, f0), (t1, f1)) = (w[0], w[1]);
+        (f1 <= target && f0 > target).then(|| (t0.ln() + (t1.ln() - t0.ln()) * (f0 - target) / (f0 - f1)).exp())
+    });
+    let first = denoised.first().filter(|d| d.1 <= target);
+    Some(match (reach, first) {
+        (None, Some(&(t, f))) => format!("{name}: Cycles + OIDN's fewest samples already reach our panorama's FLIP {target:.4} ({f:.4}) in {t:.1} s: at most {:.1}x against our {ours:.1} s", t / ours),
+        (Some(t), _) => format!("{name}: Cycles + OIDN reaches our panorama's FLIP {target:.4} in {t:.1} s; ours {ours:.1} s ({ours_s:.1} s + the bake's {share:.1} s shared by {probes} probes): {:.1}x (goal ≥ 5x)", t / ours),
+        (None, None) => format!("{name}: Cycles + OIDN did not reach our panorama's FLIP {target:.4} within its sweep: more than {:.1}x", denoised.last().map_or(0.0, |d| d.0) / ours),
+    })
 }
 
 /// A checksum of what a reference image depends on in the scene (geometry,
@@ -452,20 +605,12 @@ fn fingerprint(scene: &exploremaps_scenes::Scene) -> u32 {
     h.finalize()
 }
 
-/// The faces `views` (all six by default) at `face`² by plain path tracing, accumulated in batches of
+/// The faces `views` (all six by default) at FACE² by plain path tracing, accumulated in batches of
 /// 32 samples; the images at half and at all the samples are kept on disk and
 /// reused: (at half the samples, at all, seconds spent now).
-#[allow(clippy::too_many_arguments)]
-fn reference(
-    pure: &Tracer,
-    out: &Path,
-    name: &str,
-    eye: Vec3,
-    face: u32,
-    spp: u32,
-    bounces: u32,
-    views: &[usize],
-) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+fn reference(pure: &Tracer, options: &Options, name: &str, eye: Vec3) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, f64) {
+    let (out, face, spp, views) = (&options.out, options.face, options.ref_spp, &options.views);
+    let bounces = options.ref_bounces.unwrap_or(0);
     const BATCH: u32 = 32;
     assert!(spp.is_multiple_of(2 * BATCH), "REF_SPP must be a multiple of {}", 2 * BATCH);
     let n = (face * face) as usize;
@@ -572,18 +717,32 @@ fn cube_from_equirect(eq: &[Vec3], width: u32, face: usize, size: u32) -> Vec<Ve
 /// linear faces, seconds of the six renders).
 #[allow(clippy::type_complexity)]
 fn cycles(
-    python: &Path,
-    scene: &Scene,
-    renderer: &Renderer,
-    eye: Vec3,
+    subject: &Subject,
     runs: &[(String, u32, bool, u32)],
     bounces: u32,
     dir: &Path,
 ) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
-    use serde_json::json;
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
-    // ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
-    let z_up = |v: Vec3| [v.x, -v.z, v.y];
+    write_mesh(subject.scene, dir)?;
+    let materials = write_materials(subject.scene, dir)?;
+    let spec = cycles_spec(subject, materials, runs, bounces);
+    std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/blender_cycles.py");
+    eprintln!("Cycles: {} runs of six faces...", runs.len());
+    let run = std::process::Command::new(&subject.options.python).arg(&script).arg(dir).output().map_err(|e| e.to_string())?;
+    if !run.status.success() {
+        return Err(String::from_utf8_lossy(&run.stderr).lines().rev().take(8).collect::<Vec<_>>().join(" | "));
+    }
+    read_cycles_runs(&String::from_utf8_lossy(&run.stdout), dir)
+}
+
+/// ExploreMaps is Y up, Blender Z up: (x, y, z) -> (x, -z, y).
+fn z_up(v: Vec3) -> [f32; 3] {
+    [v.x, -v.z, v.y]
+}
+
+/// The scene's mesh for blender_cycles.py: positions, triangles, materials, uvs, normals.
+fn write_mesh(scene: &Scene, dir: &Path) -> Result<(), String> {
     let mut mesh: Vec<u8> = Vec::new();
     mesh.extend(scene.positions.iter().flat_map(|&p| z_up(p)).flat_map(f32::to_le_bytes));
     mesh.extend(scene.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()));
@@ -596,7 +755,12 @@ fn cycles(
     // Shading normals, if the scene has them (the script shades flat otherwise, as
     // this renderer does; Blender's default, smooth, lit the Crytek Sponza's creases).
     mesh.extend(scene.normals.iter().flat_map(|&n| z_up(n)).flat_map(f32::to_le_bytes));
-    std::fs::write(dir.join("mesh.bin"), mesh).map_err(|e| e.to_string())?;
+    std::fs::write(dir.join("mesh.bin"), mesh).map_err(|e| e.to_string())
+}
+
+/// The materials for blender_cycles.py, their textures written beside them.
+fn write_materials(scene: &Scene, dir: &Path) -> Result<Vec<serde_json::Value>, String> {
+    use serde_json::json;
     // Textures as linear floats (rows bottom to top), so Cycles filters linear values as this
     // renderer does; given the sRGB bytes, it interpolates before decoding (measured 8-15 %
     // darker on the gallery's textured walls).
@@ -630,7 +794,14 @@ fn cycles(
         .collect();
     // Triangles without a material: the renderer's default grey.
     materials.push(json!({"albedo": [0.7, 0.7, 0.7], "alpha": 1.0, "texture": null, "cutoff": null, "emission": [0.0, 0.0, 0.0]}));
-    let lighting = &renderer.tracer.lighting;
+    Ok(materials)
+}
+
+/// What blender_cycles.py renders: the scene, our lights, the eye's six faces and the runs.
+fn cycles_spec(subject: &Subject, materials: Vec<serde_json::Value>, runs: &[(String, u32, bool, u32)], bounces: u32) -> serde_json::Value {
+    use serde_json::json;
+    let (scene, eye) = (subject.scene, subject.eye);
+    let lighting = &subject.renderer.tracer.lighting;
     let sky = lighting.sky;
     let sky_rows: Vec<[f32; 3]> = (0..512)
         .map(|j| {
@@ -650,7 +821,7 @@ fn cycles(
             json!({"forward": z_up(forward), "right": z_up(right), "up": z_up(up)})
         })
         .collect();
-    let spec = json!({
+    json!({
         "name": scene.name,
         "vertices": scene.positions.len(),
         "triangles": scene.triangles.len(),
@@ -668,15 +839,12 @@ fn cycles(
         "bounces": bounces,
         "albedo_only": albedo_only(),
         "runs": runs.iter().map(|(tag, samples, denoise, size)| json!({"tag": tag, "samples": samples, "denoise": denoise, "size": size})).collect::<Vec<_>>(),
-    });
-    std::fs::write(dir.join("scene.json"), serde_json::to_string_pretty(&spec).unwrap()).map_err(|e| e.to_string())?;
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/blender_cycles.py");
-    eprintln!("Cycles: {} runs of six faces...", runs.len());
-    let run = std::process::Command::new(python).arg(&script).arg(dir).output().map_err(|e| e.to_string())?;
-    let log = String::from_utf8_lossy(&run.stdout);
-    if !run.status.success() {
-        return Err(String::from_utf8_lossy(&run.stderr).lines().rev().take(8).collect::<Vec<_>>().join(" | "));
-    }
+    })
+}
+
+/// Reads what blender_cycles.py printed and wrote: (tag, samples, size, linear faces, seconds) a run.
+#[allow(clippy::type_complexity)]
+fn read_cycles_runs(log: &str, dir: &Path) -> Result<Vec<(String, u32, u32, Vec<Vec<Vec3>>, f64)>, String> {
     let mut done = Vec::new();
     for line in log.lines().filter(|l| l.starts_with('{')) {
         let v: serde_json::Value = serde_json::from_str(line).map_err(|e| e.to_string())?;

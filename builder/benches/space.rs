@@ -20,7 +20,7 @@
 use exploremaps_builder::plan::coverage::{coverage, coverage_like, CoverageParams};
 use exploremaps_builder::plan::explore::{explore, ExploreParams};
 use exploremaps_builder::plan::freespace::{free_space, FreeSpaceParams, HeightMode};
-use exploremaps_builder::plan::walk::SLOPE_COS;
+use exploremaps_builder::plan::walk::{WalkStats, SLOPE_COS};
 use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::{Ray, RayScene};
 use exploremaps_builder::scene_io::{load, LoadOptions};
@@ -29,9 +29,32 @@ use glam::Vec3;
 use std::path::Path;
 
 fn main() {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
     let only: Option<Vec<String>> = std::env::var("SCENES").ok().map(|s| s.split(',').map(str::to_string).collect());
-    let wanted = |name: &str| only.as_ref().is_none_or(|o| o.iter().any(|w| w == name));
+    let scenes = load_scenes(only.as_deref());
+    #[rustfmt::skip]
+    println!(
+        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
+        "scene", "mode", "space", "probes", "plan s", "total s", "reported", "again", "ceil", "crev%", "space%", "probe%", "again%", "greedy%", "eye err", "levels"
+    );
+    for (name, scene) in &scenes {
+        for height in [HeightMode::Fly, HeightMode::Walk] {
+            bench_plan(name, scene, height);
+        }
+    }
+    println!("columns: plan s = free space to bar order; total s adds the coverage metric and its random and grid baselines;");
+    println!("reported = coverage of what the navigable space sees, as the plan reports it; again = the same metric, another seed");
+    println!("and sample set; ceil = the ceiling's area in m² (surface seen from the free space in the box where a viewpoint fits);");
+    println!("crev% = surface seen only through crevices (from free voxels touching geometry), in % of it and the ceiling; space% / probe% = its");
+    println!("share seen from the navigable space / by the probes; again% = the probes' share recomputed with another seed and");
+    println!("sample set; greedy% = by greedy set cover over 3,000 random candidates with");
+    println!("as many probes; eye err = the largest distance of a probe from eye height above the floor under it; levels = floor");
+    println!("levels with a probe at eye height above them.");
+}
+
+/// The shared and built-in scenes SCENES names (all by default).
+fn load_scenes(only: Option<&[String]>) -> Vec<(String, Scene)> {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes");
+    let wanted = |name: &str| only.is_none_or(|o| o.iter().any(|w| w == name));
     let mut scenes: Vec<(String, Scene)> = Vec::new();
     // (name, file, metres per unit when the file's own guess is wrong).
     for (name, file, scale) in [
@@ -56,98 +79,71 @@ fn main() {
             scenes.push((name.to_string(), BuiltIn::parse(name).unwrap().generate(1)));
         }
     }
-    println!(
-        "{:<10} {:<5} {:<7} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
-        "scene",
-        "mode",
-        "space",
-        "probes",
-        "plan s",
-        "total s",
-        "reported",
-        "again",
-        "ceil",
-        "crev%",
-        "space%",
-        "probe%",
-        "again%",
-        "greedy%",
-        "eye err",
-        "levels"
-    );
-    for (name, scene) in &scenes {
-        for height in [HeightMode::Fly, HeightMode::Walk] {
-            let free = FreeSpaceParams { height, ..Default::default() };
-            let params = PlanParams { free_space: free.clone(), synthesis: Some(Default::default()), ..Default::default() };
-            let result = match plan(scene, name, &params) {
-                Ok(r) => r,
-                Err(e) => {
-                    println!("{name:<10} {:<5} no plan: {e}", mode(height));
-                    continue;
-                }
-            };
-            let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
-            let (space, _) = free_space(scene, &rays, &free).unwrap();
-            let probes: Vec<Vec3> = result.graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
-            let report = &result.coverage;
-            let ceiling = report.ceiling();
-            // Greedy set cover over 3,000 random candidates of the same space, as
-            // many probes, measured on the same samples.
-            let greedy = ExploreParams { candidates: 3000, max_probes: probes.len(), coverage_target: 1.0, seed: 7, ..Default::default() };
-            let (chosen, _) = explore(scene, &rays, &space, &greedy);
-            let chosen: Vec<Vec3> = chosen.iter().map(|c| c.position).collect();
-            let greedy_report = coverage_like(report, &rays, &space, &chosen);
-            let greedy_ceiling = greedy_report.ceiling();
-            // The same metric with another seed and sample set.
-            let again = coverage(scene, &rays, &space, &probes, &CoverageParams { seed: 0x5eed, ..Default::default() });
-            let again_ceiling = again.ceiling();
-            let baselines: f64 = result.baselines.iter().map(|b| b.report.seconds).sum();
-            let planning = result.seconds - report.seconds - baselines;
-            let (eye_err, levels) = match (&space.walk, &result.stats.free_space.walk) {
-                (Some(w), Some(stats)) => {
-                    let err = probes
-                        .iter()
-                        .map(|&p| match rays.intersect(&Ray::new(p, Vec3::NEG_Y)) {
-                            Some(h) if h.normal.y.abs() >= SLOPE_COS => (h.t - w.eye).abs() * scene.metres_per_unit,
-                            _ => f32::INFINITY,
-                        })
-                        .fold(0.0f32, f32::max);
-                    let with_probe =
-                        stats.levels.iter().filter(|l| probes.iter().any(|p| (p.y - l.height - w.eye).abs() < 0.3 / scene.metres_per_unit)).count();
-                    (format!("{:.1} cm", 100.0 * err), format!("{with_probe}/{}", stats.levels.len()))
-                }
-                _ => ("-".into(), "-".into()),
-            };
-            let pct = |x: f64| if ceiling.area > 0.0 { format!("{:.1}", 100.0 * x / ceiling.area) } else { "-".into() };
-            println!(
-                "{name:<10} {:<5} {:<7} {:>6} {:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>7} {:>8} {:>9} {:>7}",
-                mode(height),
-                result.stats.free_space.space,
-                probes.len(),
-                planning,
-                result.seconds,
-                100.0 * report.fraction(),
-                100.0 * again.fraction(),
-                human_area(ceiling.area * (scene.metres_per_unit as f64).powi(2)),
-                100.0 * ceiling.crevices / (ceiling.area + ceiling.crevices).max(f64::MIN_POSITIVE),
-                pct(ceiling.seen_from_space),
-                pct(ceiling.covered),
-                format!("{:.1}", 100.0 * again_ceiling.covered / again_ceiling.area.max(f64::MIN_POSITIVE)),
-                pct(greedy_ceiling.covered),
-                eye_err,
-                levels
-            );
-            println!("{:<10} {}; {}", "", result.stats.free_space.space_reason, result.stats.free_space.height_reason);
+    scenes
+}
+
+/// Plans a scene with one height mode and prints its row and the space's reasons.
+fn bench_plan(name: &str, scene: &Scene, height: HeightMode) {
+    let free = FreeSpaceParams { height, ..Default::default() };
+    let params = PlanParams { free_space: free.clone(), synthesis: Some(Default::default()), ..Default::default() };
+    let result = match plan(scene, name, &params) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("{name:<10} {:<5} no plan: {e}", mode(height));
+            return;
         }
-    }
-    println!("columns: plan s = free space to bar order; total s adds the coverage metric and its random and grid baselines;");
-    println!("reported = coverage of what the navigable space sees, as the plan reports it; again = the same metric, another seed");
-    println!("and sample set; ceil = the ceiling's area in m² (surface seen from the free space in the box where a viewpoint fits);");
-    println!("crev% = surface seen only through crevices (from free voxels touching geometry), in % of it and the ceiling; space% / probe% = its");
-    println!("share seen from the navigable space / by the probes; again% = the probes' share recomputed with another seed and");
-    println!("sample set; greedy% = by greedy set cover over 3,000 random candidates with");
-    println!("as many probes; eye err = the largest distance of a probe from eye height above the floor under it; levels = floor");
-    println!("levels with a probe at eye height above them.");
+    };
+    let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+    let (space, _) = free_space(scene, &rays, &free).unwrap();
+    let probes: Vec<Vec3> = result.graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+    let report = &result.coverage;
+    let ceiling = report.ceiling();
+    // Greedy set cover over 3,000 random candidates of the same space, as
+    // many probes, measured on the same samples.
+    let greedy = ExploreParams { candidates: 3000, max_probes: probes.len(), coverage_target: 1.0, seed: 7, ..Default::default() };
+    let (chosen, _) = explore(scene, &rays, &space, &greedy);
+    let chosen: Vec<Vec3> = chosen.iter().map(|c| c.position).collect();
+    let greedy_ceiling = coverage_like(report, &rays, &space, &chosen).ceiling();
+    // The same metric with another seed and sample set.
+    let again = coverage(scene, &rays, &space, &probes, &CoverageParams { seed: 0x5eed, ..Default::default() });
+    let again_ceiling = again.ceiling();
+    let baselines: f64 = result.baselines.iter().map(|b| b.report.seconds).sum();
+    let planning = result.seconds - report.seconds - baselines;
+    let (eye_err, levels) = match (&space.walk, &result.stats.free_space.walk) {
+        (Some(w), Some(stats)) => eye_height_check(scene, &rays, &probes, w.eye, stats),
+        _ => ("-".into(), "-".into()),
+    };
+    let pct = |x: f64| if ceiling.area > 0.0 { format!("{:.1}", 100.0 * x / ceiling.area) } else { "-".into() };
+    println!(
+        "{name:<10} {:<5} {:<7} {:>6} {planning:>7.2} {:>7.2} {:>8.2} {:>7.2} {:>7} {:>6.1} {:>8} {:>7} {:>7} {:>8} {eye_err:>9} {levels:>7}",
+        mode(height),
+        result.stats.free_space.space,
+        probes.len(),
+        result.seconds,
+        100.0 * report.fraction(),
+        100.0 * again.fraction(),
+        human_area(ceiling.area * (scene.metres_per_unit as f64).powi(2)),
+        100.0 * ceiling.crevices / (ceiling.area + ceiling.crevices).max(f64::MIN_POSITIVE),
+        pct(ceiling.seen_from_space),
+        pct(ceiling.covered),
+        format!("{:.1}", 100.0 * again_ceiling.covered / again_ceiling.area.max(f64::MIN_POSITIVE)),
+        pct(greedy_ceiling.covered),
+    );
+    println!("{:<10} {}; {}", "", result.stats.free_space.space_reason, result.stats.free_space.height_reason);
+}
+
+/// Walking: the largest distance of a probe from eye height above the floor
+/// under it, and the floor levels with a probe at eye height ("1.2 cm", "2/3").
+fn eye_height_check(scene: &Scene, rays: &RayScene, probes: &[Vec3], eye: f32, stats: &WalkStats) -> (String, String) {
+    let err = probes
+        .iter()
+        .map(|&p| match rays.intersect(&Ray::new(p, Vec3::NEG_Y)) {
+            Some(h) if h.normal.y.abs() >= SLOPE_COS => (h.t - eye).abs() * scene.metres_per_unit,
+            _ => f32::INFINITY,
+        })
+        .fold(0.0f32, f32::max);
+    let with_probe = stats.levels.iter().filter(|l| probes.iter().any(|p| (p.y - l.height - eye).abs() < 0.3 / scene.metres_per_unit)).count();
+    (format!("{:.1} cm", 100.0 * err), format!("{with_probe}/{}", stats.levels.len()))
 }
 
 fn mode(height: HeightMode) -> &'static str {

@@ -19,7 +19,9 @@ exe="$(realpath "${EXPLOREMAPS:-$(command -v exploremaps)}")"
 logs="$bundle.logs"
 mkdir -p "$logs"
 # The task id is the shard (auto/N), so `--tasks 2` redoes shard 2 alone.
-render="$(printf '%q ' "$exe" render "$bundle" --shard "auto/$shards" "$@")"
+# `exec`: the task's process is exploremaps itself, so a cancel's signal reaches
+# it directly and cannot leave it running orphaned behind an ended shell.
+render="exec $(printf '%q ' "$exe" render "$bundle" --shard "auto/$shards" "$@")"
 array=$(sbatch --parsable --array="$tasks" --job-name=exploremaps-render --output="$logs/render-%A_%a.log" --wrap "$render")
 final=$(sbatch --parsable --dependency="afterok:$array" --kill-on-invalid-dep=yes --job-name=exploremaps-finalize \
   --output="$logs/finalize-%j.log" --wrap "$(printf '%q ' "$exe" render "$bundle" --finalize)")
