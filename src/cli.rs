@@ -281,6 +281,20 @@ pub struct RenderArgs {
     /// albedo and normal (for few samples or real bounces).
     #[arg(long)]
     pub denoise: bool,
+    /// How paths are shown. video: a 360° video each (the bundle as before
+    /// glides); depth: every path a glide the viewer draws from the two ends'
+    /// panoramas and their depth (written per probe); auto: a glide where the
+    /// ends see nearly all the path sees (at most 2 % of the view seen from
+    /// neither), a video elsewhere. graph.json records each path's choice and why.
+    #[arg(long, value_enum, default_value_t = TransitionsArg::Video)]
+    pub transitions: TransitionsArg,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransitionsArg {
+    Auto,
+    Depth,
+    Video,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

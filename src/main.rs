@@ -13,7 +13,7 @@ use exploremaps_builder::plan::coverage::CoverageParams;
 use exploremaps_builder::plan::explore::{ExploreParams, Strategy};
 use exploremaps_builder::plan::freespace::{FreeSpaceParams, HeightMode, SpaceMode};
 use exploremaps_builder::plan::{self, PlanParams};
-use exploremaps_builder::render::{Quality, Settings};
+use exploremaps_builder::render::{Quality, Settings, Transitions};
 use exploremaps_builder::scene_io::{self, LoadError, LoadOptions};
 use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE};
 use exploremaps_format::record::PlanRecord;
@@ -338,6 +338,11 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
     }
     settings.trace.panorama.bounces = args.bounces;
     settings.denoise = args.denoise;
+    settings.transitions = match args.transitions {
+        cli::TransitionsArg::Auto => Transitions::Auto,
+        cli::TransitionsArg::Depth => Transitions::Depth,
+        cli::TransitionsArg::Video => Transitions::Video,
+    };
     Ok(settings)
 }
 

@@ -431,6 +431,70 @@ fn render_fills_in_assets_resumably_and_in_shards() {
 }
 
 #[test]
+fn transitions_give_each_path_a_glide_or_a_video_and_say_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let planned = dir.path().join("planned");
+    let run = exploremaps(&["plan", "maze:3", "-o", planned.to_str().unwrap(), "--samples", "5000"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let copy = |name: &str| {
+        let to = dir.path().join(name);
+        assert!(Command::new("cp").arg("-r").arg(&planned).arg(&to).status().unwrap().success());
+        to
+    };
+    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100"];
+    let render = |bundle: &Path, extra: &[&str]| {
+        let mut args = vec!["render", bundle.to_str().unwrap()];
+        args.extend(small);
+        args.extend(extra);
+        exploremaps(&args)
+    };
+    for mode in ["depth", "auto"] {
+        let b = copy(mode);
+        let run = render(&b, &["--transitions", mode]);
+        assert!(run.status.success(), "{}", stderr(&run));
+        let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(b.join("graph.json")).unwrap()).unwrap();
+        assert_eq!(graph.stats.render.as_ref().unwrap().transitions.as_deref(), Some(mode));
+        // Every probe's depth: a 32-cell lattice (preview), something hit in most directions.
+        for p in &graph.probes {
+            let cube = exploremaps_format::depthcube::DepthCube::decode(&std::fs::read(b.join(p.assets.depth.as_ref().unwrap())).unwrap()).unwrap();
+            assert_eq!((cube.size, cube.codes.len()), (32, 6 * 33 * 33));
+            assert!(cube.codes.iter().filter(|&&c| c > 0).count() > cube.codes.len() / 2);
+        }
+        // Every path: a transition with its reason; a video exactly where it says video.
+        let mut kinds = Vec::new();
+        for (id, p) in graph.paths.iter().enumerate() {
+            let t = p.assets.transition.as_ref().expect("a transition");
+            assert!(t.reason.contains("seen from neither end"), "{}", t.reason);
+            let video = t.kind == exploremaps_format::TransitionKind::Video;
+            assert_eq!(p.assets.video.is_some(), video, "path {id}: {}", t.reason);
+            assert_eq!(b.join(format!("paths/{id}.mp4")).exists(), video, "path {id}");
+            assert!(mode == "auto" || !video, "depth: no videos");
+            kinds.push(t.kind);
+        }
+        // Resuming does nothing more.
+        let run = render(&b, &["--transitions", mode]);
+        assert!(stdout(&run).contains("rendered 0 probes and 0 paths"), "{}", stdout(&run));
+        if mode == "auto" {
+            // Shards and finalize give the same bundle as one process.
+            let sharded = copy("sharded");
+            for shard in ["0/2", "1/2"] {
+                let run = render(&sharded, &["--transitions", mode, "--shard", shard]);
+                assert!(run.status.success(), "{}", stderr(&run));
+            }
+            let run = exploremaps(&["render", sharded.to_str().unwrap(), "--finalize"]);
+            assert!(run.status.success(), "{}", stderr(&run));
+            assert_eq!(std::fs::read(sharded.join("graph.json")).unwrap(), std::fs::read(b.join("graph.json")).unwrap());
+            // A damaged depth cube is named, removed and redone by its shard.
+            let depth = graph.probes[1].assets.depth.clone().unwrap();
+            std::fs::write(sharded.join(&depth), b"EMDC torn").unwrap();
+            let run = exploremaps(&["render", sharded.to_str().unwrap(), "--finalize"]);
+            assert!(!run.status.success() && stderr(&run).contains(&format!("{depth} (shard 1/2): does not decode")), "{}", stderr(&run));
+            println!("auto chose {kinds:?}");
+        }
+    }
+}
+
+#[test]
 fn a_bundle_is_byte_identical_at_one_and_two_threads() {
     let dir = tempfile::tempdir().unwrap();
     let build = |threads: &str| {

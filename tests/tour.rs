@@ -75,7 +75,12 @@ fn bundle(dir: &Path) {
             cluster: None,
             preferred_directions: vec![ViewDirection { yaw: [-0.5, 2.5][p], pitch: [0.0, 0.15][p], goodness: 1.0 }],
             user_placed: false,
-            assets: ProbeAssets { cube_levels: vec![CubeLevel { size: FACE, faces: names }], equirect: None, thumbnail: Some(thumbnail), tiles },
+            assets: ProbeAssets {
+                cube_levels: vec![CubeLevel { size: FACE, faces: names }],
+                thumbnail: Some(thumbnail),
+                tiles,
+                ..Default::default()
+            },
         });
     }
     push_path(&mut graph, &write);

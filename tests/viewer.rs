@@ -75,7 +75,7 @@ pub(super) fn push_path(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
         length: 4.0,
         duration_s: 2.0,
         camera,
-        assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
+        assets: PathAssets { video: Some("paths/0.mp4".into()), ..Default::default() },
     });
 }
 
@@ -119,7 +119,7 @@ fn push_probes(graph: &mut Graph, write: &impl Fn(&str, &[u8])) {
             cluster: None,
             preferred_directions: vec![ViewDirection { yaw: facing[p], pitch: 0.0, goodness: 1.0 }],
             user_placed: false,
-            assets: ProbeAssets { cube_levels: levels, equirect: None, thumbnail: Some(thumbnail), tiles: None },
+            assets: ProbeAssets { cube_levels: levels, thumbnail: Some(thumbnail), ..Default::default() },
         });
     }
 }

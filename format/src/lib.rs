@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod depthcube;
 pub mod depthmap;
 pub mod edgebreaker;
 pub mod meshcode;
@@ -251,6 +252,9 @@ pub struct ProbeAssets {
     /// before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tiles: Option<Tiles>,
+    /// The probe's depth for glides ([`depthcube`]), where the bundle has them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<String>,
 }
 
 /// A probe's cube faces cut into square tiles, level by level, in the
@@ -390,6 +394,30 @@ pub struct PathAssets {
     pub video: Option<String>,
     #[serde(default)]
     pub poster: Option<String>,
+    /// How the render chose to show this path (absent: by its video, as in
+    /// bundles rendered with `--transitions video` or before glides).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transition: Option<Transition>,
+}
+
+/// A path's transition as the render chose it, and why.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transition {
+    pub kind: TransitionKind,
+    /// The largest share of the view from the path (by solid angle) that
+    /// neither end's panorama sees, over the points measured along it.
+    pub unseen: f32,
+    /// Why, in words.
+    pub reason: String,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TransitionKind {
+    /// Drawn by the viewer from the two ends' panoramas and depth.
+    Depth,
+    /// The path's 360° video.
+    Video,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -599,7 +627,7 @@ impl Probe {
             }
         }
         let tiles = a.tiles.iter().flat_map(|t| [&t.path, &t.preview]);
-        let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail).chain(tiles);
+        let names = a.cube_levels.iter().flat_map(|l| l.faces.iter()).chain(&a.equirect).chain(&a.thumbnail).chain(tiles).chain(&a.depth);
         for name in names {
             check_asset_name(name).map_err(|m| format!("probe {i}: {m}"))?;
         }
@@ -627,6 +655,14 @@ impl Path {
         }
         for name in self.assets.video.iter().chain(&self.assets.poster) {
             check_asset_name(name).map_err(|m| format!("path {i}: {m}"))?;
+        }
+        if let Some(t) = &self.assets.transition {
+            if !(0.0..=1.0).contains(&t.unseen) {
+                return Err(format!("path {i}: its transition's unseen share {} is not between 0 and 1", t.unseen));
+            }
+            if t.kind == TransitionKind::Video && self.assets.video.is_none() {
+                return Err(format!("path {i}: its transition is a video, but no video is listed"));
+            }
         }
         Ok(())
     }
@@ -845,7 +881,7 @@ mod tests {
             length: 8.0,
             duration_s: 5.7,
             camera: vec![CameraKey { t_s: 0.0, position: [2.0, 1.6, 2.0], yaw: 0.0, pitch: 0.0 }],
-            assets: PathAssets { video: Some("paths/0.mp4".into()), poster: None },
+            assets: PathAssets { video: Some("paths/0.mp4".into()), ..Default::default() },
         });
         g.bar_order = vec![2, 0, 1];
         g.coverage = Some(Coverage {

@@ -125,6 +125,12 @@ pub struct RenderRecord {
     pub bounces: u32,
     pub denoised: bool,
     pub seed: u64,
+    /// `--transitions` where it was not `video`, and the depth cubes' cells
+    /// a face edge (absent: every path a video, no depth).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transitions: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_cells: Option<u32>,
 }
 
 /// A storey: a floor height (scene units) and its share of the walkable
@@ -224,6 +230,8 @@ mod tests {
             bounces: 1,
             denoised: false,
             seed: 7,
+            transitions: None,
+            depth_cells: None,
         }
     }
 

@@ -6,7 +6,8 @@
 //!    those whose files are all there (a finished file is never redone).
 //! 2. One [`Renderer`] for all of them (the radiance cache is baked here).
 //! 3. Each job writes its files atomically: `probe` (cube faces, tiles,
-//!    panorama, thumbnail), `path` (video frames, MP4, poster), `proxy` (the
+//!    panorama, thumbnail, and the depth for glides), `path` (with glides,
+//!    the transition `glide` chooses; video frames, MP4, poster), `proxy` (the
 //!    light 3D stand-in). A killed run loses at most the asset in progress.
 //! 4. The settings and timings: graph.json's `render` entry, or a shard's
 //!    manifest (`shards`, which also completes a split render).
@@ -14,12 +15,14 @@
 //!
 //! The pictures themselves come from `crate::tracer`.
 
+pub mod glide;
 mod path;
 mod probe;
 mod proxy;
 mod shards;
 
 pub use crate::tracer::Quality;
+pub use glide::Transitions;
 pub use shards::{finalize, Shard};
 
 use crate::bundle::{write, write_graph, BundleError};
@@ -47,6 +50,10 @@ pub struct Settings {
     pub denoise: bool,
     /// The light 3D stand-in written with the panoramas.
     pub proxy: crate::proxy::ProxyParams,
+    /// How paths are shown: glides (with each probe's depth) or videos.
+    pub transitions: Transitions,
+    /// Cells a cube face edge of each probe's depth for glides.
+    pub depth_cells: u32,
 }
 
 impl Settings {
@@ -59,10 +66,25 @@ impl Settings {
                 video_width: 512,
                 denoise: false,
                 proxy: crate::proxy::ProxyParams { bake_samples: 4, ..Default::default() },
+                transitions: Transitions::Video,
+                depth_cells: 32,
             },
-            Quality::Final => Settings { trace, face: 2048, video_width: 1024, denoise: false, proxy: Default::default() },
+            Quality::Final => Settings {
+                trace,
+                face: 2048,
+                video_width: 1024,
+                denoise: false,
+                proxy: Default::default(),
+                transitions: Transitions::Video,
+                depth_cells: 128,
+            },
             Quality::Tour => Settings { trace, face: 4096, ..Settings::new(Quality::Final, seed) },
         }
+    }
+
+    /// Whether the render writes depth and a transition for each path.
+    pub fn glides(&self) -> bool {
+        self.transitions != Transitions::Video
     }
 
     /// Cube-face sizes from 512 (or the largest, if smaller) up to `face`.
@@ -104,19 +126,17 @@ pub fn all_jobs(graph: &Graph) -> Vec<Job> {
 /// A job with its number in [`all_jobs`].
 pub type Numbered = (usize, Job);
 
-/// This shard's jobs, and those of them whose files are not all in `dir`.
-pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], shard: Shard) -> (Vec<Numbered>, Vec<Numbered>) {
+/// This shard's jobs, and those of them whose files are not all in `dir`
+/// (with `glides`, probes' depth and paths' transitions are files too).
+pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], glides: bool, shard: Shard) -> (Vec<Numbered>, Vec<Numbered>) {
     let exists = |name: &String| dir.join(name).exists();
     let mine: Vec<Numbered> = all_jobs(graph).into_iter().enumerate().filter(|(k, _)| k % shard.count == shard.index).collect();
     let todo = mine
         .iter()
         .copied()
         .filter(|&(_, job)| match job {
-            Job::Probe(id) => !ProbeFiles::new(id, levels).all().iter().all(exists),
-            Job::Path(id) => {
-                let (video, poster) = path::files(id);
-                !(exists(&video) && exists(&poster))
-            }
+            Job::Probe(id) => !ProbeFiles::new(id, levels, glides).all().iter().all(exists),
+            Job::Path(id) => !path::expected(dir, id, glides).iter().all(exists),
             Job::Proxy => proxy::listed(dir).is_none(),
         })
         .collect();
@@ -139,7 +159,7 @@ pub fn render_missing(
         tracing::info!("removed {abandoned} temporary files a killed run left behind");
     }
     let levels = settings.face_levels();
-    let (mine, todo) = jobs(dir, graph, &levels, shard);
+    let (mine, todo) = jobs(dir, graph, &levels, settings.glides(), shard);
     let mut report = RenderReport { skipped: mine.len() - todo.len(), ..Default::default() };
     // The render also states its settings (in graph.json, or a shard's
     // manifest): a run killed after its last asset but before that file
@@ -213,6 +233,8 @@ fn record(settings: &Settings, renderer: &Renderer, report: &RenderReport) -> Re
         bounces: settings.trace.panorama.bounces,
         denoised: settings.denoise,
         seed: settings.trace.seed,
+        transitions: settings.glides().then(|| settings.transitions.name().to_string()),
+        depth_cells: settings.glides().then_some(settings.depth_cells),
     }
 }
 
@@ -220,18 +242,20 @@ fn record(settings: &Settings, renderer: &Renderer, report: &RenderReport) -> Re
 fn list_assets(dir: &Path, graph: &mut Graph, levels: &[u32]) {
     let exists = |name: &String| dir.join(name).exists();
     for (id, probe) in graph.probes.iter_mut().enumerate() {
-        let files = ProbeFiles::new(id, levels);
+        let files = ProbeFiles::new(id, levels, true);
         let tiled = files.tiles.files().iter().chain([&files.tiles.preview]).all(exists);
-        let ProbeFiles { cube, tiles, pano, thumb } = files;
+        let ProbeFiles { cube, tiles, pano, thumb, depth } = files;
         probe.assets.cube_levels = cube.into_iter().filter(|l| l.faces.iter().all(exists)).collect();
         probe.assets.tiles = tiled.then_some(tiles);
         probe.assets.equirect = exists(&pano).then_some(pano);
         probe.assets.thumbnail = exists(&thumb).then_some(thumb);
+        probe.assets.depth = depth.filter(exists);
     }
     for (id, path) in graph.paths.iter_mut().enumerate() {
         let (video, poster) = path::files(id);
         path.assets.video = exists(&video).then_some(video);
         path.assets.poster = exists(&poster).then_some(poster);
+        path.assets.transition = path::transition(dir, id);
     }
     graph.proxy = proxy::listed(dir);
 }
@@ -292,7 +316,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut seen = Vec::new();
         for index in 0..3 {
-            let (mine, todo) = jobs(dir.path(), &g, &[512], Shard { index, count: 3 });
+            let (mine, todo) = jobs(dir.path(), &g, &[512], false, Shard { index, count: 3 });
             // Nothing is rendered yet: every job is to do.
             assert_eq!(mine, todo);
             assert!(mine.iter().all(|&(k, job)| k % 3 == index && all[k] == job));
@@ -307,12 +331,12 @@ mod tests {
         let g = graph(2, 1);
         let dir = tempfile::tempdir().unwrap();
         let whole = Shard { index: 0, count: 1 };
-        for file in ProbeFiles::new(1, &[512]).all() {
+        for file in ProbeFiles::new(1, &[512], false).all() {
             crate::files::write_atomic(&dir.path().join(file), b"x").unwrap();
         }
         // Only the video of path 0: its poster is missing, so it stays to do.
         crate::files::write_atomic(&dir.path().join(path::files(0).0), b"x").unwrap();
-        let (mine, todo) = jobs(dir.path(), &g, &[512], whole);
+        let (mine, todo) = jobs(dir.path(), &g, &[512], false, whole);
         assert_eq!(mine.len(), 4);
         assert_eq!(todo, vec![(0, Job::Probe(0)), (2, Job::Path(0)), (3, Job::Proxy)]);
     }

@@ -1,13 +1,15 @@
-//! A path's job: its 360° frames along the camera keys (key frames lit in
-//! full, the frames between reusing their light), encoded as an MP4, and a
-//! poster (the first frame).
+//! A path's job: with glides, the transition `glide` chooses, written as a
+//! record (`paths/<id>.json`) once the path is done; where it is a video (and
+//! always without glides), its 360° frames along the camera keys (key frames
+//! lit in full, the frames between reusing their light), encoded as an MP4,
+//! and a poster (the first frame).
 
-use super::Settings;
+use super::{glide, Settings};
 use crate::bundle::{write, BundleError};
 use crate::files::jpeg;
 use crate::tracer::Renderer;
 use crate::video::Encoder;
-use exploremaps_format::Path as PathInfo;
+use exploremaps_format::{Path as PathInfo, Transition, TransitionKind};
 use glam::Vec3;
 use std::ops::ControlFlow;
 use std::path::Path;
@@ -17,8 +19,33 @@ pub(super) fn files(id: usize) -> (String, String) {
     (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
 }
 
-/// Renders path `id`, encodes and writes its files. A path without camera
-/// keys has nothing to show: false, and no files.
+/// The record of the transition chosen for path `id`.
+fn record(id: usize) -> String {
+    format!("paths/{id}.json")
+}
+
+/// Path `id`'s transition, if its record is there and reads.
+pub(super) fn transition(dir: &Path, id: usize) -> Option<Transition> {
+    serde_json::from_slice(&std::fs::read(dir.join(record(id))).ok()?).ok()
+}
+
+/// The files a finished path `id` has: its video and poster; with glides,
+/// its record, and the video and poster only where the record says video.
+pub(super) fn expected(dir: &Path, id: usize, glides: bool) -> Vec<String> {
+    let (video, poster) = files(id);
+    if !glides {
+        return vec![video, poster];
+    }
+    match transition(dir, id) {
+        Some(t) if t.kind == TransitionKind::Video => vec![video, poster, record(id)],
+        _ => vec![record(id)],
+    }
+}
+
+/// Renders path `id`: with glides, chooses its transition and writes its
+/// record last; renders its video where that is a video (always without
+/// glides). A path without camera keys has nothing to show: false, and no
+/// files.
 pub(super) fn render(
     dir: &Path,
     renderer: &Renderer,
@@ -27,6 +54,26 @@ pub(super) fn render(
     path: &PathInfo,
     id: usize,
 ) -> Result<bool, BundleError> {
+    if path.camera.is_empty() {
+        return Ok(false);
+    }
+    let (from, to) = (path.polyline.first().copied().unwrap_or_default(), path.polyline.last().copied().unwrap_or_default());
+    let (unseen, along) = if settings.glides() { glide::unseen_along(&renderer.tracer, path, from.into(), to.into()) } else { (0.0, 0.0) };
+    let transition = glide::choose(settings.transitions, unseen, along);
+    if let Some(t) = &transition {
+        tracing::info!("path {id}: {}", t.reason);
+    }
+    if transition.as_ref().is_none_or(|t| t.kind == TransitionKind::Video) && !render_video(dir, renderer, settings, encoder, path, id)? {
+        return Ok(false);
+    }
+    if let Some(t) = transition {
+        write(dir, &record(id), serde_json::to_string(&t).expect("a transition serializes").as_bytes())?;
+    }
+    Ok(true)
+}
+
+/// Renders path `id`'s video, encodes and writes it and its poster.
+fn render_video(dir: &Path, renderer: &Renderer, settings: &Settings, encoder: &Encoder, path: &PathInfo, id: usize) -> Result<bool, BundleError> {
     let (video, poster) = files(id);
     let w = settings.video_width;
     let eyes: Vec<Vec3> = path.camera.iter().map(|key| Vec3::from(key.position)).collect();

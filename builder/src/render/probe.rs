@@ -1,6 +1,7 @@
 //! A probe's job: its cube faces at every level (512 up to the largest),
 //! the tour tiles cut from them, a photo-sphere panorama resampled from the
-//! largest faces, and a thumbnail in its preferred direction.
+//! largest faces, a thumbnail in its preferred direction and, with glides,
+//! its depth cube.
 
 use super::Settings;
 use crate::bundle::{write, BundleError};
@@ -25,20 +26,24 @@ pub(super) struct ProbeFiles {
     pub tiles: Tiles,
     pub pano: String,
     pub thumb: String,
+    /// With glides.
+    pub depth: Option<String>,
 }
 
 impl ProbeFiles {
-    pub fn new(id: usize, levels: &[u32]) -> ProbeFiles {
+    pub fn new(id: usize, levels: &[u32], glides: bool) -> ProbeFiles {
         let cube = levels.iter().map(|&size| CubeLevel { size, faces: CUBE_FACES.map(|f| format!("probes/{id}/{size}_{f}.jpg")) }).collect();
         let face = levels.last().copied().unwrap_or(TILE);
         let tiles = Tiles::new(format!("probes/{id}/tiles"), face, TILE, TILE_PREVIEW.min(face));
-        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg") }
+        let depth = glides.then(|| format!("probes/{id}/depth.emdc"));
+        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg"), depth }
     }
 
     /// Every file, each level's faces, the tiles and their preview.
     pub fn all(&self) -> Vec<String> {
         let faces = self.cube.iter().flat_map(|l| l.faces.iter().cloned());
-        faces.chain(self.tiles.files()).chain([self.tiles.preview.clone(), self.pano.clone(), self.thumb.clone()]).collect()
+        let others = [self.tiles.preview.clone(), self.pano.clone(), self.thumb.clone()];
+        faces.chain(self.tiles.files()).chain(others).chain(self.depth.clone()).collect()
     }
 }
 
@@ -52,7 +57,10 @@ fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)]) -> Result<(), Bu
 pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe: &Probe, id: usize, levels: &[u32]) -> Result<(), BundleError> {
     let exists = |name: &str| dir.join(name).exists();
     let eye = Vec3::from(probe.position);
-    let ProbeFiles { cube, tiles, pano, thumb } = ProbeFiles::new(id, levels);
+    let ProbeFiles { cube, tiles, pano, thumb, depth } = ProbeFiles::new(id, levels, settings.glides());
+    if let Some(depth) = depth.filter(|d| !exists(d)) {
+        write(dir, &depth, &super::glide::depth_cube(&renderer.tracer, eye, settings.depth_cells).encode())?;
+    }
     let denoised = |mut f: Frame| -> Result<Vec<Vec3>, BundleError> {
         if settings.denoise {
             denoise(&mut f).map_err(|source| BundleError::Denoise { path: dir.join(&pano).display().to_string(), source })?;

@@ -57,12 +57,12 @@ pub fn finalize(dir: &Path, graph: &mut exploremaps_format::Graph) -> Result<usi
     // Every expected file, with its owner.
     let probes = graph.probes.len();
     let mut expected: Vec<(String, usize)> = Vec::new();
+    let glides = first.render.transitions.is_some();
     for id in 0..probes {
-        expected.extend(ProbeFiles::new(id, &first.levels).all().into_iter().map(|f| (f, id)));
+        expected.extend(ProbeFiles::new(id, &first.levels, glides).all().into_iter().map(|f| (f, id)));
     }
     for id in 0..graph.paths.len() {
-        let (video, poster) = path::files(id);
-        expected.extend([(video, probes + id), (poster, probes + id)]);
+        expected.extend(path::expected(dir, id, glides).into_iter().map(|f| (f, probes + id)));
     }
     let proxy_job = probes + graph.paths.len();
     match proxy::listed(dir) {
@@ -113,6 +113,9 @@ fn check_asset(dir: &Path, name: &str) -> Result<(), Option<String>> {
         "emmc" => exploremaps_format::meshcode::decode(&bytes).map(drop).map_err(|e| bad(&e)),
         "seen" => exploremaps_format::seen::decode_runs(&bytes, None).map(drop).map_err(|e| bad(&e)),
         "emdm" => exploremaps_format::depthmap::DepthMap::decode(&bytes, u32::MAX).map(drop).map_err(|e| bad(&e)),
+        "emdc" => exploremaps_format::depthcube::DepthCube::decode(&bytes).map(drop).map_err(|e| bad(&e)),
+        // A path's transition record.
+        "json" if name.starts_with("paths/") => serde_json::from_slice::<exploremaps_format::Transition>(&bytes).map(drop).map_err(|e| bad(&e)),
         // A packet applies to the mesh before it; alone, each one's frame is checked.
         "emvs" => exploremaps_format::splits::packets(&bytes).map(drop).map_err(|e| bad(&e)),
         "glb" => match std::panic::catch_unwind(|| gltf::Gltf::from_slice(&bytes)) {

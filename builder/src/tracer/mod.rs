@@ -40,7 +40,7 @@ mod trace;
 pub use cache::{CacheParams, CacheStats, RadianceCache};
 pub use denoise::{denoise, DenoiseError};
 pub use gather::GatherParams;
-pub use surface::{Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
+pub use surface::{fibonacci_sphere, Lighting, Materials, Sky, DEFAULT_SUN, SUN_RADIUS};
 use trace::Shot;
 pub use trace::{Frame, TraceParams, Tracer};
 

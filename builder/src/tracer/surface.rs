@@ -151,6 +151,11 @@ impl<'a> Materials<'a> {
     }
 
     /// Whether any triangle is textured (else footprints change nothing).
+    /// The scene the materials are of.
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
     pub fn has_textures(&self) -> bool {
         !self.texel_density.is_empty()
     }

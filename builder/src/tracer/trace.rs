@@ -108,6 +108,11 @@ impl<'a> Tracer<'a> {
         self.guide.as_ref().filter(|_| self.cache.is_none())
     }
 
+    /// The scene being rendered.
+    pub fn scene(&self) -> &'a Scene {
+        self.materials.scene()
+    }
+
     /// The closest hit that is not a hole in a cut-out; `ray.t_min` ends up past the holes.
     pub fn intersect(&self, ray: &mut Ray) -> Option<Hit> {
         let hit = self.rays.intersect(ray)?;
