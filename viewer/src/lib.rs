@@ -4,6 +4,7 @@
 
 pub mod app;
 pub mod dollhouse;
+pub mod glide;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod native;
 pub mod navigation;

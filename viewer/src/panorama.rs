@@ -123,7 +123,7 @@ pub(crate) fn write_layer(queue: &wgpu::Queue, texture: &wgpu::Texture, layer: u
 /// A probe's panorama on the GPU: six square RGBA8 sRGB faces.
 pub struct Cube {
     pub texture: wgpu::Texture,
-    view: wgpu::TextureView,
+    pub(crate) view: wgpu::TextureView,
     pub size: u32,
 }
 
@@ -159,7 +159,7 @@ pub const TILE_SLOTS: [char; 6] = ['r', 'l', 'u', 'd', 'f', 'b'];
 pub struct Tiled {
     pub cube: Cube,
     mask: wgpu::Texture,
-    mask_view: wgpu::TextureView,
+    pub(crate) mask_view: wgpu::TextureView,
     /// Tile edge and tiles across a face.
     pub tile: u32,
     pub across: u32,
@@ -311,7 +311,7 @@ pub fn visible_tiles(view: &View, aspect: f32, size: u32, tile: u32) -> Vec<(usi
 }
 
 /// A cube of `across`² single-byte texels a face, zero (no tile yet).
-fn mask_texture(device: &wgpu::Device, across: u32) -> wgpu::Texture {
+pub(crate) fn mask_texture(device: &wgpu::Device, across: u32) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some("tile mask"),
         size: wgpu::Extent3d { width: across, height: across, depth_or_array_layers: 6 },
