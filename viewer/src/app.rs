@@ -5,12 +5,13 @@
 //! `web`) own the window, files and decoding.
 
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, FrameTarget, Orbit, ProxyMesh};
+use crate::glide::{GlideMesh, GlidePass};
 use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, PanoramaPass, Shown, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
 use exploremaps_format::timing::ease;
-use exploremaps_format::{depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
+use exploremaps_format::{depthcube::DepthCube, depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 
@@ -118,6 +119,11 @@ pub enum Loaded {
         probe: u32,
         map: DepthMap,
     },
+    /// A probe's depth for glides.
+    DepthCube {
+        probe: u32,
+        cube: DepthCube,
+    },
     /// `what` names the asset (its file), `error` what went wrong.
     Failed {
         what: String,
@@ -147,6 +153,8 @@ pub trait Platform {
     fn load_stream(&mut self, stream: &ProxyStream, base: &ProxyLevel, probes: u32);
     /// Loads and decodes a probe's depth map, checked against `probes`.
     fn load_depth_map(&mut self, probe: u32, file: &str, probes: u32);
+    /// Loads and decodes a probe's depth cube for glides.
+    fn load_depth_cube(&mut self, probe: u32, file: &str);
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded>;
     /// Starts a path's video; `reversed` plays it end to start.
     fn play_video(&mut self, file: &str, reversed: bool);
@@ -376,6 +384,12 @@ pub struct App {
     /// Point-to-go depth maps of probes, and those asked for.
     depth_maps: HashMap<u32, DepthMap>,
     depth_requested: HashSet<u32>,
+    /// Glides: the pass, probes' depth meshes, and the probes asked for.
+    glide: GlidePass,
+    glide_meshes: HashMap<u32, GlideMesh>,
+    glide_requested: HashSet<u32>,
+    /// Whether the last frame was a glide.
+    glided: bool,
 }
 
 /// Options a platform chooses.
@@ -397,6 +411,7 @@ impl App {
         let device_face = gpu.device.limits().max_texture_dimension_2d;
         let last_state = nav.state;
         let dollhouse = DollhousePass::new(&gpu.device, gpu.format);
+        let glide = GlidePass::new(&gpu.device, gpu.format);
         let floors = Floors::of(nav.graph());
         let mut app = App {
             nav,
@@ -448,6 +463,10 @@ impl App {
             hidden_tested: 0,
             depth_maps: HashMap::new(),
             depth_requested: HashSet::new(),
+            glide,
+            glide_meshes: HashMap::new(),
+            glide_requested: HashSet::new(),
+            glided: false,
         };
         if link.is_some_and(|l| l.dollhouse) {
             app.toggle_dollhouse(platform);
@@ -464,6 +483,12 @@ impl App {
     /// Whether a tap on the panorama can go somewhere: this probe's depth map is in.
     pub fn point_to_go_ready(&self) -> bool {
         self.depth_maps.contains_key(&self.nav.probe())
+    }
+
+    /// Whether the last frame drawn was a glide (a path without video, drawn
+    /// from its ends' panoramas and depth).
+    pub fn gliding(&self) -> bool {
+        self.glided
     }
 
     /// Whether a flight over the dollhouse is under way.
@@ -603,6 +628,7 @@ impl App {
             }
         }
         self.request_tiles(platform);
+        self.request_glides(&sharp, platform);
         // Thumbnails and neighbours once the first panorama is in, so they do not delay it.
         // (In the dollhouse, once its proxy is whole: it shows the probe bar too.)
         let proxy_whole = self.mode == Mode::Dollhouse && self.proxy.as_ref().is_some_and(|m| m.level == 0);
@@ -623,6 +649,21 @@ impl App {
             for c in self.nav.path_bar() {
                 let low = self.levels(c.to).first().copied().unwrap_or(0);
                 self.request(c.to, low, platform);
+            }
+        }
+    }
+
+    /// Depth for glides: of the probes shown sharp, and at a probe, of the
+    /// path bar's destinations (so a glide can start at once).
+    fn request_glides(&mut self, sharp: &[u32], platform: &mut dyn Platform) {
+        let mut wanted = sharp.to_vec();
+        if matches!(self.nav.state, State::AtProbe { .. }) {
+            wanted.extend(self.nav.path_bar().iter().map(|c| c.to));
+        }
+        for p in wanted {
+            let file = self.nav.graph().probes[p as usize].assets.depth.clone();
+            if let Some(file) = file.filter(|_| self.glide_requested.insert(p)) {
+                platform.load_depth_cube(p, &file);
             }
         }
     }
@@ -730,6 +771,10 @@ impl App {
                 Loaded::Refined { level, mesh, seen } => self.proxy_refined(level, mesh, seen),
                 Loaded::DepthMap { probe, map } => {
                     self.depth_maps.insert(probe, map);
+                }
+                Loaded::DepthCube { probe, cube } => {
+                    let position = self.nav.graph().probes[probe as usize].position;
+                    self.glide_meshes.insert(probe, GlideMesh::new(&self.gpu.device, &cube, position));
                 }
                 Loaded::Failed { what, error, probe } => {
                     self.failed.extend(probe);
@@ -1326,6 +1371,8 @@ impl App {
             }
             (State::AtProbe { .. }, _) => here,
         };
+        let glide = self.glide_ends(video.is_some()).filter(|_| camera.is_none() && opacity >= 1.0);
+        self.glided = glide.is_some();
         self.shown_panorama |= source.is_some() && opacity > 0.0;
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         if let Some(c) = &camera {
@@ -1348,9 +1395,12 @@ impl App {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            if let Some(source) = source.filter(|_| opacity > 0.0) {
+            if let Some(source) = source.filter(|_| opacity > 0.0 && glide.is_none()) {
                 self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, Shown { source, opacity });
             }
+        }
+        if let Some((from, to)) = glide {
+            self.draw_glide(&gpu, &mut encoder, target, (from, to));
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
             let rect = [frame.x0, frame.y0, frame.size];
@@ -1378,6 +1428,39 @@ impl App {
             self.message(&format!("the path's video cannot be played ({e}); showing the panoramas instead"), platform);
         }
         encoder.finish()
+    }
+
+    /// The ends of the path being travelled when it is drawn as a glide: it
+    /// shows no video, and both ends' depth and panoramas (cubes) are in.
+    fn glide_ends(&self, video_shown: bool) -> Option<(u32, u32)> {
+        if video_shown || !matches!(self.nav.state, State::Travelling { .. }) {
+            return None;
+        }
+        let ready = |p: u32| self.glide_meshes.contains_key(&p) && matches!(self.panos.get(&p).map(|l| &l.pano), Some(Pano::Cube(_)));
+        let (from, to) = (self.nav.probe(), self.nav.destination()?);
+        (ready(from) && ready(to)).then_some((from, to))
+    }
+
+    /// Draws the glide between two probes (both ready: [`App::glide_ends`])
+    /// from where the camera is on the path, blended by its distance to each.
+    fn draw_glide(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, (from, to): (u32, u32)) {
+        let end = |p: u32| {
+            let Some(Pano::Cube(cube)) = self.panos.get(&p).map(|l| &l.pano) else { return None };
+            Some(crate::glide::End { mesh: self.glide_meshes.get(&p)?, cube, tiles: self.tiled.get(&p) })
+        };
+        let (Some(a), Some(b)) = (end(from), end(to)) else { return };
+        let eye = Vec3::from(self.nav.camera_position());
+        let (da, db) = (eye.distance(a.mesh.probe), eye.distance(b.mesh.probe));
+        let view = self.nav.view;
+        let frame = crate::glide::GlideFrame {
+            camera: Camera { eye, forward: Vec3::from(direction(view.yaw, view.pitch)), fov_y: view.fov_y },
+            aspect: self.width / self.height,
+            from: a,
+            to: b,
+            t: if da + db > 0.0 { da / (da + db) } else { 0.0 },
+        };
+        let mut target = FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };
+        self.glide.draw(&mut target, &frame);
     }
 
     /// The frame's target, the size of the window.

@@ -62,6 +62,7 @@ enum Job {
     Thumbnail { probe: u32, file: String },
     Proxy { level: usize, part: usize, mesh: String, seen: Option<String>, probes: u32 },
     DepthMap { probe: u32, file: String, probes: u32 },
+    DepthCube { probe: u32, file: String },
     Stream { stream: exploremaps_format::ProxyStream, base: exploremaps_format::ProxyLevel, probes: u32 },
 }
 
@@ -73,6 +74,7 @@ enum Decoded {
     Proxy { level: usize, part: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     Refined { level: usize, mesh: exploremaps_format::meshcode::MeshData, seen: Vec<u32> },
     DepthMap { probe: u32, map: exploremaps_format::depthmap::DepthMap },
+    DepthCube { probe: u32, cube: exploremaps_format::depthcube::DepthCube },
     Failed { what: String, error: String, probe: Option<u32> },
 }
 
@@ -132,6 +134,13 @@ fn work(root: &Path, job: Job, results: &Sender<Decoded>) -> bool {
         Job::DepthMap { probe, file, probes } => match std::fs::read(root.join(&file)) {
             Ok(bytes) => match exploremaps_format::depthmap::DepthMap::decode(&bytes, probes) {
                 Ok(map) => Decoded::DepthMap { probe, map },
+                Err(e) => failed(&file, e.to_string(), None),
+            },
+            Err(e) => failed(&file, format!("cannot be read ({e})"), None),
+        },
+        Job::DepthCube { probe, file } => match std::fs::read(root.join(&file)) {
+            Ok(bytes) => match exploremaps_format::depthcube::DepthCube::decode(&bytes) {
+                Ok(cube) => Decoded::DepthCube { probe, cube },
                 Err(e) => failed(&file, e.to_string(), None),
             },
             Err(e) => failed(&file, format!("cannot be read ({e})"), None),
@@ -314,6 +323,10 @@ impl Platform for NativePlatform {
         let _ = self.jobs.send(Job::DepthMap { probe, file: file.to_string(), probes });
     }
 
+    fn load_depth_cube(&mut self, probe: u32, file: &str) {
+        let _ = self.jobs.send(Job::DepthCube { probe, file: file.to_string() });
+    }
+
     fn poll(&mut self, gpu: &Gpu, overlay: &OverlayPass) -> Vec<Loaded> {
         let mut out = Vec::new();
         while let Ok(d) = self.done.try_recv() {
@@ -341,6 +354,7 @@ impl Platform for NativePlatform {
                 Decoded::Proxy { level, part, mesh, seen } => Loaded::Proxy { level, part, mesh, seen },
                 Decoded::Refined { level, mesh, seen } => Loaded::Refined { level, mesh, seen },
                 Decoded::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
+                Decoded::DepthCube { probe, cube } => Loaded::DepthCube { probe, cube },
                 Decoded::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
             });
         }

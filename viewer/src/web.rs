@@ -108,6 +108,10 @@ enum Fetched {
         probe: u32,
         map: exploremaps_format::depthmap::DepthMap,
     },
+    DepthCube {
+        probe: u32,
+        cube: exploremaps_format::depthcube::DepthCube,
+    },
     Cube {
         probe: u32,
         size: u32,
@@ -251,6 +255,7 @@ impl WebPlatform {
                 }
             }
             Fetched::DepthMap { probe, map } => Loaded::DepthMap { probe, map },
+            Fetched::DepthCube { probe, cube } => Loaded::DepthCube { probe, cube },
             Fetched::Failed { what, error, probe } => Loaded::Failed { what, error, probe },
         })
     }
@@ -393,6 +398,16 @@ impl Platform for WebPlatform {
         self.spawn(async move {
             match fetch_bytes(&url).await.and_then(|b| exploremaps_format::depthmap::DepthMap::decode(&b, probes).map_err(|e| e.to_string())) {
                 Ok(map) => Fetched::DepthMap { probe, map },
+                Err(error) => Fetched::Failed { what: file, error, probe: None },
+            }
+        });
+    }
+
+    fn load_depth_cube(&mut self, probe: u32, file: &str) {
+        let (file, url) = (file.to_string(), self.url(file));
+        self.spawn(async move {
+            match fetch_bytes(&url).await.and_then(|b| exploremaps_format::depthcube::DepthCube::decode(&b).map_err(|e| e.to_string())) {
+                Ok(cube) => Fetched::DepthCube { probe, cube },
                 Err(error) => Fetched::Failed { what: file, error, probe: None },
             }
         });

@@ -25,6 +25,9 @@ struct Script {
     broken_stream: bool,
     depth_requests: Vec<u32>,
     depth_pending: Vec<u32>,
+    /// Depth cubes for glides asked for, and those to answer.
+    glide_requests: Vec<u32>,
+    glide_pending: Vec<u32>,
     /// Tiles asked for: (probe, size, slot, x, y), and those to answer.
     tiles: Vec<(u32, u32, usize, u32, u32)>,
     tiles_pending: Vec<(u32, u32, usize, u32, u32)>,
@@ -62,6 +65,10 @@ impl Platform for Script {
     fn load_depth_map(&mut self, probe: u32, _file: &str, _probes: u32) {
         self.depth_requests.push(probe);
         self.depth_pending.push(probe);
+    }
+    fn load_depth_cube(&mut self, probe: u32, _file: &str) {
+        self.glide_requests.push(probe);
+        self.glide_pending.push(probe);
     }
     fn load_proxy(&mut self, level: usize, part: usize, _mesh: &str, _seen: Option<&str>, _probes: u32) {
         self.proxy_requests.push(level);
@@ -106,7 +113,12 @@ impl Platform for Script {
                 pixels: crate::panorama::TilePixels::Rgba { width: 16, height: 16, rgba: vec![255; 4 * 16 * 16] },
             })
             .collect();
-        let maps: Vec<Loaded> = maps.into_iter().chain(tiles).collect();
+        // Depth cubes for glides: everything 2 units away.
+        let cubes = self.glide_pending.drain(..).map(|probe| {
+            let cube = exploremaps_format::depthcube::DepthCube::new(4, 0.1, 50.0, &[Some(2.0); 6 * 25]);
+            Loaded::DepthCube { probe, cube }
+        });
+        let maps: Vec<Loaded> = maps.into_iter().chain(tiles).chain(cubes).collect();
         proxies
             .into_iter()
             .chain(refined)
@@ -269,6 +281,35 @@ fn taking_a_path_plays_its_video_and_a_failed_probe_gives_a_message_without_stop
         app.update(0.02, &mut script);
     }
     assert_ne!(app.nav.probe(), 4, "the viewer keeps working");
+}
+
+#[test]
+fn a_path_without_video_glides_once_both_ends_depth_is_in() {
+    let mut graph = bundle_graph();
+    for p in &mut graph.paths {
+        p.assets.video = None;
+    }
+    for p in &mut graph.probes {
+        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+    }
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
+    app.update(0.016, &mut script);
+    // At a probe, its depth and its path bar's destinations' come with the panoramas.
+    let bar: Vec<u32> = app.nav.path_bar().iter().map(|c| c.to).collect();
+    assert!(script.glide_requests.contains(&0) && bar.iter().all(|p| script.glide_requests.contains(p)), "{:?}", script.glide_requests);
+    app.update(0.016, &mut script);
+    app.input(Input::Key(Key::Go), &mut script);
+    let mut glided = 0;
+    for _ in 0..200 {
+        app.update(0.02, &mut script);
+        render_frame(&mut app, &mut script);
+        glided += usize::from(app.gliding());
+    }
+    assert!(script.videos.is_empty(), "no video to play");
+    assert!(glided > 10, "the travel was drawn as a glide ({glided} frames)");
+    assert!(matches!(app.nav.state, State::AtProbe { .. }) && app.nav.probe() != 0 && !app.gliding(), "arrived: {:?}", app.nav.state);
+    assert_eq!(script.glide_requests.iter().filter(|&&p| p == 0).count(), 1, "each depth cube asked for once");
 }
 
 #[test]
