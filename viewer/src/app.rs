@@ -1459,7 +1459,8 @@ impl App {
             to: b,
             t: if da + db > 0.0 { da / (da + db) } else { 0.0 },
         };
-        let mut target = FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };
+        let mut target =
+            FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };
         self.glide.draw(&mut target, &frame);
     }
 
