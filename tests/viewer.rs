@@ -348,6 +348,38 @@ fn tour(webgpu: bool) {
     assert!(near(recovered, FACES[0][5], 24), "{backend}: back at probe 0: {recovered:?}");
 }
 
+/// Path 0 without its video, and probes 0 and 1 with depth cubes (everything
+/// 3 away): the path is a glide.
+fn without_video_with_depth(bundle: &Path) {
+    let mut graph = Graph::from_json(&std::fs::read_to_string(bundle.join("graph.json")).unwrap()).unwrap();
+    graph.paths[0].assets.video = None;
+    for p in 0..2 {
+        let cube = exploremaps_format::depthcube::DepthCube::new(8, 0.1, 40.0, &[Some(3.0); 6 * 81]);
+        let file = format!("probes/{p}/depth.emdc");
+        std::fs::write(bundle.join(&file), cube.encode()).unwrap();
+        graph.probes[p].assets.depth = Some(file);
+    }
+    std::fs::write(bundle.join("graph.json"), graph.to_json()).unwrap();
+}
+
+#[test]
+fn the_web_viewer_glides_along_a_path_without_video() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let (dir, server) = served(without_video_with_depth);
+    let lines = browser("glide", &server.url, dir.path());
+    let gliding = step(&lines, "gliding");
+    assert!(gliding["glide_frames"].as_u64().unwrap() > 0, "drawn as a glide: {gliding}");
+    // Under way, the view (toward +X, turning to +Z) shows the two probes'
+    // panoramas: not the background, and no video.
+    let shown = colour_at(&dir.path().join("glide.png"), 640, 300);
+    assert!(!near(shown, [5, 5, 6], 20) && !near(shown, VIDEO, 40), "{shown:?}");
+    let arrived = step(&lines, "arrived");
+    assert_eq!(arrived["probe"], 1);
+    assert!(arrived["glide_frames"].as_u64().unwrap() > gliding["glide_frames"].as_u64().unwrap(), "{arrived}");
+}
+
 #[test]
 fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset_on_webgl2() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {

@@ -79,6 +79,23 @@ try {
     await bad.page.waitForTimeout(300);
     await bad.page.screenshot({ path: `${out}/recovered.png` });
     report('recovered', await status(bad.page));
+  } else if (mode === 'glide') {
+    // Turns toward +X, takes the path (it has no video: a glide), shows it under way and arrives.
+    const { page } = await open(url);
+    await page.waitForTimeout(300);
+    await page.mouse.move(1100, 300);
+    await page.mouse.down();
+    await page.mouse.move(158, 300, { steps: 20 });
+    await page.mouse.up();
+    await page.waitForTimeout(300);
+    await page.mouse.click(640, 581);
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 30000 });
+    await page.waitForTimeout(700);
+    await page.screenshot({ path: `${out}/glide.png` });
+    report('gliding', await status(page));
+    await page.waitForFunction(() => window.exploremaps.moving === false && window.exploremaps.probe === 1, null, { timeout: 30000 });
+    report('arrived', await status(page));
+    await page.close();
   } else if (mode === 'tiles') {
     // A phone screen (as in 'phone'): how many tiles the first view asks for and gets.
     const context = await browser.newContext({ viewport: { width: 360, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });

@@ -510,6 +510,8 @@ struct State {
     canvas: web_sys::HtmlCanvasElement,
     last_ms: f64,
     first_frame_logged: bool,
+    /// Frames drawn as glides so far.
+    glide_frames: u32,
     /// The proxy level the dollhouse last showed.
     dollhouse_level: Option<usize>,
 }
@@ -566,6 +568,8 @@ impl State {
         set_status("dollhouse", &dollhouse.into());
         set_status("flying", &self.app.flying().into());
         set_status("point_to_go", &self.app.point_to_go_ready().into());
+        self.glide_frames += u32::from(self.app.gliding());
+        set_status("glide_frames", &self.glide_frames.into());
         // The first dollhouse frame with a proxy, and the first with its finest level.
         let level = self.app.proxy.as_ref().map(|m| m.level);
         if dollhouse && level.is_some() && level != self.dollhouse_level {
@@ -675,6 +679,7 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         canvas: canvas.clone(),
         last_ms: 0.0,
         first_frame_logged: false,
+        glide_frames: 0,
         dollhouse_level: None,
     }));
     listen_to_input(canvas.as_ref(), &state);
