@@ -7,5 +7,5 @@ cd "$(dirname "$0")/.."
 if [ ! -x target/bench-py/bin/python ]; then
     python3 -m venv target/bench-py
 fi
-target/bench-py/bin/pip install --quiet --disable-pip-version-check "flip-evaluator==1.7" "bpy==5.0.1"
+target/bench-py/bin/pip install --quiet --disable-pip-version-check "flip-evaluator==1.7" numpy "bpy==5.0.1"
 target/bench-py/bin/python -c "import flip_evaluator, bpy; print('bench environment ready: flip-evaluator, bpy', bpy.app.version_string)"

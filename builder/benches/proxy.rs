@@ -133,9 +133,12 @@ impl Input {
     }
 }
 
+/// A welded scene to stream: its name, mesh and box diagonal.
+type Stream = (String, Mesh, f32);
+
 /// Section 1: returns the meshes to code (section 2) and the welded scenes
 /// to stream (section 3).
-fn compare_simplification(scenes: &[(String, Scene)], goals: &mut Goals) -> (Vec<(String, Mesh)>, Vec<(String, Mesh, f32)>) {
+fn compare_simplification(scenes: &[(String, Scene)], goals: &mut Goals) -> (Vec<(String, Mesh)>, Vec<Stream>) {
     let (mut coding, mut streams) = (Vec::new(), Vec::new());
     println!("== simplification: ours | meshoptimizer (distances in % of the diagonal; Hausdorff = largest of {SAMPLES} samples each way; seconds: median of 3 runs)");
     #[rustfmt::skip]
@@ -319,7 +322,7 @@ fn compare_coding(coding: &[(String, Mesh)], goals: &mut Goals) {
 }
 
 /// Section 3: the progressive stream of each scene; returns its curve.
-fn measure_streams(streams: &[(String, Mesh, f32)]) -> Vec<Curve> {
+fn measure_streams(streams: &[Stream]) -> Vec<Curve> {
     println!("\n== progressive stream: base 2 500 + vertex splits to 25 000 (14-bit, geometry only; error as in 1, in % of the diagonal)");
     println!("{:<16} {:>7} {:>9} {:>10} {:>9} {:>8}", "scene", "packet", "triangles", "bytes sum", "Hausdorff", "RMS");
     let mut curves = Vec::new();

@@ -1450,14 +1450,14 @@ impl App {
         };
         let (Some(a), Some(b)) = (end(from), end(to)) else { return };
         let eye = Vec3::from(self.nav.camera_position());
-        let (da, db) = (eye.distance(a.mesh.probe), eye.distance(b.mesh.probe));
+        let t = crate::glide::toward(eye, a.mesh.probe, b.mesh.probe);
         let view = self.nav.view;
         let frame = crate::glide::GlideFrame {
             camera: Camera { eye, forward: Vec3::from(direction(view.yaw, view.pitch)), fov_y: view.fov_y },
             aspect: self.width / self.height,
             from: a,
             to: b,
-            t: if da + db > 0.0 { da / (da + db) } else { 0.0 },
+            t,
         };
         let mut target =
             FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };

@@ -35,7 +35,9 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) world: vec3f };
     return o;
 }
 
-@fragment fn fs(v: VOut) -> @location(0) vec4f {
+struct FOut { @location(0) colour: vec4f, @builtin(frag_depth) depth: f32 };
+
+@fragment fn fs(v: VOut) -> FOut {
     let d = v.world - u.probe.xyz;
     // Tiles hold tour-oriented faces, read with z negated (see panorama.rs).
     let t = vec3f(d.x, d.y, -d.z);
@@ -46,7 +48,13 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) world: vec3f };
     let facing = abs(dot(n, d)) / max(length(n) * length(d), 1e-20);
     let sure = smoothstep(0.02, 0.15, facing);
     // Alpha 0 is nothing drawn; anything drawn weighs at least a little.
-    return vec4f(c, 0.02 + 0.98 * sure);
+    // An unsure fragment is pushed far back (reversed depth: toward 0), so
+    // that it fills only where nothing sure of this end lies behind it.
+    var o: FOut;
+    o.colour = vec4f(c, 0.02 + 0.98 * sure);
+    // (Behind the sky too, which lies 10⁴ far distances away.)
+    o.depth = select(v.pos.z * 1e-9, v.pos.z, sure > 0.5);
+    return o;
 }
 "#;
 
@@ -134,6 +142,17 @@ pub struct GlideFrame<'a> {
     pub to: End<'a>,
     /// 0 at the departure, 1 at the arrival.
     pub t: f32,
+}
+
+/// How far a camera at `eye` is from the departure toward the arrival, 0 to
+/// 1, by its distances to the two probes: the ends' share of the blend.
+pub fn toward(eye: Vec3, from: Vec3, to: Vec3) -> f32 {
+    let (a, b) = (eye.distance(from), eye.distance(to));
+    if a + b > 0.0 {
+        a / (a + b)
+    } else {
+        0.0
+    }
 }
 
 /// Offscreen targets of one size: each end's colour and depth.

@@ -1,0 +1,256 @@
+//! Glide quality (issue 69): the frames the viewer's glide pass draws along
+//! each path from its ends' panoramas and depth, against frames the
+//! renderer traces at the same camera positions with the panoramas'
+//! settings (mean FLIP, the quality bench's metric: NVIDIA's flip-evaluator,
+//! LDR, 67 pixels a degree; PSNR beside it). Per scene: plans it, renders it
+//! with `--transitions depth` (every path measured, every probe's depth),
+//! then for every path at 0 (a check: the glide there is the panorama), a
+//! quarter and half of its camera keys, four views 90° wide around the
+//! direction of travel. Prints a row a path (what `auto` would choose and
+//! why) and the means over the paths `auto` gives a glide. Goals: ≤ 0.07 at
+//! a quarter, ≤ 0.10 half way.
+//!
+//! `cargo bench --bench glide`; SCENES=gallery,house (built-in scenes),
+//! QUALITY=preview|final (default preview), SIZE=256 (view pixels, a
+//! multiple of 64). Needs `scripts/bench-env.sh` once for FLIP (PSNR only
+//! without it) and a GPU adapter (lavapipe or llvmpipe here). Images in
+//! target/bench-glide.
+
+use exploremaps_builder::plan::{plan, PlanParams};
+use exploremaps_builder::raycast::RayScene;
+use exploremaps_builder::render::glide::MAX_UNSEEN;
+use exploremaps_builder::render::{render_missing, Settings, Shard, Transitions};
+use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer};
+use exploremaps_format::depthcube::DepthCube;
+use exploremaps_format::{direction, Graph};
+use exploremaps_scenes::{BuiltIn, Scene};
+use exploremaps_viewer::dollhouse::{Camera, FrameTarget};
+use exploremaps_viewer::glide::{toward, End, GlideFrame, GlideMesh, GlidePass};
+use exploremaps_viewer::panorama::Cube;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+const FOV: f32 = std::f32::consts::FRAC_PI_2;
+/// Where along a path frames are compared, as fractions of its camera keys.
+const ALONG: [f32; 3] = [0.0, 0.25, 0.5];
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = root.join("target/bench-glide");
+    std::fs::create_dir_all(&out).unwrap();
+    let python = root.join("target/bench-py/bin/python");
+    let names = std::env::var("SCENES").unwrap_or("gallery".into());
+    let quality = if std::env::var("QUALITY").is_ok_and(|q| q == "final") { Quality::Final } else { Quality::Preview };
+    let size: u32 = std::env::var("SIZE").ok().and_then(|s| s.parse().ok()).filter(|s| s % 64 == 0).unwrap_or(256);
+    let Some((device, queue)) = gpu() else { return };
+    let mut summary = Vec::new();
+    for name in names.split(',') {
+        let Some(scene) = BuiltIn::parse(name).map(|b| b.generate(1)) else {
+            println!("SKIPPED {name}: not a built-in scene");
+            continue;
+        };
+        let bundle = tempfile::tempdir().unwrap();
+        let (graph, settings) = render_with_depth(&scene, name, bundle.path(), quality);
+        let subject = Subject { scene: &scene, graph: &graph, dir: bundle.path(), out: &out, size, name };
+        let rows = subject.compare_paths(&device, &queue, &settings);
+        let scores = score(&python, &rows);
+        summary.push(subject.print(&rows, &scores));
+    }
+    println!("\n{}", summary.join("\n"));
+    println!("(goals on the paths auto glides: FLIP ≤ 0.07 a quarter of the way, ≤ 0.10 half way; images in {})", out.display());
+}
+
+/// Plans the scene and renders it with every path a glide; the graph and the settings used.
+fn render_with_depth(scene: &Scene, name: &str, dir: &Path, quality: Quality) -> (Graph, Settings) {
+    let planned = plan(scene, name, &PlanParams::default()).expect("plan");
+    exploremaps_builder::bundle::write_plan(dir, &planned).unwrap();
+    let mut graph = planned.graph.clone();
+    let settings = Settings { transitions: Transitions::Depth, ..Settings::new(quality, 1) };
+    render_missing(dir, scene, &mut graph, &settings, Shard { index: 0, count: 1 }, |_, _| {}).expect("render");
+    (graph, settings)
+}
+
+/// A frame compared: the path, where along it, the view's images (glide, traced).
+struct Row {
+    path: usize,
+    along: f32,
+    images: Vec<(PathBuf, PathBuf)>,
+}
+
+struct Subject<'a> {
+    scene: &'a Scene,
+    graph: &'a Graph,
+    dir: &'a Path,
+    out: &'a Path,
+    size: u32,
+    name: &'a str,
+}
+
+impl Subject<'_> {
+    /// Every path at every point of [`ALONG`]: the glide's and the tracer's images.
+    fn compare_paths(&self, device: &wgpu::Device, queue: &wgpu::Queue, settings: &Settings) -> Vec<Row> {
+        let rays = RayScene::new(&self.scene.positions, &self.scene.triangles, 0).unwrap();
+        let mut viewpoints: Vec<Vec3> = self.graph.probes.iter().map(|p| Vec3::from(p.position)).collect();
+        viewpoints.extend(self.graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
+        let mut renderer = Renderer::new(self.scene, &rays, &viewpoints, settings.trace.clone());
+        renderer.exposure = self.graph.stats.render.as_ref().expect("rendered").exposure;
+        let ends: Vec<(Cube, GlideMesh)> = (0..self.graph.probes.len()).map(|p| self.load_end(device, queue, p)).collect();
+        let mut pass = GlidePass::new(device, wgpu::TextureFormat::Rgba8UnormSrgb);
+        let mut rows = Vec::new();
+        for (id, path) in self.graph.paths.iter().enumerate() {
+            let (a, b) = (&ends[path.from as usize], &ends[path.to as usize]);
+            for along in ALONG {
+                let key = &path.camera[((path.camera.len() - 1) as f32 * along).round() as usize];
+                let eye = Vec3::from(key.position);
+                let mut images = Vec::new();
+                for k in 0..4 {
+                    let yaw = key.yaw + k as f32 * std::f32::consts::FRAC_PI_2;
+                    let stem = self.out.join(format!("{}-{id}-{:.0}-{k}", self.name, 100.0 * along));
+                    let camera = Camera { eye, forward: Vec3::from(direction(yaw, 0.0)), fov_y: FOV };
+                    let frame = GlideFrame {
+                        camera,
+                        aspect: 1.0,
+                        from: End { mesh: &a.1, cube: &a.0, tiles: None },
+                        to: End { mesh: &b.1, cube: &b.0, tiles: None },
+                        t: toward(eye, a.1.probe, b.1.probe),
+                    };
+                    let glide = draw(device, queue, &mut pass, &frame, self.size);
+                    let traced =
+                        renderer.perspective(&settings.trace.panorama, Perspective { eye, yaw, pitch: 0.0, fov_y: FOV }, self.size, self.size, k);
+                    let (g, t) = (stem.with_extension("glide.png"), stem.with_extension("traced.png"));
+                    image::RgbaImage::from_raw(self.size, self.size, glide).unwrap().save(&g).unwrap();
+                    renderer.to_image(self.size, self.size, &traced.color).save(&t).unwrap();
+                    images.push((g, t));
+                }
+                rows.push(Row { path: id, along, images });
+            }
+        }
+        rows
+    }
+
+    /// A probe's largest cube level and its depth mesh, from the bundle.
+    fn load_end(&self, device: &wgpu::Device, queue: &wgpu::Queue, p: usize) -> (Cube, GlideMesh) {
+        let probe = &self.graph.probes[p];
+        let level = probe.assets.cube_levels.last().expect("rendered faces");
+        let cube = Cube::new(device, level.size);
+        for (f, face) in level.faces.iter().enumerate() {
+            cube.write_face(queue, f, &image::open(self.dir.join(face)).unwrap().to_rgba8());
+        }
+        let depth = DepthCube::decode(&std::fs::read(self.dir.join(probe.assets.depth.as_ref().expect("depth"))).unwrap()).unwrap();
+        (cube, GlideMesh::new(device, &depth, probe.position))
+    }
+
+    /// Prints a row a path; returns the summary line over the paths auto glides.
+    fn print(&self, rows: &[Row], scores: &[(Option<f64>, f64)]) -> String {
+        println!("\n{}: path, unseen, auto, then FLIP (PSNR dB) at {ALONG:?} of the way", self.name);
+        let (mut quarter, mut half, mut glides) = (Vec::new(), Vec::new(), 0);
+        for (id, path) in self.graph.paths.iter().enumerate() {
+            let unseen = path.assets.transition.as_ref().map_or(0.0, |t| t.unseen);
+            let glide = unseen <= MAX_UNSEEN;
+            glides += usize::from(glide);
+            let mut cells = Vec::new();
+            for (row, &(flip, db)) in rows.iter().zip(scores).filter(|(r, _)| r.path == id) {
+                cells.push(format!("{} ({db:.1})", flip.map_or("-".into(), |f| format!("{f:.3}"))));
+                match (glide, row.along, flip) {
+                    (true, 0.25, Some(f)) => quarter.push(f),
+                    (true, 0.5, Some(f)) => half.push(f),
+                    _ => {}
+                }
+            }
+            let auto = if glide { "glide" } else { "video" };
+            println!("  path {id:>3}  {:>5.1} %  {auto:<5}  {}", 100.0 * unseen, cells.join("  "));
+        }
+        let mean = |v: &[f64]| if v.is_empty() { "-".to_string() } else { format!("{:.3}", v.iter().sum::<f64>() / v.len() as f64) };
+        let paths = self.graph.paths.len();
+        format!(
+            "{}: {glides} of {paths} paths glide ({:.0} % get a video); on them mean FLIP {} a quarter of the way, {} half way",
+            self.name,
+            100.0 * (paths - glides) as f64 / paths.max(1) as f64,
+            mean(&quarter),
+            mean(&half)
+        )
+    }
+}
+
+/// Mean FLIP (None without the FLIP package) and PSNR over each row's views.
+fn score(python: &Path, rows: &[Row]) -> Vec<(Option<f64>, f64)> {
+    let pairs: Vec<&PathBuf> = rows.iter().flat_map(|r| r.images.iter().flat_map(|(g, t)| [t, g])).collect();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("builder/benches/flip.py");
+    let flips: Vec<f64> = std::process::Command::new(python)
+        .arg(script)
+        .args(&pairs)
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).lines().filter_map(|l| l.trim().parse().ok()).collect())
+        .unwrap_or_default();
+    if flips.len() != pairs.len() / 2 {
+        println!("no FLIP (run scripts/bench-env.sh once): PSNR only");
+    }
+    rows.iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let n = r.images.len();
+            let flip = (flips.len() == pairs.len() / 2).then(|| flips[i * n..(i + 1) * n].iter().sum::<f64>() / n as f64);
+            let db =
+                r.images.iter().map(|(g, t)| psnr(&image::open(t).unwrap().to_rgb8(), &image::open(g).unwrap().to_rgb8())).sum::<f64>() / n as f64;
+            (flip, db)
+        })
+        .collect()
+}
+
+/// Draws a glide frame into a `size`² sRGB target and reads it back (RGBA8).
+fn draw(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut GlidePass, frame: &GlideFrame, size: u32) -> Vec<u8> {
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&Default::default());
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: u64::from(size * size * 4),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    pass.draw(&mut FrameTarget { device, queue, encoder: &mut encoder, view: &view, width: size, height: size }, frame);
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo { texture: &texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) },
+        },
+        wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
+    );
+    queue.submit([encoder.finish()]);
+    readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map the readback buffer"));
+    device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finishes");
+    let pixels = readback.get_mapped_range(..).expect("mapped");
+    pixels.to_vec()
+}
+
+/// A headless GPU device (lavapipe or llvmpipe here), or None, saying why.
+fn gpu() -> Option<(wgpu::Device, wgpu::Queue)> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // SAFETY: set before any other thread starts.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
+    pollster::block_on(async {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = match instance.request_adapter(&wgpu::RequestAdapterOptions::default()).await {
+            Ok(a) => a,
+            Err(e) => {
+                println!("SKIPPED: no GPU adapter ({e}); install mesa-vulkan-drivers");
+                return None;
+            }
+        };
+        let limits = wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits());
+        let desc = wgpu::DeviceDescriptor { label: None, required_limits: limits, ..Default::default() };
+        Some(adapter.request_device(&desc).await.expect("a device on the adapter"))
+    })
+}
