@@ -1449,16 +1449,9 @@ impl App {
             Some(crate::glide::End { mesh: self.glide_meshes.get(&p)?, cube, tiles: self.tiled.get(&p) })
         };
         let (Some(a), Some(b)) = (end(from), end(to)) else { return };
-        let eye = Vec3::from(self.nav.camera_position());
-        let t = crate::glide::toward(eye, a.mesh.probe, b.mesh.probe);
-        let view = self.nav.view;
-        let frame = crate::glide::GlideFrame {
-            camera: Camera { eye, forward: Vec3::from(direction(view.yaw, view.pitch)), fov_y: view.fov_y },
-            aspect: self.width / self.height,
-            from: a,
-            to: b,
-            t,
-        };
+        let camera = self.panorama_camera();
+        let t = crate::glide::toward(camera.eye, a.mesh.probe, b.mesh.probe);
+        let frame = crate::glide::GlideFrame { camera, aspect: self.width / self.height, from: a, to: b, t };
         let mut target =
             FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };
         self.glide.draw(&mut target, &frame);

@@ -183,16 +183,21 @@ impl Camera {
         (right, right.cross(self.forward))
     }
 
-    /// World to clip space (right-handed, depth 0 at `near` to 1 at `far`).
-    pub fn view_proj(&self, aspect: f32, near: f32, far: f32) -> Mat4 {
+    /// World to the camera's space (right-handed: x right, y up, looking down −z).
+    pub fn view(&self) -> Mat4 {
         let (r, u) = self.basis();
         let b = -self.forward;
-        let view = Mat4::from_cols(
+        Mat4::from_cols(
             Vec4::new(r.x, u.x, b.x, 0.0),
             Vec4::new(r.y, u.y, b.y, 0.0),
             Vec4::new(r.z, u.z, b.z, 0.0),
             Vec4::new(-r.dot(self.eye), -u.dot(self.eye), -b.dot(self.eye), 1.0),
-        );
+        )
+    }
+
+    /// World to clip space (right-handed, depth 0 at `near` to 1 at `far`).
+    pub fn view_proj(&self, aspect: f32, near: f32, far: f32) -> Mat4 {
+        let view = self.view();
         let f = 1.0 / (0.5 * self.fov_y).tan();
         let depth = far / (near - far);
         let proj = Mat4::from_cols(

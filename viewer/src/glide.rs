@@ -365,15 +365,6 @@ fn lattice_indices(cells: u32) -> Vec<u32> {
 /// The camera's view and a projection with reversed depth (1 at `near`, 0 at
 /// infinity) and no far plane, so the far-away sky keeps its precision.
 fn reversed_infinite(camera: &Camera, aspect: f32, near: f32) -> Mat4 {
-    let right = camera.forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
-    let up = right.cross(camera.forward);
-    let back = -camera.forward;
-    let view = Mat4::from_cols(
-        Vec4::new(right.x, up.x, back.x, 0.0),
-        Vec4::new(right.y, up.y, back.y, 0.0),
-        Vec4::new(right.z, up.z, back.z, 0.0),
-        Vec4::new(-right.dot(camera.eye), -up.dot(camera.eye), -back.dot(camera.eye), 1.0),
-    );
     let f = 1.0 / (0.5 * camera.fov_y).tan();
     let proj = Mat4::from_cols(
         Vec4::new(f / aspect, 0.0, 0.0, 0.0),
@@ -381,7 +372,7 @@ fn reversed_infinite(camera: &Camera, aspect: f32, near: f32) -> Mat4 {
         Vec4::new(0.0, 0.0, 0.0, -1.0),
         Vec4::new(0.0, 0.0, near, 0.0),
     );
-    proj * view
+    proj * camera.view()
 }
 
 fn mesh_pipeline(device: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {

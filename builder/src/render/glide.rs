@@ -65,10 +65,10 @@ pub fn depth_cube(tracer: &Tracer, eye: Vec3, cells: u32) -> DepthCube {
 /// that neither `from` nor `to` sees, and the fraction of the way where it is.
 pub fn unseen_along(tracer: &Tracer, path: &PathInfo, from: Vec3, to: Vec3) -> (f32, f32) {
     let directions = fibonacci_sphere(RAYS);
-    let keys = path.camera.len();
     let mut worst = (0.0f32, 0.5f32);
-    for along in ALONG.into_iter().filter(|_| keys > 0) {
-        let eye = Vec3::from(path.camera[((keys - 1) as f32 * along).round() as usize].position);
+    let Some(last) = path.camera.len().checked_sub(1) else { return worst };
+    for along in ALONG {
+        let eye = Vec3::from(path.camera[(last as f32 * along).round() as usize].position);
         let unseen = directions.par_iter().filter(|&&d| seen_by_neither(tracer, eye, d, [from, to])).count();
         let share = unseen as f32 / RAYS as f32;
         if share > worst.0 {
