@@ -1,5 +1,6 @@
 //! Glide quality (issue 69): the frames the viewer's glide pass draws along
-//! each path from its ends' panoramas and depth, against frames the
+//! each path from its ends' panoramas and depth (leg by leg, with the
+//! panoramas part way the render adds), against frames the
 //! renderer traces at the same camera positions with the panoramas'
 //! settings (mean FLIP, the quality bench's metric: NVIDIA's flip-evaluator,
 //! LDR, 67 pixels a degree; PSNR beside it). Per scene: plans it, renders it
@@ -22,7 +23,7 @@ use exploremaps_builder::render::glide::MAX_UNSEEN;
 use exploremaps_builder::render::{render_missing, Settings, Shard, Transitions};
 use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer};
 use exploremaps_format::depthcube::DepthCube;
-use exploremaps_format::{direction, Graph};
+use exploremaps_format::{direction, CubeLevel, Graph};
 use exploremaps_scenes::{BuiltIn, Scene};
 use exploremaps_viewer::dollhouse::{Camera, FrameTarget};
 use exploremaps_viewer::glide::{toward, End, GlideFrame, GlideMesh, GlidePass};
@@ -94,13 +95,35 @@ impl Subject<'_> {
         viewpoints.extend(self.graph.paths.iter().flat_map(|p| p.camera.iter().step_by(10).map(|k| Vec3::from(k.position))));
         let mut renderer = Renderer::new(self.scene, &rays, &viewpoints, settings.trace.clone());
         renderer.exposure = self.graph.stats.render.as_ref().expect("rendered").exposure;
-        let ends: Vec<(Cube, GlideMesh)> = (0..self.graph.probes.len()).map(|p| self.load_end(device, queue, p)).collect();
+        let probes: Vec<(Cube, GlideMesh)> = self
+            .graph
+            .probes
+            .iter()
+            .map(|p| {
+                self.load_source(
+                    device,
+                    queue,
+                    (p.assets.cube_levels.last().expect("rendered faces"), p.assets.depth.as_ref().expect("depth")),
+                    p.position,
+                )
+            })
+            .collect();
         let mut pass = GlidePass::new(device, wgpu::TextureFormat::Rgba8UnormSrgb);
         let mut rows = Vec::new();
         for (id, path) in self.graph.paths.iter().enumerate() {
-            let (a, b) = (&ends[path.from as usize], &ends[path.to as usize]);
+            // The legs' sources: the ends and the panoramas part way, by camera key.
+            let waypoints = path.assets.transition.iter().flat_map(|t| &t.waypoints);
+            let inner: Vec<(usize, (Cube, GlideMesh))> =
+                waypoints.map(|w| (w.key as usize, self.load_source(device, queue, (&w.cube, &w.depth), w.position))).collect();
+            let last = path.camera.len() - 1;
+            let mut sources: Vec<(usize, &(Cube, GlideMesh))> = vec![(0, &probes[path.from as usize])];
+            sources.extend(inner.iter().map(|(k, s)| (*k, s)));
+            sources.push((last, &probes[path.to as usize]));
             for along in ALONG {
-                let key = &path.camera[((path.camera.len() - 1) as f32 * along).round() as usize];
+                let at = (last as f32 * along).round() as usize;
+                let leg = sources.windows(2).find(|w| at < w[1].0).unwrap_or(&sources[sources.len() - 2..]);
+                let (a, b) = (leg[0].1, leg[1].1);
+                let key = &path.camera[at];
                 let eye = Vec3::from(key.position);
                 let mut images = Vec::new();
                 for k in 0..4 {
@@ -128,26 +151,32 @@ impl Subject<'_> {
         rows
     }
 
-    /// A probe's largest cube level and its depth mesh, from the bundle.
-    fn load_end(&self, device: &wgpu::Device, queue: &wgpu::Queue, p: usize) -> (Cube, GlideMesh) {
-        let probe = &self.graph.probes[p];
-        let level = probe.assets.cube_levels.last().expect("rendered faces");
+    /// A cube level and a depth mesh (a probe's or a waypoint's), from the bundle.
+    fn load_source(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        (level, depth): (&CubeLevel, &String),
+        position: [f32; 3],
+    ) -> (Cube, GlideMesh) {
         let cube = Cube::new(device, level.size);
         for (f, face) in level.faces.iter().enumerate() {
             cube.write_face(queue, f, &image::open(self.dir.join(face)).unwrap().to_rgba8());
         }
-        let depth = DepthCube::decode(&std::fs::read(self.dir.join(probe.assets.depth.as_ref().expect("depth"))).unwrap()).unwrap();
-        (cube, GlideMesh::new(device, &depth, probe.position))
+        let depth = DepthCube::decode(&std::fs::read(self.dir.join(depth)).unwrap()).unwrap();
+        (cube, GlideMesh::new(device, &depth, position))
     }
 
     /// Prints a row a path; returns the summary line over the paths auto glides.
     fn print(&self, rows: &[Row], scores: &[(Option<f64>, f64)]) -> String {
-        println!("\n{}: path, unseen, auto, then FLIP (PSNR dB) at {ALONG:?} of the way", self.name);
-        let (mut quarter, mut half, mut glides) = (Vec::new(), Vec::new(), 0);
+        println!("\n{}: path, unseen, auto, panoramas part way, then FLIP (PSNR dB) at {ALONG:?} of the way", self.name);
+        let (mut quarter, mut half, mut glides, mut waypoints) = (Vec::new(), Vec::new(), 0, 0);
         for (id, path) in self.graph.paths.iter().enumerate() {
             let unseen = path.assets.transition.as_ref().map_or(0.0, |t| t.unseen);
             let glide = unseen <= MAX_UNSEEN;
+            let parts = path.assets.transition.as_ref().map_or(0, |t| t.waypoints.len());
             glides += usize::from(glide);
+            waypoints += if glide { parts } else { 0 };
             let mut cells = Vec::new();
             for (row, &(flip, db)) in rows.iter().zip(scores).filter(|(r, _)| r.path == id) {
                 cells.push(format!("{} ({db:.1})", flip.map_or("-".into(), |f| format!("{f:.3}"))));
@@ -158,12 +187,12 @@ impl Subject<'_> {
                 }
             }
             let auto = if glide { "glide" } else { "video" };
-            println!("  path {id:>3}  {:>5.1} %  {auto:<5}  {}", 100.0 * unseen, cells.join("  "));
+            println!("  path {id:>3}  {:>5.1} %  {auto:<5}  {parts}  {}", 100.0 * unseen, cells.join("  "));
         }
         let mean = |v: &[f64]| if v.is_empty() { "-".to_string() } else { format!("{:.3}", v.iter().sum::<f64>() / v.len() as f64) };
         let paths = self.graph.paths.len();
         format!(
-            "{}: {glides} of {paths} paths glide ({:.0} % get a video); on them mean FLIP {} a quarter of the way, {} half way",
+            "{}: {glides} of {paths} paths glide ({:.0} % get a video), with {waypoints} panoramas part way; on them mean FLIP {} a quarter of the way, {} half way",
             self.name,
             100.0 * (paths - glides) as f64 / paths.max(1) as f64,
             mean(&quarter),

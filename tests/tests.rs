@@ -461,7 +461,7 @@ fn transitions_give_each_path_a_glide_or_a_video_and_say_why() {
             assert!(cube.codes.iter().filter(|&&c| c > 0).count() > cube.codes.len() / 2);
         }
         // Every path: a transition with its reason; a video exactly where it says video.
-        let mut kinds = Vec::new();
+        let (mut kinds, mut waypoints) = (Vec::new(), 0);
         for (id, p) in graph.paths.iter().enumerate() {
             let t = p.assets.transition.as_ref().expect("a transition");
             assert!(t.reason.contains("seen from neither end"), "{}", t.reason);
@@ -469,6 +469,13 @@ fn transitions_give_each_path_a_glide_or_a_video_and_say_why() {
             assert_eq!(p.assets.video.is_some(), video, "path {id}: {}", t.reason);
             assert_eq!(b.join(format!("paths/{id}.mp4")).exists(), video, "path {id}");
             assert!(mode == "auto" || !video, "depth: no videos");
+            // Panoramas part way: a cube half a video frame wide (128 / 2) and depth, each file there.
+            for w in &t.waypoints {
+                assert!(t.reason.contains("legs"), "{}", t.reason);
+                assert_eq!(image::image_dimensions(b.join(&w.cube.faces[0])).unwrap(), (64, 64));
+                exploremaps_format::depthcube::DepthCube::decode(&std::fs::read(b.join(&w.depth)).unwrap()).unwrap();
+            }
+            waypoints += t.waypoints.len();
             kinds.push(t.kind);
         }
         // Resuming does nothing more.
@@ -489,7 +496,8 @@ fn transitions_give_each_path_a_glide_or_a_video_and_say_why() {
             std::fs::write(sharded.join(&depth), b"EMDC torn").unwrap();
             let run = exploremaps(&["render", sharded.to_str().unwrap(), "--finalize"]);
             assert!(!run.status.success() && stderr(&run).contains(&format!("{depth} (shard 1/2): does not decode")), "{}", stderr(&run));
-            println!("auto chose {kinds:?}");
+            println!("auto chose {kinds:?} with {waypoints} panoramas part way");
+            assert!(waypoints >= 1, "a maze's corridor hides walls from both ends: a panorama part way");
         }
     }
 }

@@ -153,6 +153,12 @@ pub mod image {
         id(5, k, 0)
     }
 
+    /// Face 0 of the panorama part way along path `path` at its camera key
+    /// `k` (below 2^29); the faces follow in order.
+    pub fn waypoint(path: u32, k: u32) -> u64 {
+        id(6, path, 6 * k)
+    }
+
     /// Work that belongs to no image: the radiance cache, the reference's
     /// light tables.
     pub const NONE: u64 = 0;
@@ -235,7 +241,7 @@ mod tests {
     }
 
     /// The images of a large bundle: 300 probes' cube faces and thumbnails,
-    /// 600 paths of 400 frames, 8 stand-in levels of 20,000 vertices, the
+    /// 600 paths of 400 frames and 4 waypoints, 8 stand-in levels of 20,000 vertices, the
     /// exposure views, and the work of no image.
     fn images() -> Vec<(u64, String)> {
         let mut out = Vec::new();
@@ -245,6 +251,7 @@ mod tests {
         }
         for path in 0..600 {
             out.extend((0..400).map(|f| (image::video(path) + f, format!("path {path} frame {f}"))));
+            out.extend((0..4 * 6).map(|f| (image::waypoint(path, f / 6) + (f % 6) as u64, format!("path {path} waypoint face {f}"))));
         }
         for level in 0..8 {
             out.extend((0..20_000).map(|v| (image::bake(level, v), format!("level {level} vertex {v}"))));

@@ -409,6 +409,23 @@ pub struct Transition {
     pub unseen: f32,
     /// Why, in words.
     pub reason: String,
+    /// Panoramas part way, in order along the path: the glide goes in legs
+    /// from the departure to the first, ..., from the last to the arrival.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub waypoints: Vec<Waypoint>,
+}
+
+/// A panorama part way along a path, seen only in passing (smaller than a
+/// probe's, one level, no tiles).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Waypoint {
+    /// The camera key it stands at.
+    pub key: u32,
+    pub position: [f32; 3],
+    /// Its cube faces (+X, −X, +Y, −Y, +Z, −Z).
+    pub cube: CubeLevel,
+    /// Its depth cube (`.emdc`).
+    pub depth: String,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -662,6 +679,31 @@ impl Path {
             }
             if t.kind == TransitionKind::Video && self.assets.video.is_none() {
                 return Err(format!("path {i}: its transition is a video, but no video is listed"));
+            }
+            self.check_waypoints(t).map_err(|m| format!("path {i}: {m}"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Path {
+    /// A glide's waypoints stand at inner camera keys, in order, with
+    /// well-named files.
+    fn check_waypoints(&self, t: &Transition) -> Result<(), String> {
+        if !t.waypoints.is_empty() && t.kind != TransitionKind::Depth {
+            return Err("only a glide has waypoints".into());
+        }
+        let mut last = 0;
+        for w in &t.waypoints {
+            if w.key <= last || w.key as usize + 1 >= self.camera.len() {
+                return Err(format!("waypoint at camera key {} is not after the last and before the arrival", w.key));
+            }
+            last = w.key;
+            if !all_finite(&w.position) || w.cube.size == 0 {
+                return Err(format!("waypoint at camera key {} has no finite position or an empty cube", w.key));
+            }
+            for name in w.cube.faces.iter().chain([&w.depth]) {
+                check_asset_name(name)?;
             }
         }
         Ok(())

@@ -388,8 +388,8 @@ pub struct App {
     glide: GlidePass,
     glide_meshes: HashMap<u32, GlideMesh>,
     glide_requested: HashSet<u32>,
-    /// Whether the last frame was a glide.
-    glided: bool,
+    /// The sources of the last frame's glide, if it was one.
+    glided: Option<(u32, u32)>,
 }
 
 /// Options a platform chooses.
@@ -466,7 +466,7 @@ impl App {
             glide,
             glide_meshes: HashMap::new(),
             glide_requested: HashSet::new(),
-            glided: false,
+            glided: None,
         };
         if link.is_some_and(|l| l.dollhouse) {
             app.toggle_dollhouse(platform);
@@ -488,6 +488,12 @@ impl App {
     /// Whether the last frame drawn was a glide (a path without video, drawn
     /// from its ends' panoramas and depth).
     pub fn gliding(&self) -> bool {
+        self.glided.is_some()
+    }
+
+    /// The leg the last frame glided along: its two sources (probes, or
+    /// panoramas part way: [`Navigator::waypoint`]).
+    pub fn glide_leg(&self) -> Option<(u32, u32)> {
         self.glided
     }
 
@@ -654,16 +660,31 @@ impl App {
     }
 
     /// Depth for glides: of the probes shown sharp, and at a probe, of the
-    /// path bar's destinations (so a glide can start at once).
+    /// path bar's destinations (so a glide can start at once); the
+    /// panoramas part way along the path travelled, and at a probe the first
+    /// along each path of the bar.
     fn request_glides(&mut self, sharp: &[u32], platform: &mut dyn Platform) {
         let mut wanted = sharp.to_vec();
+        let mut waypoints = self.nav.glide_sources().map(|(s, _)| s.iter().map(|w| w.0).collect::<Vec<_>>()).unwrap_or_default();
         if matches!(self.nav.state, State::AtProbe { .. }) {
-            wanted.extend(self.nav.path_bar().iter().map(|c| c.to));
+            for c in self.nav.path_bar() {
+                wanted.push(c.to);
+                waypoints.extend(self.nav.sources_along(c.path, c.reversed).get(1).map(|w| w.0));
+            }
         }
         for p in wanted {
             let file = self.nav.graph().probes[p as usize].assets.depth.clone();
             if let Some(file) = file.filter(|_| self.glide_requested.insert(p)) {
                 platform.load_depth_cube(p, &file);
+            }
+        }
+        for source in waypoints {
+            let Some(w) = self.nav.waypoint(source).cloned() else { continue };
+            if !self.panos.contains_key(&source) && self.requested.insert((source, w.cube.size)) {
+                platform.load_cube(source, w.cube.size, &w.cube.faces);
+            }
+            if self.glide_requested.insert(source) {
+                platform.load_depth_cube(source, &w.depth);
             }
         }
     }
@@ -773,8 +794,9 @@ impl App {
                     self.depth_maps.insert(probe, map);
                 }
                 Loaded::DepthCube { probe, cube } => {
-                    let position = self.nav.graph().probes[probe as usize].position;
-                    self.glide_meshes.insert(probe, GlideMesh::new(&self.gpu.device, &cube, position));
+                    if let Some(position) = self.nav.source_position(probe) {
+                        self.glide_meshes.insert(probe, GlideMesh::new(&self.gpu.device, &cube, position));
+                    }
                 }
                 Loaded::Failed { what, error, probe } => {
                     self.failed.extend(probe);
@@ -834,6 +856,7 @@ impl App {
         self.request_assets(platform);
         let mut keep = vec![self.nav.probe()];
         keep.extend(self.nav.destination());
+        keep.extend(self.nav.glide_sources().into_iter().flat_map(|(s, _)| s.into_iter().map(|w| w.0)));
         for p in &keep {
             if let Some(l) = self.panos.get_mut(p) {
                 l.last_used = self.frame;
@@ -1372,7 +1395,7 @@ impl App {
             (State::AtProbe { .. }, _) => here,
         };
         let glide = self.glide_ends(video.is_some()).filter(|_| camera.is_none() && opacity >= 1.0);
-        self.glided = glide.is_some();
+        self.glided = glide;
         self.shown_panorama |= source.is_some() && opacity > 0.0;
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         if let Some(c) = &camera {
@@ -1430,18 +1453,23 @@ impl App {
         encoder.finish()
     }
 
-    /// The ends of the path being travelled when it is drawn as a glide: it
-    /// shows no video, and both ends' depth and panoramas (cubes) are in.
+    /// The leg of the path being travelled that a glide draws, when it shows
+    /// no video: the sources (probes or panoramas part way) on either side
+    /// of the camera whose depth and panoramas (cubes) are in, the nearest
+    /// ready on each side (a leg whose end is still loading glides to the
+    /// one beyond).
     fn glide_ends(&self, video_shown: bool) -> Option<(u32, u32)> {
-        if video_shown || !matches!(self.nav.state, State::Travelling { .. }) {
+        if video_shown {
             return None;
         }
-        let ready = |p: u32| self.glide_meshes.contains_key(&p) && matches!(self.panos.get(&p).map(|l| &l.pano), Some(Pano::Cube(_)));
-        let (from, to) = (self.nav.probe(), self.nav.destination()?);
-        (ready(from) && ready(to)).then_some((from, to))
+        let (sources, s) = self.nav.glide_sources()?;
+        let ready = |p: &&(u32, f32)| self.glide_meshes.contains_key(&p.0) && matches!(self.panos.get(&p.0).map(|l| &l.pano), Some(Pano::Cube(_)));
+        let from = sources.iter().filter(|w| w.1 <= s).rfind(ready)?;
+        let to = sources.iter().filter(|w| w.1 > s).find(ready).or(sources.last().filter(ready))?;
+        (from.0 != to.0).then_some((from.0, to.0))
     }
 
-    /// Draws the glide between two probes (both ready: [`App::glide_ends`])
+    /// Draws the glide between two sources (both ready: [`App::glide_ends`])
     /// from where the camera is on the path, blended by its distance to each.
     fn draw_glide(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, (from, to): (u32, u32)) {
         let end = |p: u32| {

@@ -8,7 +8,7 @@
 //! travelled either way. Angles: yaw 0 looks toward −Z and π/2 toward +X;
 //! pitch is positive upward.
 
-use exploremaps_format::Graph;
+use exploremaps_format::{Graph, Waypoint};
 use std::f32::consts::{PI, TAU};
 
 /// Seconds a jump between unconnected probes takes.
@@ -265,6 +265,64 @@ impl Navigator {
         ArcLength::new(&self.graph.paths[path as usize].polyline).at(s)
     }
 
+    /// The panoramas part way along `path` (a glide in legs), in its order.
+    pub fn waypoints(&self, path: u32) -> &[Waypoint] {
+        self.graph.paths.get(path as usize).and_then(|p| p.assets.transition.as_ref()).map_or(&[], |t| &t.waypoints)
+    }
+
+    /// Glides draw from sources: the probes by id, then the panoramas part
+    /// way along the paths, numbered on from the last probe path by path.
+    fn first_waypoint_source(&self, path: u32) -> u32 {
+        let before: usize = (0..path).map(|p| self.waypoints(p).len()).sum();
+        (self.graph.probes.len() + before) as u32
+    }
+
+    /// The panorama part way that source `source` is, if it is one.
+    pub fn waypoint(&self, source: u32) -> Option<&Waypoint> {
+        let mut i = (source as usize).checked_sub(self.graph.probes.len())?;
+        for p in 0..self.graph.paths.len() as u32 {
+            match self.waypoints(p).get(i) {
+                Some(w) => return Some(w),
+                None => i -= self.waypoints(p).len(),
+            }
+        }
+        None
+    }
+
+    /// Where source `source` (a probe or a panorama part way) stands.
+    pub fn source_position(&self, source: u32) -> Option<[f32; 3]> {
+        match self.graph.probes.get(source as usize) {
+            Some(p) => Some(p.position),
+            None => self.waypoint(source).map(|w| w.position),
+        }
+    }
+
+    /// A glide's sources along `path` travelled one way, in that order,
+    /// each with where it stands as the fraction of the way the camera has
+    /// come there (the departure 0, the arrival 1).
+    pub fn sources_along(&self, path: u32, reversed: bool) -> Vec<(u32, f32)> {
+        let p = &self.graph.paths[path as usize];
+        let duration = p.duration_s.max(1e-3);
+        let first = self.first_waypoint_source(path);
+        let inner = self.waypoints(path).iter().enumerate().map(|(i, w)| {
+            let s = p.camera.get(w.key as usize).map_or(0.5, |k| ease((k.t_s / duration).clamp(0.0, 1.0)));
+            (first + i as u32, s)
+        });
+        let mut sources: Vec<(u32, f32)> = [(p.from, 0.0)].into_iter().chain(inner).chain([(p.to, 1.0)]).collect();
+        if reversed {
+            sources.reverse();
+            sources.iter_mut().for_each(|(_, s)| *s = 1.0 - *s);
+        }
+        sources
+    }
+
+    /// The sources along the path being travelled ([`Navigator::sources_along`])
+    /// and the fraction of the way the camera has come.
+    pub fn glide_sources(&self) -> Option<(Vec<(u32, f32)>, f32)> {
+        let State::Travelling { path, reversed, .. } = self.state else { return None };
+        Some((self.sources_along(path, reversed), self.progress().map_or(0.0, ease)))
+    }
+
     /// Turns the view (drag, keys); pitch is clamped short of straight up/down.
     pub fn look(&mut self, d_yaw: f32, d_pitch: f32) {
         self.view.yaw = wrap(self.view.yaw + d_yaw);
@@ -305,7 +363,7 @@ impl Navigator {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use exploremaps_format::{Path, PathAssets, Probe, SceneInfo, ViewDirection};
+    use exploremaps_format::{CubeLevel, Path, PathAssets, Probe, SceneInfo, ViewDirection};
 
     /// Probe 0 at the origin with paths to probes 1 (+X), 2 (−Z) and 3 (+Z, bent);
     /// probe 4 unconnected. Probe 2 prefers to look toward +X.
@@ -345,6 +403,54 @@ pub(crate) mod tests {
         add(0, 3, vec![[0.0, 0.0, 0.0], [0.0, 0.0, 4.0], [2.0, 0.0, 4.0]]);
         g.validate().unwrap();
         g
+    }
+
+    /// The test graph with panoramas part way: one on path 1 (probe 2 to
+    /// 0) half way, two on path 2; the paths' camera keys 21 at 0.1 s.
+    pub(crate) fn graph_with_waypoints() -> Graph {
+        let mut g = graph();
+        for p in &mut g.paths {
+            let arc = ArcLength::new(&p.polyline);
+            p.camera = (0..=20)
+                .map(|i| {
+                    let t_s = i as f32 * 0.1;
+                    exploremaps_format::CameraKey { t_s, position: arc.at(ease(t_s / p.duration_s)), yaw: 0.0, pitch: 0.0 }
+                })
+                .collect();
+            let keys: &[u32] = match p.id {
+                1 => &[10],
+                2 => &[5, 15],
+                _ => &[],
+            };
+            let waypoints = keys
+                .iter()
+                .map(|&key| Waypoint {
+                    key,
+                    position: p.camera[key as usize].position,
+                    cube: CubeLevel { size: 8, faces: std::array::from_fn(|f| format!("paths/{}/{key}_{f}.jpg", p.id)) },
+                    depth: format!("paths/{}/{key}.emdc", p.id),
+                })
+                .collect();
+            let kind = exploremaps_format::TransitionKind::Depth;
+            p.assets.transition = Some(exploremaps_format::Transition { kind, unseen: 0.0, reason: "a glide".into(), waypoints });
+        }
+        g.validate().unwrap();
+        g
+    }
+
+    #[test]
+    fn panoramas_part_way_are_sources_numbered_after_the_probes_in_the_order_travelled() {
+        let nav = Navigator::new(graph_with_waypoints(), Some(0), 1).unwrap();
+        // Path 1 runs from probe 2 to 0; travelled from 0 it is reversed.
+        let along = nav.sources_along(1, true);
+        assert_eq!(along.iter().map(|s| s.0).collect::<Vec<_>>(), vec![0, 5, 2]);
+        assert!((along[1].1 - 0.5).abs() < 1e-6 && along[0].1 == 0.0 && along[2].1 == 1.0, "{along:?}");
+        let forward = nav.sources_along(2, false);
+        assert_eq!(forward.iter().map(|s| s.0).collect::<Vec<_>>(), vec![0, 6, 7, 3]);
+        assert!(forward.windows(2).all(|w| w[0].1 < w[1].1), "{forward:?}");
+        assert_eq!(nav.source_position(5), Some([0.0, 0.0, -2.0]));
+        assert_eq!(nav.waypoint(7).map(|w| w.key), Some(15));
+        assert_eq!((nav.waypoint(8), nav.waypoint(4).is_some(), nav.source_position(8)), (None, false, None));
     }
 
     #[test]

@@ -61,21 +61,63 @@ pub fn depth_cube(tracer: &Tracer, eye: Vec3, cells: u32) -> DepthCube {
     DepthCube::new(cells, 1e-5 * diagonal, 2.0 * diagonal, &distances)
 }
 
-/// The largest share of the view, over the points measured along the path,
-/// that neither `from` nor `to` sees, and the fraction of the way where it is.
-pub fn unseen_along(tracer: &Tracer, path: &PathInfo, from: Vec3, to: Vec3) -> (f32, f32) {
+/// Panoramas part way a glide may add before a video is cheaper: each is
+/// a sixteenth of a final probe's pixels, a video a hundred frames.
+pub const MAX_WAYPOINTS: usize = 4;
+
+/// How a glide along a path goes: in legs between its ends and the
+/// panoramas part way, and what the worst leg leaves unseen.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Legs {
+    /// Camera keys of the panoramas part way, in order.
+    pub waypoints: Vec<usize>,
+    /// The largest share of the view (by solid angle), over the points
+    /// measured along each leg, that neither end of its leg sees...
+    pub unseen: f32,
+    /// ... and where, as a fraction of the path's camera keys.
+    pub along: f32,
+}
+
+/// Splits the path into legs until no point measured along a leg leaves
+/// more than [`MAX_UNSEEN`] of the view to neither of its ends, a panorama
+/// part way at a time (at the worst point of the worst leg), at most
+/// `max_waypoints` of them. The ends are the probes, `from` and `to`.
+pub fn plan_legs(tracer: &Tracer, path: &PathInfo, (from, to): (Vec3, Vec3), max_waypoints: usize) -> Legs {
+    let Some(last) = path.camera.len().checked_sub(1) else { return Legs { waypoints: Vec::new(), unseen: 0.0, along: 0.5 } };
     let directions = fibonacci_sphere(RAYS);
-    let mut worst = (0.0f32, 0.5f32);
-    let Some(last) = path.camera.len().checked_sub(1) else { return worst };
-    for along in ALONG {
-        let eye = Vec3::from(path.camera[(last as f32 * along).round() as usize].position);
-        let unseen = directions.par_iter().filter(|&&d| seen_by_neither(tracer, eye, d, [from, to])).count();
-        let share = unseen as f32 / RAYS as f32;
-        if share > worst.0 {
-            worst = (share, along);
+    let key = |k: usize| Vec3::from(path.camera[k].position);
+    let stand = |k: usize| {
+        if k == 0 {
+            from
+        } else if k == last {
+            to
+        } else {
+            key(k)
         }
+    };
+    let worst_of = |a: usize, b: usize| -> (f32, usize) {
+        let mut worst = (0.0f32, (a + b) / 2);
+        for along in ALONG {
+            let k = a + ((b - a) as f32 * along).round() as usize;
+            let share = directions.par_iter().filter(|&&d| seen_by_neither(tracer, key(k), d, [stand(a), stand(b)])).count() as f32 / RAYS as f32;
+            if share > worst.0 {
+                worst = (share, k);
+            }
+        }
+        worst
+    };
+    // stops[i]..stops[i + 1] is leg i; worst[i] its worst point.
+    let mut stops = vec![0, last];
+    let mut worst = vec![worst_of(0, last)];
+    loop {
+        let (i, &(share, k)) = worst.iter().enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).expect("a leg");
+        if share <= MAX_UNSEEN || stops.len() - 2 >= max_waypoints || k <= stops[i] || k >= stops[i + 1] {
+            let along = if last > 0 { k as f32 / last as f32 } else { 0.5 };
+            return Legs { waypoints: stops[1..stops.len() - 1].to_vec(), unseen: share, along };
+        }
+        stops.insert(i + 1, k);
+        worst.splice(i..=i, [worst_of(stops[i], k), worst_of(k, stops[i + 2])]);
     }
-    worst
 }
 
 /// Whether the surface `eye` sees along `d` is hidden from both ends (behind
@@ -93,18 +135,23 @@ fn seen_by_neither(tracer: &Tracer, eye: Vec3, d: Vec3, ends: [Vec3; 2]) -> bool
     })
 }
 
-/// The transition of a path with `unseen` of its view (at `along` of the
-/// way) seen from neither end; None with `video` (no record: as before glides).
-pub fn choose(transitions: Transitions, unseen: f32, along: f32) -> Option<Transition> {
-    let percent = 100.0 * unseen;
-    let at = format!("{percent:.1} % of the view {:.0} % of the way along is seen from neither end", 100.0 * along);
+/// The transition of a path whose glide would go in `legs`; None with
+/// `video` (no record: as before glides). A glide's waypoints are listed by
+/// the caller once their panoramas are made.
+pub fn choose(transitions: Transitions, legs: &Legs) -> Option<Transition> {
+    let percent = 100.0 * legs.unseen;
+    let n = legs.waypoints.len();
+    let parts = if n == 0 { "from the two ends".to_string() } else { format!("in {} legs ({n} panoramas part way)", n + 1) };
+    let at = format!("{percent:.1} % of the view {:.0} % of the way along is seen from neither end of its leg", 100.0 * legs.along);
     let (kind, reason) = match transitions {
         Transitions::Video => return None,
-        Transitions::Depth => (TransitionKind::Depth, format!("a glide, as asked (--transitions depth); {at}")),
-        Transitions::Auto if unseen > MAX_UNSEEN => (TransitionKind::Video, format!("a video: {at}, more than {:.0} %", 100.0 * MAX_UNSEEN)),
-        Transitions::Auto => (TransitionKind::Depth, format!("a glide: at most {at}")),
+        Transitions::Depth => (TransitionKind::Depth, format!("a glide {parts}, as asked (--transitions depth); {at}")),
+        Transitions::Auto if legs.unseen > MAX_UNSEEN => {
+            (TransitionKind::Video, format!("a video: even {parts}, {at}, more than {:.0} %", 100.0 * MAX_UNSEEN))
+        }
+        Transitions::Auto => (TransitionKind::Depth, format!("a glide {parts}: at most {at}")),
     };
-    Some(Transition { kind, unseen, reason })
+    Some(Transition { kind, unseen: legs.unseen, reason, waypoints: Vec::new() })
 }
 
 #[cfg(test)]
@@ -139,7 +186,7 @@ mod tests {
     }
 
     #[test]
-    fn a_path_within_a_room_glides_and_one_through_a_room_neither_end_sees_needs_a_video() {
+    fn a_path_within_a_room_glides_and_one_through_a_room_neither_end_sees_needs_a_panorama_there_or_a_video() {
         // Three rooms 4 × 4 in a row (x 0..4, 4..8, 8..12; z 0..4), 3 high,
         // doors between them at z = 2.
         let scene = rooms(3, 4.0, 3.0, 4.0, &[1, 2]);
@@ -147,20 +194,28 @@ mod tests {
         let tracer = tracer(&scene, &rays);
         // Within the first room, both ends see all of it.
         let (a, b) = (Vec3::new(1.0, 1.6, 1.0), Vec3::new(3.0, 1.6, 3.0));
-        let (within, _) = unseen_along(&tracer, &path(a, b), a, b);
-        assert!(within < MAX_UNSEEN, "{within}");
-        assert_eq!(choose(Transitions::Auto, within, 0.5).unwrap().kind, TransitionKind::Depth);
+        let within = plan_legs(&tracer, &path(a, b), (a, b), MAX_WAYPOINTS);
+        assert!(within.unseen < MAX_UNSEEN && within.waypoints.is_empty(), "{within:?}");
+        assert_eq!(choose(Transitions::Auto, &within).unwrap().kind, TransitionKind::Depth);
         // From the first room to the third through the middle one: the ends
         // see the middle room only through its doors, not its side walls,
         // which fill much of the view from inside it.
         let (a, b) = (Vec3::new(1.0, 1.6, 2.0), Vec3::new(11.0, 1.6, 2.0));
-        let (through, along) = unseen_along(&tracer, &path(a, b), a, b);
-        assert!(through > 5.0 * MAX_UNSEEN && (0.3..=0.7).contains(&along), "{through} at {along}");
-        let transition = choose(Transitions::Auto, through, along).unwrap();
+        let through = plan_legs(&tracer, &path(a, b), (a, b), 0);
+        assert!(through.unseen > 5.0 * MAX_UNSEEN && (0.3..=0.7).contains(&through.along), "{through:?}");
+        let transition = choose(Transitions::Auto, &through).unwrap();
         assert_eq!(transition.kind, TransitionKind::Video);
         assert!(transition.reason.contains("seen from neither end"), "{}", transition.reason);
-        assert_eq!(choose(Transitions::Depth, through, along).unwrap().kind, TransitionKind::Depth);
-        assert_eq!(choose(Transitions::Video, through, along), None);
+        assert_eq!(choose(Transitions::Depth, &through).unwrap().kind, TransitionKind::Depth);
+        assert_eq!(choose(Transitions::Video, &through), None);
+        // A panorama part way stands in the middle room (keys 8 to 12 of 20
+        // lie in it), and the legs it makes glide.
+        let legs = plan_legs(&tracer, &path(a, b), (a, b), MAX_WAYPOINTS);
+        assert!(legs.unseen <= MAX_UNSEEN, "{legs:?}");
+        assert!(legs.waypoints.iter().any(|k| (8..=12).contains(k)), "{legs:?}");
+        let transition = choose(Transitions::Auto, &legs).unwrap();
+        assert_eq!(transition.kind, TransitionKind::Depth);
+        assert!(transition.reason.contains("panoramas part way"), "{}", transition.reason);
     }
 
     #[test]

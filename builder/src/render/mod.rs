@@ -82,6 +82,18 @@ impl Settings {
         }
     }
 
+    /// A panorama part way along a path is seen only in passing: a face half
+    /// a video frame's width (twice as sharp as the frame, whose 90° are a
+    /// quarter of its width).
+    pub fn waypoint_face(&self) -> u32 {
+        self.video_width / 2
+    }
+
+    /// Depth cells of a panorama part way: half the probes', at least 32.
+    pub fn waypoint_cells(&self) -> u32 {
+        (self.depth_cells / 2).max(32)
+    }
+
     /// Whether the render writes depth and a transition for each path.
     pub fn glides(&self) -> bool {
         self.transitions != Transitions::Video

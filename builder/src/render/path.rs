@@ -1,15 +1,17 @@
 //! A path's job: with glides, the transition `glide` chooses, written as a
-//! record (`paths/<id>.json`) once the path is done; where it is a video (and
-//! always without glides), its 360° frames along the camera keys (key frames
+//! record (`paths/<id>.json`) once the path is done; where it is a glide in
+//! legs, the panoramas part way (a cube level and a depth cube each); where
+//! it is a video (and always without glides), its 360° frames along the camera keys (key frames
 //! lit in full, the frames between reusing their light), encoded as an MP4,
 //! and a poster (the first frame).
 
+use super::probe::{traced_cube, write_jpegs};
 use super::{glide, Settings};
 use crate::bundle::{write, BundleError};
 use crate::files::jpeg;
 use crate::tracer::Renderer;
 use crate::video::Encoder;
-use exploremaps_format::{Path as PathInfo, Transition, TransitionKind};
+use exploremaps_format::{CubeLevel, Path as PathInfo, Transition, TransitionKind, Waypoint, CUBE_FACES};
 use glam::Vec3;
 use std::ops::ControlFlow;
 use std::path::Path;
@@ -38,7 +40,8 @@ pub(super) fn expected(dir: &Path, id: usize, glides: bool) -> Vec<String> {
     }
     match transition(dir, id) {
         Some(t) if t.kind == TransitionKind::Video => vec![video, poster, record(id)],
-        _ => vec![record(id)],
+        Some(t) => t.waypoints.into_iter().flat_map(|w| w.cube.faces.into_iter().chain([w.depth])).chain([record(id)]).collect(),
+        None => vec![record(id)],
     }
 }
 
@@ -57,11 +60,14 @@ pub(super) fn render(
     if path.camera.is_empty() {
         return Ok(false);
     }
-    let (from, to) = (path.polyline.first().copied().unwrap_or_default(), path.polyline.last().copied().unwrap_or_default());
-    let (unseen, along) = if settings.glides() { glide::unseen_along(&renderer.tracer, path, from.into(), to.into()) } else { (0.0, 0.0) };
-    let transition = glide::choose(settings.transitions, unseen, along);
-    if let Some(t) = &transition {
+    let ends = (path.polyline.first().copied().unwrap_or_default().into(), path.polyline.last().copied().unwrap_or_default().into());
+    let legs = if settings.glides() { glide::plan_legs(&renderer.tracer, path, ends, glide::MAX_WAYPOINTS) } else { glide::Legs::default() };
+    let mut transition = glide::choose(settings.transitions, &legs);
+    if let Some(t) = &mut transition {
         tracing::info!("path {id}: {}", t.reason);
+        if t.kind == TransitionKind::Depth {
+            t.waypoints = legs.waypoints.iter().map(|&key| render_waypoint(dir, renderer, settings, path, (id, key))).collect::<Result<_, _>>()?;
+        }
     }
     if transition.as_ref().is_none_or(|t| t.kind == TransitionKind::Video) && !render_video(dir, renderer, settings, encoder, path, id)? {
         return Ok(false);
@@ -70,6 +76,28 @@ pub(super) fn render(
         write(dir, &record(id), serde_json::to_string(&t).expect("a transition serializes").as_bytes())?;
     }
     Ok(true)
+}
+
+/// Renders the panorama part way along path `id` at camera key `key`: a
+/// cube as sharp as a video's frames and a depth cube.
+fn render_waypoint(
+    dir: &Path,
+    renderer: &Renderer,
+    settings: &Settings,
+    path: &PathInfo,
+    (id, key): (usize, usize),
+) -> Result<Waypoint, BundleError> {
+    let size = settings.waypoint_face();
+    let position = path.camera[key].position;
+    let cube = CubeLevel { size, faces: CUBE_FACES.map(|f| format!("paths/{id}/{key}_{f}.jpg")) };
+    let depth = format!("paths/{id}/{key}.emdc");
+    let eye = Vec3::from(position);
+    write(dir, &depth, &glide::depth_cube(&renderer.tracer, eye, settings.waypoint_cells()).encode())?;
+    let k = key as u32;
+    let faces = traced_cube(dir, renderer, settings, (eye, size), crate::seeds::image::waypoint(id as u32, k), &cube.faces[0])?;
+    let images: Vec<image::RgbImage> = faces.iter().map(|f| renderer.to_image(size, size, f)).collect();
+    write_jpegs(dir, &cube.faces.iter().map(String::as_str).zip(&images).collect::<Vec<_>>())?;
+    Ok(Waypoint { key: k, position, cube, depth })
 }
 
 /// Renders path `id`'s video, encodes and writes it and its poster.

@@ -49,8 +49,29 @@ impl ProbeFiles {
 
 /// Encodes the images on every core (serially they took a tenth of a
 /// probe's time, one core idle) and writes each to its file.
-fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)]) -> Result<(), BundleError> {
+pub(super) fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)]) -> Result<(), BundleError> {
     images.par_iter().try_for_each(|(name, image)| write(dir, name, &jpeg(image, QUALITY)))
+}
+
+/// The frame's colours, denoised where the settings say (errors name `file`).
+fn denoised(dir: &Path, settings: &Settings, mut frame: Frame, file: &str) -> Result<Vec<Vec3>, BundleError> {
+    if settings.denoise {
+        denoise(&mut frame).map_err(|source| BundleError::Denoise { path: dir.join(file).display().to_string(), source })?;
+    }
+    Ok(frame.color)
+}
+
+/// The six faces of the cube seen from `eye`, `size` pixels square, traced
+/// with the panoramas' settings from the stream of `image` (errors name `file`).
+pub(super) fn traced_cube(
+    dir: &Path,
+    renderer: &Renderer,
+    settings: &Settings,
+    (eye, size): (Vec3, u32),
+    image: u64,
+    file: &str,
+) -> Result<Vec<Vec<Vec3>>, BundleError> {
+    renderer.cube(&settings.trace.panorama, eye, size, image).into_iter().map(|f| denoised(dir, settings, f, file)).collect()
 }
 
 /// Renders probe `id` and writes its files; files already there are kept.
@@ -61,17 +82,8 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
     if let Some(depth) = depth.filter(|d| !exists(d)) {
         write(dir, &depth, &super::glide::depth_cube(&renderer.tracer, eye, settings.depth_cells).encode())?;
     }
-    let denoised = |mut f: Frame| -> Result<Vec<Vec3>, BundleError> {
-        if settings.denoise {
-            denoise(&mut f).map_err(|source| BundleError::Denoise { path: dir.join(&pano).display().to_string(), source })?;
-        }
-        Ok(f.color)
-    };
-    let mut faces: Vec<Vec<Vec3>> = renderer
-        .cube(&settings.trace.panorama, eye, settings.face, crate::seeds::image::cube(id as u32))
-        .into_iter()
-        .map(denoised)
-        .collect::<Result<_, _>>()?;
+    let denoised = |f: Frame| denoised(dir, settings, f, &pano);
+    let mut faces = traced_cube(dir, renderer, settings, (eye, settings.face), crate::seeds::image::cube(id as u32), &pano)?;
     let full = faces.clone();
     // Levels from the largest down, each box-filtered from the one above.
     let mut images = Vec::with_capacity(cube.len());

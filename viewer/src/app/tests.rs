@@ -313,6 +313,36 @@ fn a_path_without_video_glides_once_both_ends_depth_is_in() {
 }
 
 #[test]
+fn a_glide_in_legs_goes_through_its_panoramas_part_way_asked_for_before_the_click() {
+    let mut graph = crate::navigation::tests::graph_with_waypoints();
+    for p in &mut graph.probes {
+        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+        p.assets.cube_levels = vec![CubeLevel { size: 8, faces: std::array::from_fn(|f| format!("probes/{}/8_{f}.jpg", p.id)) }];
+    }
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
+    app.update(0.016, &mut script);
+    app.update(0.016, &mut script);
+    // At probe 0, the first panorama part way along each path of the bar
+    // comes with the destinations: source 5 toward probe 2, 6 toward 3.
+    for source in [5, 6] {
+        assert!(script.glide_requests.contains(&source) && script.requests.contains(&(source, 8)), "{source}: {:?}", script.requests);
+    }
+    assert!(!script.glide_requests.contains(&7), "the second along a path waits for the travel");
+    app.nav.go_to(2).unwrap();
+    let mut legs = Vec::new();
+    for _ in 0..200 {
+        app.update(0.02, &mut script);
+        render_frame(&mut app, &mut script);
+        if let Some(leg) = app.glide_leg().filter(|l| legs.last() != Some(l)) {
+            legs.push(leg);
+        }
+    }
+    assert_eq!(legs, vec![(0, 5), (5, 2)], "from probe 0 to the panorama half way, then on to probe 2");
+    assert!(matches!(app.nav.state, State::AtProbe { probe: 2 }), "{:?}", app.nav.state);
+}
+
+#[test]
 fn a_probe_with_only_large_levels_still_shows_and_one_with_none_gives_a_message() {
     let Some((device, queue)) = crate::panorama::tests::gpu() else { return };
     let gpu = Gpu { device, queue, format: wgpu::TextureFormat::Rgba8UnormSrgb };
