@@ -969,6 +969,30 @@ mod tests {
         assert!(err.to_string().contains("version 7"));
     }
 
+    /// Makes path 0 a transition of `kind` through panoramas part way at `keys` (of 4 camera keys).
+    fn glide(g: &mut Graph, kind: TransitionKind, keys: &[u32]) {
+        let path = &mut g.paths[0];
+        path.camera = (0..4).map(|i| CameraKey { t_s: i as f32, position: [2.0 + i as f32, 1.6, 2.0], yaw: 0.0, pitch: 0.0 }).collect();
+        let waypoints = keys
+            .iter()
+            .map(|&key| Waypoint {
+                key,
+                position: [3.0, 1.6, 2.0],
+                cube: CubeLevel { size: 8, faces: CUBE_FACES.map(|f| format!("paths/0/{key}_{f}.jpg")) },
+                depth: format!("paths/0/{key}.emdc"),
+            })
+            .collect();
+        path.assets.transition = Some(Transition { kind, unseen: 0.0, reason: String::new(), waypoints });
+    }
+
+    #[test]
+    fn a_glide_through_panoramas_part_way_round_trips() {
+        let mut g = sample();
+        glide(&mut g, TransitionKind::Depth, &[1, 2]);
+        g.validate().unwrap();
+        assert_eq!(Graph::from_json(&g.to_json()).unwrap(), g);
+    }
+
     #[test]
     fn each_inconsistency_is_named() {
         type Mutation = Box<dyn Fn(&mut Graph)>;
@@ -986,6 +1010,10 @@ mod tests {
             ("not a plain relative path", Box::new(|g| g.paths[0].assets.video = Some("/abs.mp4".into()))),
             ("covered exceeds reachable", Box::new(|g| g.coverage.as_mut().unwrap().covered_area = 11.0)),
             ("metres_per_unit", Box::new(|g| g.scene.metres_per_unit = 0.0)),
+            ("only a glide has waypoints", Box::new(|g| glide(g, TransitionKind::Video, &[1]))),
+            ("camera key 0 is not after", Box::new(|g| glide(g, TransitionKind::Depth, &[0]))),
+            ("camera key 3 is not after", Box::new(|g| glide(g, TransitionKind::Depth, &[3]))),
+            ("camera key 1 is not after", Box::new(|g| glide(g, TransitionKind::Depth, &[2, 1]))),
         ];
         for (expected, mutate) in cases {
             let mut g = sample();
