@@ -43,10 +43,12 @@ struct FOut { @location(0) colour: vec4f, @builtin(frag_depth) depth: f32 };
     let t = vec3f(d.x, d.y, -d.z);
     let c = mix(textureSampleLevel(cube, samp, d, 0.0).rgb, textureSampleLevel(tiles, samp, t, 0.0).rgb, textureSampleLevel(mask, nearest, t, 0.0).r);
     // How squarely the probe saw this triangle: a rubber sheet across a
-    // depth step lies along the probe's rays.
+    // depth step lies along the probe's rays. A surface seen more obliquely
+    // than a few cells' angle (u.probe.w) is sampled too sparsely to tell
+    // from one.
     let n = cross(dpdx(v.world), dpdy(v.world));
     let facing = abs(dot(n, d)) / max(length(n) * length(d), 1e-20);
-    let sure = smoothstep(0.02, 0.15, facing);
+    let sure = smoothstep(u.probe.w, 3.0 * u.probe.w, facing);
     // Alpha 0 is nothing drawn; anything drawn weighs at least a little.
     // An unsure fragment is pushed far back (reversed depth: toward 0), so
     // that it fills only where nothing sure of this end lies behind it.
@@ -59,21 +61,38 @@ struct FOut { @location(0) colour: vec4f, @builtin(frag_depth) depth: f32 };
 "#;
 
 const BLEND_SHADER: &str = r#"
-@group(0) @binding(0) var<uniform> t: vec4f;
+// t: 0 at the departure, 1 at the arrival; tol: how much nearer (as a
+// fraction) one end's sure surface must be to hide the other's.
+struct U { t: f32, tol: f32, pad: vec2f };
+@group(0) @binding(0) var<uniform> u: U;
 @group(0) @binding(1) var a: texture_2d<f32>;
 @group(0) @binding(2) var b: texture_2d<f32>;
+@group(0) @binding(3) var depth_a: texture_depth_2d;
+@group(0) @binding(4) var depth_b: texture_depth_2d;
 
 @vertex fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4f {
     let p = vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
     return vec4f(p, 0.0, 1.0);
 }
 
+// Whether a sure surface at reversed depth `near` (larger is nearer) hides
+// what lies at `far`.
+fn hides(alpha: f32, near: f32, far: f32) -> f32 {
+    return select(0.0, 1.0, alpha > 0.9 && near > far * (1.0 + u.tol));
+}
+
 @fragment fn fs(@builtin(position) pos: vec4f) -> @location(0) vec4f {
     let at = vec2i(pos.xy);
     let pa = textureLoad(a, at, 0);
     let pb = textureLoad(b, at, 0);
-    let wa = (1.0 - t.x) * pa.a;
-    let wb = t.x * pb.a;
+    let za = textureLoad(depth_a, at, 0);
+    let zb = textureLoad(depth_b, at, 0);
+    // Where one end's sure surface lies well in front of the other's, the
+    // other saw something this ray does not reach (the wall behind a
+    // pillar): it steps back. Not near an end, whose own view is exact
+    // there (the other's lattice cuts corners by a little).
+    let wa = (1.0 - u.t) * pa.a * (1.0 - 0.98 * hides(pb.a, zb, za) * smoothstep(0.0, 0.25, u.t));
+    let wb = u.t * pb.a * (1.0 - 0.98 * hides(pa.a, za, zb) * smoothstep(0.0, 0.25, 1.0 - u.t));
     if (wa + wb <= 0.0) {
         return vec4f(0.0);
     }
@@ -85,6 +104,10 @@ const BLEND_SHADER: &str = r#"
 /// distance (twice the scene's diagonal): far enough that it stays put while
 /// the camera moves through the scene.
 const SKY: f32 = 1e4;
+/// How much nearer (a fraction of the distance) one end's sure surface must
+/// be than the other's to hide it, beyond what the lattices' chords account
+/// for (twice the cell's angle: a cell across a room's corner cuts it).
+const OCCLUSION_TOLERANCE: f32 = 0.05;
 const TARGET: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -159,7 +182,7 @@ pub fn toward(eye: Vec3, from: Vec3, to: Vec3) -> f32 {
 struct Targets {
     size: (u32, u32),
     colour: [wgpu::TextureView; 2],
-    depth: wgpu::TextureView,
+    depth: [wgpu::TextureView; 2],
 }
 
 /// The GPU side of drawing glides into targets of one format.
@@ -226,7 +249,8 @@ impl GlidePass {
         for (k, end) in [&glide.from, &glide.to].into_iter().enumerate() {
             self.draw_end(device, queue, encoder, k, end, view_proj);
         }
-        queue.write_buffer(&self.blend_uniforms, 0, &le_bytes(&[glide.t.clamp(0.0, 1.0), 0.0, 0.0, 0.0]));
+        let tolerance = OCCLUSION_TOLERANCE + 2.0 * cell_angle(glide.from.mesh.cells.min(glide.to.mesh.cells));
+        queue.write_buffer(&self.blend_uniforms, 0, &le_bytes(&[glide.t.clamp(0.0, 1.0), tolerance, 0.0, 0.0]));
         let targets = self.targets.as_ref().expect("made above");
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glide blend"),
@@ -235,6 +259,8 @@ impl GlidePass {
                 wgpu::BindGroupEntry { binding: 0, resource: self.blend_uniforms.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&targets.colour[0]) },
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&targets.colour[1]) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&targets.depth[0]) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&targets.depth[1]) },
             ],
         });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -259,7 +285,7 @@ impl GlidePass {
     fn draw_end(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, k: usize, end: &End, view_proj: Mat4) {
         let (indices, count) = self.lattice(device, end.mesh.cells);
         let mut uniforms = view_proj.to_cols_array().to_vec();
-        uniforms.extend(end.mesh.probe.extend(0.0).to_array());
+        uniforms.extend(end.mesh.probe.extend(cell_angle(end.mesh.cells)).to_array());
         queue.write_buffer(&self.uniforms[k], 0, &le_bytes(&uniforms));
         let (tiles, mask) = end.tiles.map_or((&self.blank_cube.view, &self.blank_mask), |t| (&t.cube.view, &t.mask_view));
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -285,8 +311,8 @@ impl GlidePass {
             })],
             // Reversed depth: 1 at the near plane, 0 at infinity.
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                view: &targets.depth[k],
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
                 stencil_ops: None,
             }),
             timestamp_writes: None,
@@ -337,9 +363,14 @@ impl GlidePass {
         self.targets = Some(Targets {
             size,
             colour: [texture("glide departure", TARGET, colour), texture("glide arrival", TARGET, colour)],
-            depth: texture("glide depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT),
+            depth: [texture("glide departure depth", DEPTH, colour), texture("glide arrival depth", DEPTH, colour)],
         });
     }
+}
+
+/// The angle a cell of a `cells`-cell lattice spans at a face's centre, radians.
+fn cell_angle(cells: u32) -> f32 {
+    (2.0 / cells.max(1) as f32).atan()
 }
 
 fn le_bytes(values: &[f32]) -> Vec<u8> {
@@ -448,12 +479,19 @@ fn blend_pipeline(device: &wgpu::Device, format: wgpu::TextureFormat) -> (wgpu::
         view_dimension: wgpu::TextureViewDimension::D2,
         multisampled: false,
     };
+    let depth = wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Depth,
+        view_dimension: wgpu::TextureViewDimension::D2,
+        multisampled: false,
+    };
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("glide blend"),
         entries: &[
             entry(0, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None }),
             entry(1, texture),
             entry(2, texture),
+            entry(3, depth),
+            entry(4, depth),
         ],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
