@@ -405,7 +405,8 @@ pub struct PathAssets {
 pub struct Transition {
     pub kind: TransitionKind,
     /// The largest share of the view from the path (by solid angle) that
-    /// neither end's panorama sees, over the points measured along it.
+    /// neither end of its leg sees (or sees only at under a quarter of the
+    /// camera's detail), over the points measured along each leg.
     pub unseen: f32,
     /// Why, in words.
     pub reason: String,

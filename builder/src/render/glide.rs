@@ -4,9 +4,10 @@
 //! A glide reprojects the departure and arrival panoramas through their
 //! depth to the moving camera. It is exact for what either end sees (the
 //! renderer's surfaces are Lambertian: nothing changes with the view), so it
-//! fails where the camera sees surface that neither end sees. `auto`
-//! measures that share of the view at points along the path with the ray
-//! caster and gives the path a video where it is too large.
+//! fails where the camera sees surface that neither end sees, or sees from
+//! much farther. The render measures that share of the view at points along
+//! the path with the ray caster, adds panoramas part way where it is too
+//! large, and under `auto` gives the path a video where a few do not do.
 
 use crate::raycast::Ray;
 use crate::tracer::{fibonacci_sphere, Tracer};
@@ -120,18 +121,29 @@ pub fn plan_legs(tracer: &Tracer, path: &PathInfo, (from, to): (Vec3, Vec3), max
     }
 }
 
-/// Whether the surface `eye` sees along `d` is hidden from both ends (behind
-/// something, or facing away from them). Sky is seen from everywhere.
+/// How much coarser than the camera's an end's view of a surface may be
+/// (its distance over the cosine of its incidence, against the camera's)
+/// and still count as seeing it: past it, the glide magnifies the end's
+/// texels and its depth lattice's cells that much (a sculpture passed
+/// close by, seen from ten metres, falls apart).
+pub const DETAIL: f32 = 4.0;
+
+/// Whether the surface `eye` sees along `d` is hidden from both ends
+/// (behind something, or facing away from them), or seen by them only at
+/// under 1/[`DETAIL`] of the camera's detail. Sky is seen from everywhere.
 fn seen_by_neither(tracer: &Tracer, eye: Vec3, d: Vec3, ends: [Vec3; 2]) -> bool {
     let mut ray = Ray::new(eye, d);
     let Some(hit) = tracer.intersect(&mut ray) else { return false };
     let point = eye + d * hit.t;
     let side = hit.normal.dot(eye - point).signum();
+    // A surface's footprint in a view: distance over the incidence's cosine.
+    let footprint = |distance: f32, along: Vec3| distance / (hit.normal.dot(along).abs() / along.length().max(1e-12)).max(0.05);
+    let camera = footprint(hit.t * d.length(), d);
     !ends.iter().any(|&end| {
         // From the end toward the point, stopping just short of it.
         let toward = point - end;
         let ray = Ray { origin: end, dir: toward, t_min: 0.0, t_max: 1.0 - 1e-3 };
-        hit.normal.dot(-toward).signum() == side && tracer.visible(&ray)
+        hit.normal.dot(-toward).signum() == side && footprint(toward.length(), toward) <= DETAIL * camera && tracer.visible(&ray)
     })
 }
 
@@ -142,7 +154,10 @@ pub fn choose(transitions: Transitions, legs: &Legs) -> Option<Transition> {
     let percent = 100.0 * legs.unseen;
     let n = legs.waypoints.len();
     let parts = if n == 0 { "from the two ends".to_string() } else { format!("in {} legs ({n} panoramas part way)", n + 1) };
-    let at = format!("{percent:.1} % of the view {:.0} % of the way along is seen from neither end of its leg", 100.0 * legs.along);
+    let at = format!(
+        "{percent:.1} % of the view {:.0} % of the way along is seen from neither end of its leg (or at under 1/{DETAIL} of the detail)",
+        100.0 * legs.along
+    );
     let (kind, reason) = match transitions {
         Transitions::Video => return None,
         Transitions::Depth => (TransitionKind::Depth, format!("a glide {parts}, as asked (--transitions depth); {at}")),
@@ -216,6 +231,25 @@ mod tests {
         let transition = choose(Transitions::Auto, &legs).unwrap();
         assert_eq!(transition.kind, TransitionKind::Depth);
         assert!(transition.reason.contains("panoramas part way"), "{}", transition.reason);
+    }
+
+    #[test]
+    fn a_long_path_down_a_hall_needs_a_panorama_part_way_though_both_ends_see_every_wall() {
+        // One hall 16 long, 3 high, 4 wide: both ends see all of it, but
+        // half way the floor and walls beside the camera are 7 m from
+        // either end and seen from them at a slant.
+        let scene = rooms(1, 16.0, 3.0, 4.0, &[]);
+        let rays = RayScene::new(&scene.positions, &scene.triangles, 0).unwrap();
+        let tracer = tracer(&scene, &rays);
+        let (a, b) = (Vec3::new(1.0, 1.6, 2.0), Vec3::new(15.0, 1.6, 2.0));
+        let whole = plan_legs(&tracer, &path(a, b), (a, b), 0);
+        assert!(whole.unseen > MAX_UNSEEN, "{whole:?}");
+        let legs = plan_legs(&tracer, &path(a, b), (a, b), MAX_WAYPOINTS);
+        assert!(legs.unseen <= MAX_UNSEEN && !legs.waypoints.is_empty(), "{legs:?}");
+        // A short step in the same hall glides from its ends.
+        let (a, b) = (Vec3::new(7.0, 1.6, 2.0), Vec3::new(9.0, 1.6, 2.0));
+        let short = plan_legs(&tracer, &path(a, b), (a, b), MAX_WAYPOINTS);
+        assert!(short.unseen <= MAX_UNSEEN && short.waypoints.is_empty(), "{short:?}");
     }
 
     #[test]
