@@ -416,6 +416,14 @@ pub struct Transition {
     pub waypoints: Vec<Waypoint>,
 }
 
+/// Where a glide draws from: a probe, or a panorama part way along the path
+/// (its index in the path's waypoints).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GlideSource {
+    Probe(u32),
+    Waypoint(usize),
+}
+
 /// A panorama part way along a path, seen only in passing (smaller than a
 /// probe's, one level, no tiles).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -490,6 +498,25 @@ pub enum FormatError {
 }
 
 impl Path {
+    /// A glide's sources along this path travelled one way, in that order:
+    /// the departure, the panoramas part way, the arrival; each with where
+    /// it stands as the fraction of the way the camera has come there (its
+    /// eased time, as the viewers move the camera: departure 0, arrival 1).
+    pub fn glide_sources(&self, reversed: bool) -> Vec<(GlideSource, f32)> {
+        let duration = self.duration_s.max(1e-3);
+        let waypoints = self.assets.transition.iter().flat_map(|t| &t.waypoints).enumerate().map(|(i, w)| {
+            let s = self.camera.get(w.key as usize).map_or(0.5, |k| timing::ease(k.t_s / duration));
+            (GlideSource::Waypoint(i), s)
+        });
+        let mut sources: Vec<(GlideSource, f32)> =
+            [(GlideSource::Probe(self.from), 0.0)].into_iter().chain(waypoints).chain([(GlideSource::Probe(self.to), 1.0)]).collect();
+        if reversed {
+            sources.reverse();
+            sources.iter_mut().for_each(|(_, s)| *s = 1.0 - *s);
+        }
+        sources
+    }
+
     /// The direction of travel, (yaw, pitch), at the start of the path
     /// (`at_end == false`) or at its end, travelled forward or `reversed`:
     /// toward the first point a tenth of the path away from that end, so a

@@ -8,7 +8,7 @@
 //! travelled either way. Angles: yaw 0 looks toward −Z and π/2 toward +X;
 //! pitch is positive upward.
 
-use exploremaps_format::{Graph, Waypoint};
+use exploremaps_format::{GlideSource, Graph, Waypoint};
 use std::f32::consts::{PI, TAU};
 
 /// Seconds a jump between unconnected probes takes.
@@ -297,23 +297,15 @@ impl Navigator {
         }
     }
 
-    /// A glide's sources along `path` travelled one way, in that order,
-    /// each with where it stands as the fraction of the way the camera has
-    /// come there (the departure 0, the arrival 1).
+    /// A glide's sources along `path` travelled one way
+    /// ([`exploremaps_format::Path::glide_sources`]), as source ids.
     pub fn sources_along(&self, path: u32, reversed: bool) -> Vec<(u32, f32)> {
-        let p = &self.graph.paths[path as usize];
-        let duration = p.duration_s.max(1e-3);
         let first = self.first_waypoint_source(path);
-        let inner = self.waypoints(path).iter().enumerate().map(|(i, w)| {
-            let s = p.camera.get(w.key as usize).map_or(0.5, |k| ease((k.t_s / duration).clamp(0.0, 1.0)));
-            (first + i as u32, s)
-        });
-        let mut sources: Vec<(u32, f32)> = [(p.from, 0.0)].into_iter().chain(inner).chain([(p.to, 1.0)]).collect();
-        if reversed {
-            sources.reverse();
-            sources.iter_mut().for_each(|(_, s)| *s = 1.0 - *s);
-        }
-        sources
+        let id = |source| match source {
+            GlideSource::Probe(p) => p,
+            GlideSource::Waypoint(i) => first + i as u32,
+        };
+        self.graph.paths[path as usize].glide_sources(reversed).into_iter().map(|(source, s)| (id(source), s)).collect()
     }
 
     /// The sources along the path being travelled ([`Navigator::sources_along`])
