@@ -88,6 +88,36 @@ fn bundle(dir: &Path) {
     write("graph.json", graph.to_json().as_bytes());
 }
 
+/// Path 0 as a glide, without its video, through a panorama half way: the
+/// probes' depth and its, everything 3 away.
+fn as_glide(dir: &Path) {
+    use exploremaps_format::{depthcube::DepthCube, Transition, TransitionKind, Waypoint};
+    let write = writer(dir);
+    let mut graph = Graph::from_json(&std::fs::read_to_string(dir.join("graph.json")).unwrap()).unwrap();
+    let depth = DepthCube::new(8, 0.1, 40.0, &[Some(3.0); 6 * 81]).encode();
+    for p in 0..2 {
+        let file = format!("probes/{p}/depth.emdc");
+        write(&file, &depth);
+        graph.probes[p].assets.depth = Some(file);
+    }
+    let path = &mut graph.paths[0];
+    let key = path.camera.len() as u32 / 2;
+    let faces: [String; 6] = std::array::from_fn(|f| format!("paths/0/{key}_{}.jpg", CUBE_FACES[f]));
+    for (f, name) in faces.iter().enumerate() {
+        let image = image::RgbImage::from_fn(64, 64, |x, y| {
+            image::Rgb(colour(0, cube_direction(f, (x as f32 + 0.5) / 64.0, (y as f32 + 0.5) / 64.0)).map(|c| c.round().clamp(0.0, 255.0) as u8))
+        });
+        write(name, &jpeg(&image));
+    }
+    write(&format!("paths/0/{key}.emdc"), &depth);
+    let waypoint =
+        Waypoint { key, position: path.camera[key as usize].position, cube: CubeLevel { size: 64, faces }, depth: format!("paths/0/{key}.emdc") };
+    path.assets.video = None;
+    path.assets.transition = Some(Transition { kind: TransitionKind::Depth, unseen: 0.0, reason: "a glide".into(), waypoints: vec![waypoint] });
+    graph.validate().unwrap();
+    write("graph.json", graph.to_json().as_bytes());
+}
+
 /// Probe `p`'s view (yaw, pitch, vertical fov) at `width` × `height`, as a
 /// perfect viewer shows it: each pixel's direction's colour (the faces are
 /// that function, sampled).
@@ -201,14 +231,14 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
     let shots = dir.path().join("shots");
     std::fs::create_dir_all(&shots).unwrap();
     let viewers = ["pannellum", "marzipano", "psv"];
-    let drive = |views: &str| {
+    let drive = |views: &str, under_way: &str| {
         let run = Command::new("node")
             .arg(root.join("tests/browser/tour.mjs"))
             .arg(&server.url)
             .arg(&shots)
             .args(viewers)
             .env("PLAYWRIGHT_CORE", &playwright)
-            .envs([("VIEWS", views), ("FOLLOW", "1"), ("TO", "1")])
+            .envs([("VIEWS", views), ("FOLLOW", "1"), ("TO", "1"), ("UNDER_WAY", under_way)])
             .output()
             .expect("node (scripts/setup.sh installs it)");
         let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout).lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
@@ -221,7 +251,7 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
         }
         lines
     };
-    let lines = drive(&VIEWS.map(|(y, p, f)| format!("{y},{p},{f}")).join(";"));
+    let lines = drive(&VIEWS.map(|(y, p, f)| format!("{y},{p},{f}")).join(";"), "0");
     let step = |name: &str, viewer: &str| {
         lines.iter().find(|l| l["step"] == name && l["viewer"] == viewer).unwrap_or_else(|| panic!("no {name} for {viewer}: {lines:?}")).clone()
     };
@@ -256,7 +286,7 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
     // Without the video, each link falls back to the viewer's own change of
     // scene and still arrives facing the arrival direction.
     std::fs::remove_file(out.join("videos/0.mp4")).unwrap();
-    let lines = drive("0,0,1");
+    let lines = drive("0,0,1", "0");
     for viewer in viewers {
         let followed =
             lines.iter().find(|l| l["step"] == "followed" && l["viewer"] == viewer).unwrap_or_else(|| panic!("no follow for {viewer}: {lines:?}"));
@@ -266,5 +296,27 @@ fn exported_tours_open_in_pannellum_marzipano_and_photo_sphere_viewer() {
             (view["yaw"].as_f64().unwrap() - 2.5).abs() < 0.02 && (view["pitch"].as_f64().unwrap() - 0.15).abs() < 0.02,
             "{viewer} arrives facing the arrival direction: {view}"
         );
+    }
+    // A path without video drawn as a glide: the two probes and the
+    // panorama half way, in WebGL 2, in each viewer.
+    as_glide(&bundle_dir);
+    let run = exploremaps(&["export", bundle_dir.to_str().unwrap(), out.to_str().unwrap(), "--library", library.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    for file in ["glide/p0.depth", "glide/p1.depth", "glide/w0-0.depth", "glide/w0-0/px.jpg", "glide/p1/nz.jpg"] {
+        assert!(out.join(file).exists(), "{file} is missing");
+    }
+    let lines = drive("0,0,1", "1");
+    for viewer in viewers {
+        let followed =
+            lines.iter().find(|l| l["step"] == "followed" && l["viewer"] == viewer).unwrap_or_else(|| panic!("no follow for {viewer}: {lines:?}"));
+        let (view, transition) = (&followed["view"], &followed["transition"]);
+        assert_eq!((view["scene"].as_str(), transition["kind"].as_str()), (Some("1"), Some("glide")), "{viewer}: {followed}");
+        assert!(transition["frames"].as_u64().unwrap() >= 2, "{viewer} drew the glide: {followed}");
+        // Under way the panoramas show: the colours of probe 0's or 1's
+        // directions (each channel 33 to 223 before the ripple), not black.
+        let shot = image::open(shots.join(format!("{viewer}-under-way.png"))).unwrap().to_rgb8();
+        let (w, h) = shot.dimensions();
+        let centre = shot.get_pixel(w / 2, h / 2);
+        assert!(centre.0.iter().all(|&c| c > 8) && centre.0.iter().any(|&c| c > 60), "{viewer}: under way the centre is {centre:?}");
     }
 }

@@ -3,7 +3,8 @@
 // For each viewer: open URL/VIEWER/index.html, wait for the first view, turn to
 // each of VIEWS in radians (ExploreMaps' convention), screenshot
 // OUT_DIR/VIEWER-0-K.png; with FOLLOW=1 follow the link to TO (default: the first link), wait for the
-// transition to end, screenshot OUT_DIR/VIEWER-1.png.
+// transition to end, screenshot OUT_DIR/VIEWER-1.png (with UNDER_WAY=1 also
+// OUT_DIR/VIEWER-under-way.png once the transition shows).
 // BENCH=1 (scripts/bench-tour.sh): each viewer in a 1280×720 page, cold, at its first view
 // and then zoomed to FOV (radians): the bytes fetched and the time until the last tile the
 // view needs has arrived ("sharp"); THROTTLE=1 limits the network to 10 Mbit/s (20 ms latency).
@@ -85,6 +86,14 @@ try {
       const to = process.env.TO || await page.evaluate(() => window.exploremapsTour.links()[0].to);
       const followed = await page.evaluate((to) => window.exploremapsTour.follow(to), to);
       if (!followed) throw new Error(`${viewer}: no link to ${to}`);
+      if (process.env.UNDER_WAY === '1') {
+        // A screenshot once the transition's overlay shows.
+        await page.waitForFunction(() => {
+          const c = document.querySelector('canvas.exploremaps-transition');
+          return c && c.style.opacity === '1';
+        }, null, { timeout: 30000 });
+        await page.screenshot({ path: `${out}/${viewer}-under-way.png` });
+      }
       await page.waitForFunction(() => {
         const s = window.exploremapsTour.state;
         return s.transitions.length > 0 && s.transitions[s.transitions.length - 1].done && !s.moving;

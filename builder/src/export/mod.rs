@@ -1,14 +1,16 @@
 //! Exports a bundle as a tour other viewers open: Pannellum, Marzipano and
 //! Photo Sphere Viewer (with its virtual-tour plugin), from one set of tiles.
-//! Each link plays the path's 360° transition video over the viewer
-//! (`transition.js`, through the viewer's own API) and falls back to the
+//! Each link plays the path's 360° transition video over the viewer, or
+//! draws its glide from the panoramas and their depth ([`glides`]), with
+//! `transition.js` through the viewer's own API, and falls back to the
 //! viewer's own fade where video or WebGL is missing.
 //!
 //! The export is a folder for any static host:
 //! ```text
 //! index.html              links to each viewer's tour
-//! tour.js                 the tour for our scripts: probes, tiles, links with videos
-//! transition.js           the video transition
+//! tour.js                 the tour for our scripts: probes, tiles, links with videos or glides
+//! transition.js           the transitions: video, or glide
+//! glide/                  the glides' panoramas and depth ([`glides`])
 //! tiles/<probe>/...       the tile pyramid ([`exploremaps_format::Tiles`] layout)
 //! thumbs/<probe>.jpg, videos/<path>.mp4
 //! pannellum/              index.html, tour.json (a Pannellum tour config)
@@ -18,6 +20,8 @@
 //! ```
 //! It is written beside the destination and renamed into place, so a failed
 //! export leaves no half-written folder.
+
+mod glides;
 
 use exploremaps_format::{Graph, Tiles};
 use serde_json::{json, Value};
@@ -91,8 +95,10 @@ pub enum TourError {
     Io { path: String, source: std::io::Error },
     #[error("{path}: cannot read the image (render the bundle again)")]
     Image { path: String, source: image::ImageError },
-    #[error("probe {0} has no panorama; run `exploremaps render` on the bundle first")]
+    #[error("probe {0} has no panorama (or, for a glide, no depth); run `exploremaps render` on the bundle first")]
     NotRendered(u32),
+    #[error("{path}: the depth cube does not decode (render the bundle again)")]
+    Depth { path: String, source: exploremaps_format::edgebreaker::CodingError },
     #[error("{0} exists and is not a tour this command wrote; choose another folder or remove it")]
     Occupied(String),
     #[error("{path} is missing: install the viewers' libraries there with `npm install {packages}`, or leave out --library to reference them on the jsDelivr CDN")]
@@ -271,6 +277,8 @@ fn write_tour(
     let mut tour = TourFiles { bundle, graph, dir, rank, report: TourReport { probes: graph.probes.len(), ..Default::default() } };
     let probes = tour.probes(progress)?;
     let videos = tour.videos()?;
+    let (glide_sources, bytes) = glides::write_sources(bundle, graph, dir)?;
+    tour.report.bytes += bytes;
     let links = links(graph);
     tour.report.links = links.len();
     let direction = |(yaw, pitch): (f32, f32)| json!({ "yaw": radians(yaw), "pitch": radians(pitch) });
@@ -280,11 +288,13 @@ fn write_tour(
             json!({
                 "from": l.from.to_string(), "to": l.to.to_string(), "video": videos[l.path as usize], "reversed": l.reversed,
                 "duration": graph.paths[l.path as usize].duration_s, "departure": direction(l.departure), "arrival": direction(l.arrival),
+                "glide": glides::link(&graph.paths[l.path as usize], l.reversed),
             })
         })
         .collect();
     let first = graph.bar_order.first().copied().unwrap_or(0);
-    let data = json!({ "title": graph.scene.name, "first": first.to_string(), "probes": probes, "links": tour_links });
+    let data =
+        json!({ "title": graph.scene.name, "first": first.to_string(), "probes": probes, "links": tour_links, "glide_sources": glide_sources });
     let tour_js = format!(
         "// The tour, for ExploreMaps' scripts (written by `exploremaps export`).\nwindow.EXPLOREMAPS_TOUR = {};\n",
         serde_json::to_string_pretty(&data).expect("JSON of plain values")
