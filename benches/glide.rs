@@ -99,14 +99,7 @@ impl Subject<'_> {
             .graph
             .probes
             .iter()
-            .map(|p| {
-                self.load_source(
-                    device,
-                    queue,
-                    (p.assets.cube_levels.last().expect("rendered faces"), p.assets.depth.as_ref().expect("depth")),
-                    p.position,
-                )
-            })
+            .map(|p| self.load_source(device, queue, (self.level(&p.assets.cube_levels), p.assets.depth.as_ref().expect("depth")), p.position))
             .collect();
         let mut pass = GlidePass::new(device, wgpu::TextureFormat::Rgba8UnormSrgb);
         let mut rows = Vec::new();
@@ -149,6 +142,13 @@ impl Subject<'_> {
             }
         }
         rows
+    }
+
+    /// The level the viewer would show on a view of this size (its 90° as
+    /// wide as a face): the smallest at least as sharp as the screen, as
+    /// sampling a sharper one unfiltered aliases.
+    fn level<'l>(&self, levels: &'l [CubeLevel]) -> &'l CubeLevel {
+        levels.iter().find(|l| l.size >= self.size).or(levels.last()).expect("rendered faces")
     }
 
     /// A cube level and a depth mesh (a probe's or a waypoint's), from the bundle.

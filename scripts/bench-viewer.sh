@@ -33,12 +33,14 @@ for webgpu in 0 1; do
   if [ $webgpu = 1 ]; then echo "== web (headless Chromium, WebGPU on SwiftShader Vulkan)"; else echo "== web (headless Chromium, WebGL2 on SwiftShader)"; fi
   WEBGPU=$webgpu PLAYWRIGHT_CORE="$PWD/target/node/node_modules/playwright-core/index.mjs" node tests/browser/viewer.mjs bench "$url" target/bench-viewer | node -e '
   const lines = require("fs").readFileSync(0, "utf8").trim().split("\n").map(JSON.parse);
-  const stats = (a) => { const s = [...a].sort((x, y) => x - y); const mean = a.reduce((x, y) => x + y, 0) / a.length;
-    return `mean ${mean.toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
+  const mean = (a) => a.reduce((x, y) => x + y, 0) / a.length;
+  const stats = (a) => { const s = [...a].sort((x, y) => x - y);
+    return `mean ${mean(a).toFixed(1)} ms, p95 ${s[Math.floor(s.length * 0.95)].toFixed(1)} ms over ${a.length} frames`; };
+  let probe = NaN;
   for (const l of lines) {
     if (l.step === "first") console.log(`first panorama: ${Math.round(l.first_panorama_ms)} ms after navigation start (${l.backend}): wasm running at ${Math.round(l.wasm_ready_ms)}, graph at ${Math.round(l.graph_ms)}, GPU device at ${Math.round(l.device_ms)}, pipelines made at ${Math.round(l.app_ms)}, first cube decoded at ${Math.round(l.faces_ms)} ms`);
-    else if (l.step === "probe") console.log(`frame time in a probe at 1280x720: ${stats(l.frames_ms)}`);
-    else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)}; ${l.video_frames_per_s.toFixed(1)} video frames shown a second`);
+    else if (l.step === "probe") { probe = mean(l.frames_ms); console.log(`frame time in a probe at 1280x720: ${stats(l.frames_ms)}`); }
+    else if (l.step === "transition") console.log(`frame time during a transition at 1280x720: ${stats(l.frames_ms)} (${(mean(l.frames_ms) / probe).toFixed(2)}× that in a probe; goal for a glide 1.5×); ${l.video_frames_per_s.toFixed(1)} video frames shown a second` + (l.first_glide_ms == null ? "" : `; a glide (${l.glide_frames} frames): its first frame ${Math.round(l.first_glide_ms)} ms after the key (goal 100)`));
     else if (l.step === "backward") console.log(`frame time travelling a path backwards: ${stats(l.frames_ms)}; ${l.video_frames_per_s.toFixed(1)} video frames shown a second`);
     else if (l.step === "memory") console.log(`JS heap: ${(l.js_heap_bytes / 1048576).toFixed(1)} MiB`);
     else console.log(JSON.stringify(l));

@@ -241,7 +241,7 @@ mod tests {
     }
 
     /// The images of a large bundle: 300 probes' cube faces and thumbnails,
-    /// 600 paths of 400 frames and 4 waypoints, 8 stand-in levels of 20,000 vertices, the
+    /// 600 paths of 400 frames and their most waypoints, 8 stand-in levels of 20,000 vertices, the
     /// exposure views, and the work of no image.
     fn images() -> Vec<(u64, String)> {
         let mut out = Vec::new();
@@ -251,7 +251,9 @@ mod tests {
         }
         for path in 0..600 {
             out.extend((0..400).map(|f| (image::video(path) + f, format!("path {path} frame {f}"))));
-            out.extend((0..4 * 6).map(|f| (image::waypoint(path, f / 6) + (f % 6) as u64, format!("path {path} waypoint face {f}"))));
+            // Waypoints stand at camera keys: every fiftieth key, to the most a path has.
+            let waypoints = 0..crate::render::glide::MAX_WAYPOINTS as u32 * 6;
+            out.extend(waypoints.map(|f| (image::waypoint(path, 50 * (f / 6)) + (f % 6) as u64, format!("path {path} waypoint face {f}"))));
         }
         for level in 0..8 {
             out.extend((0..20_000).map(|v| (image::bake(level, v), format!("level {level} vertex {v}"))));

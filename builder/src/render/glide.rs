@@ -64,7 +64,7 @@ pub fn depth_cube(tracer: &Tracer, eye: Vec3, cells: u32) -> DepthCube {
 
 /// Panoramas part way a glide may add before a video is cheaper: each is
 /// a sixteenth of a final probe's pixels, a video a hundred frames.
-pub const MAX_WAYPOINTS: usize = 4;
+pub const MAX_WAYPOINTS: usize = 8;
 
 /// How a glide along a path goes: in legs between its ends and the
 /// panoramas part way, and what the worst leg leaves unseen.
@@ -153,7 +153,11 @@ fn seen_by_neither(tracer: &Tracer, eye: Vec3, d: Vec3, ends: [Vec3; 2]) -> bool
 pub fn choose(transitions: Transitions, legs: &Legs) -> Option<Transition> {
     let percent = 100.0 * legs.unseen;
     let n = legs.waypoints.len();
-    let parts = if n == 0 { "from the two ends".to_string() } else { format!("in {} legs ({n} panoramas part way)", n + 1) };
+    let parts = match n {
+        0 => "from the two ends".to_string(),
+        1 => "in 2 legs (a panorama part way)".to_string(),
+        _ => format!("in {} legs ({n} panoramas part way)", n + 1),
+    };
     let at = format!(
         "{percent:.1} % of the view {:.0} % of the way along is seen from neither end of its leg (or at under 1/{DETAIL} of the detail)",
         100.0 * legs.along
@@ -230,7 +234,7 @@ mod tests {
         assert!(legs.waypoints.iter().any(|k| (8..=12).contains(k)), "{legs:?}");
         let transition = choose(Transitions::Auto, &legs).unwrap();
         assert_eq!(transition.kind, TransitionKind::Depth);
-        assert!(transition.reason.contains("panoramas part way"), "{}", transition.reason);
+        assert!(transition.reason.contains("part way"), "{}", transition.reason);
     }
 
     #[test]
