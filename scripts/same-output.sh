@@ -10,7 +10,9 @@
 # Keep a copy of the old binary before changing the code, e.g.
 #   cp target/release/exploremaps /tmp/exploremaps-before
 # OLD_BINARY may instead be the `old` folder of an earlier run, to compare
-# against its outputs without making them again.
+# against its outputs without making them again. NEW_ARGS: more arguments for
+# the new binary's build, e.g. NEW_ARGS="--transitions video" against a
+# binary from before glides were the default.
 set -euo pipefail
 
 if [ $# -lt 2 ]; then
@@ -40,8 +42,12 @@ for side in $sides; do
   done
   # Fewer threads for one side: bundles must not depend on the thread count either.
   threads=2
-  [ "$side" = new ] && threads=1
-  "$bin" -q --seed 7 --threads "$threads" build house --quality preview -o "$work/$side/house" >/dev/null 2>&1
+  extra=()
+  if [ "$side" = new ]; then
+    threads=1
+    read -r -a extra <<< "${NEW_ARGS:-}"
+  fi
+  "$bin" -q --seed 7 --threads "$threads" build house --quality preview -o "$work/$side/house" "${extra[@]}" >/dev/null 2>&1
 done
 
 old_dir="$work/old"

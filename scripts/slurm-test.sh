@@ -72,7 +72,7 @@ wait_job() {
 }
 same() { diff -r -q --exclude=timings.json --exclude=shards "$work/single" "$1" >/dev/null || fail "$1 differs from the single render: $(diff -r -q --exclude=timings.json --exclude=shards "$work/single" "$1" | head -5)"; }
 
-args=(--quality preview --face 64 --video-width 128)
+args=(--quality preview --face 64 --video-width 128 --transitions video)
 "$exe" -q plan maze:3 -o "$work/planned" --samples 5000 >/dev/null
 cp -r "$work/planned" "$work/single"
 started=$(date +%s.%N)

@@ -281,12 +281,13 @@ pub struct RenderArgs {
     /// albedo and normal (for few samples or real bounces).
     #[arg(long)]
     pub denoise: bool,
-    /// How paths are shown. video: a 360° video each (the bundle as before
-    /// glides); depth: every path a glide the viewer draws from the two ends'
-    /// panoramas and their depth (written per probe); auto: a glide where the
-    /// ends see nearly all the path sees (at most 2 % of the view seen from
-    /// neither), a video elsewhere. graph.json records each path's choice and why.
-    #[arg(long, value_enum, default_value_t = TransitionsArg::Video)]
+    /// How paths are shown. auto: a glide the viewer draws from panoramas and
+    /// their depth (written per probe), in legs between up to 8 panoramas
+    /// part way where the ends alone do not see what the path sees (at most
+    /// 2 % of the view unseen, or seen 4× coarser), a video where they do
+    /// not do; depth: every path a glide; video: a 360° video each (the
+    /// bundle as before glides). graph.json records each path's choice and why.
+    #[arg(long, value_enum, default_value_t = TransitionsArg::Auto)]
     pub transitions: TransitionsArg,
 }
 

@@ -339,7 +339,8 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     for entry in std::fs::read_dir(&one).unwrap().flatten() {
         std::fs::copy(entry.path(), sharded.join(entry.file_name())).unwrap();
     }
-    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100"];
+    // Videos (the glides have their own test below).
+    let small = ["--quality", "preview", "--face", "64", "--video-width", "128", "--proxy-triangles", "100", "--transitions", "video"];
     let render = |bundle: &std::path::Path, extra: &[&str]| {
         let mut args = vec!["render", bundle.to_str().unwrap()];
         args.extend(small);
@@ -531,7 +532,8 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
     let (a, b) = (bundle_files(&one), bundle_files(&two));
     let names = |f: &[(PathBuf, Vec<u8>)]| f.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     assert_eq!(names(&a), names(&b), "the same files");
-    for name in ["graph.json", "coverage.json", "proxy/0.emmc", "paths/0.mp4", "probes/0/pano.jpg"] {
+    // (The default, auto: glides, each path's record and each probe's depth.)
+    for name in ["graph.json", "coverage.json", "proxy/0.emmc", "paths/0.json", "probes/0/pano.jpg", "probes/0/depth.emdc"] {
         assert!(names(&a).contains(&PathBuf::from(name)), "{name} is written");
     }
     assert!(one.join("timings.json").exists() && two.join("timings.json").exists());
@@ -581,7 +583,9 @@ fn renders_killed_at_random_moments_resume_to_the_same_bytes() {
     let run = exploremaps(&["plan", "maze:3", "-o", planned.to_str().unwrap(), "--samples", "5000"]);
     assert!(run.status.success(), "{}", stderr(&run));
     let render_args = |b: &std::path::Path| -> Vec<String> {
-        ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "64", "--video-width", "128"].map(str::to_string).to_vec()
+        ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "64", "--video-width", "128", "--transitions", "video"]
+            .map(str::to_string)
+            .to_vec()
     };
     let copy = |to: &std::path::Path| {
         std::fs::create_dir_all(to).unwrap();
@@ -641,7 +645,7 @@ fn a_killed_render_leaves_only_whole_files_and_resumes() {
     let b = dir.path().join("b");
     let run = exploremaps(&["plan", "maze:3", "-o", b.to_str().unwrap(), "--samples", "5000"]);
     assert!(run.status.success(), "{}", stderr(&run));
-    let args = ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "256", "--video-width", "256"];
+    let args = ["render", b.to_str().unwrap(), "--quality", "preview", "--face", "256", "--video-width", "256", "--transitions", "video"];
     let mut child = Command::new(exe()).args(args).env("RUST_LOG", "warn").stdout(std::process::Stdio::null()).spawn().unwrap();
     let started = std::time::Instant::now();
     while !b.join("probes/1/pano.jpg").exists() && started.elapsed().as_secs() < 120 {

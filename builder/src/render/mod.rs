@@ -256,7 +256,7 @@ fn list_assets(dir: &Path, graph: &mut Graph, levels: &[u32]) {
     for (id, probe) in graph.probes.iter_mut().enumerate() {
         let files = ProbeFiles::new(id, levels, true);
         let tiled = files.tiles.files().iter().chain([&files.tiles.preview]).all(exists);
-        let ProbeFiles { cube, tiles, pano, thumb, depth } = files;
+        let ProbeFiles { cube, tiles, pano, thumb, depth, .. } = files;
         probe.assets.cube_levels = cube.into_iter().filter(|l| l.faces.iter().all(exists)).collect();
         probe.assets.tiles = tiled.then_some(tiles);
         probe.assets.equirect = exists(&pano).then_some(pano);

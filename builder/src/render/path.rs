@@ -16,6 +16,10 @@ use glam::Vec3;
 use std::ops::ControlFlow;
 use std::path::Path;
 
+/// JPEG quality of a panorama part way: seen only in passing, as a video's
+/// frames are (a probe's faces: 90).
+const WAYPOINT_QUALITY: u8 = 80;
+
 /// The video's and the poster's file names.
 pub(super) fn files(id: usize) -> (String, String) {
     (format!("paths/{id}.mp4"), format!("paths/{id}.jpg"))
@@ -96,7 +100,7 @@ fn render_waypoint(
     let k = key as u32;
     let faces = traced_cube(dir, renderer, settings, (eye, size), crate::seeds::image::waypoint(id as u32, k), &cube.faces[0])?;
     let images: Vec<image::RgbImage> = faces.iter().map(|f| renderer.to_image(size, size, f)).collect();
-    write_jpegs(dir, &cube.faces.iter().map(String::as_str).zip(&images).collect::<Vec<_>>())?;
+    write_jpegs(dir, &cube.faces.iter().map(String::as_str).zip(&images).collect::<Vec<_>>(), WAYPOINT_QUALITY)?;
     Ok(Waypoint { key: k, position, cube, depth })
 }
 

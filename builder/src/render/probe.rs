@@ -28,6 +28,10 @@ pub(super) struct ProbeFiles {
     pub thumb: String,
     /// With glides.
     pub depth: Option<String>,
+    /// With glides, only the smallest level is written as whole faces: the
+    /// sharper ones come as tiles only (every reader of such a bundle, the
+    /// viewer and the tour export, takes them so), which halves the bytes.
+    pub tiles_only: bool,
 }
 
 impl ProbeFiles {
@@ -36,12 +40,17 @@ impl ProbeFiles {
         let face = levels.last().copied().unwrap_or(TILE);
         let tiles = Tiles::new(format!("probes/{id}/tiles"), face, TILE, TILE_PREVIEW.min(face));
         let depth = glides.then(|| format!("probes/{id}/depth.emdc"));
-        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg"), depth }
+        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg"), depth, tiles_only: glides }
     }
 
-    /// Every file, each level's faces, the tiles and their preview.
+    /// The levels written as whole faces.
+    pub fn face_levels(&self) -> &[CubeLevel] {
+        &self.cube[..if self.tiles_only { self.cube.len().min(1) } else { self.cube.len() }]
+    }
+
+    /// Every file: the faces written, the tiles and their preview.
     pub fn all(&self) -> Vec<String> {
-        let faces = self.cube.iter().flat_map(|l| l.faces.iter().cloned());
+        let faces = self.face_levels().iter().flat_map(|l| l.faces.iter().cloned());
         let others = [self.tiles.preview.clone(), self.pano.clone(), self.thumb.clone()];
         faces.chain(self.tiles.files()).chain(others).chain(self.depth.clone()).collect()
     }
@@ -49,8 +58,8 @@ impl ProbeFiles {
 
 /// Encodes the images on every core (serially they took a tenth of a
 /// probe's time, one core idle) and writes each to its file.
-pub(super) fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)]) -> Result<(), BundleError> {
-    images.par_iter().try_for_each(|(name, image)| write(dir, name, &jpeg(image, QUALITY)))
+pub(super) fn write_jpegs(dir: &Path, images: &[(&str, &image::RgbImage)], quality: u8) -> Result<(), BundleError> {
+    images.par_iter().try_for_each(|(name, image)| write(dir, name, &jpeg(image, quality)))
 }
 
 /// The frame's colours, denoised where the settings say (errors name `file`).
@@ -78,7 +87,9 @@ pub(super) fn traced_cube(
 pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe: &Probe, id: usize, levels: &[u32]) -> Result<(), BundleError> {
     let exists = |name: &str| dir.join(name).exists();
     let eye = Vec3::from(probe.position);
-    let ProbeFiles { cube, tiles, pano, thumb, depth } = ProbeFiles::new(id, levels, settings.glides());
+    let files = ProbeFiles::new(id, levels, settings.glides());
+    let written = files.face_levels().len();
+    let ProbeFiles { cube, tiles, pano, thumb, depth, .. } = files;
     if let Some(depth) = depth.filter(|d| !exists(d)) {
         write(dir, &depth, &super::glide::depth_cube(&renderer.tracer, eye, settings.depth_cells).encode())?;
     }
@@ -92,9 +103,10 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
             faces = faces.iter().map(|f| downsample(level.size * 2, f)).collect();
         }
         let level_images: Vec<image::RgbImage> = faces.iter().map(|face| renderer.to_image(level.size, level.size, face)).collect();
+        let written = cube.iter().position(|l| l.size == level.size).is_some_and(|i| i < written);
         let missing: Vec<(&str, &image::RgbImage)> =
-            level.faces.iter().zip(&level_images).filter(|(name, _)| !exists(name)).map(|(name, image)| (name.as_str(), image)).collect();
-        write_jpegs(dir, &missing)?;
+            level.faces.iter().zip(&level_images).filter(|(name, _)| written && !exists(name)).map(|(name, image)| (name.as_str(), image)).collect();
+        write_jpegs(dir, &missing, QUALITY)?;
         images.push((level.size, level_images));
     }
     let mut cut = Vec::new();
@@ -104,7 +116,7 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
         }
         Ok::<(), BundleError>(())
     })?;
-    write_jpegs(dir, &cut.iter().map(|(name, tile)| (name.as_str(), tile)).collect::<Vec<_>>())?;
+    write_jpegs(dir, &cut.iter().map(|(name, tile)| (name.as_str(), tile)).collect::<Vec<_>>(), QUALITY)?;
     let pano_width = settings.face.max(1024);
     let equirect = equirect_from_cube(&full, settings.face, pano_width);
     write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), QUALITY))?;
