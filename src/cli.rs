@@ -282,7 +282,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub denoise: bool,
     /// How paths are shown. auto: a glide the viewer draws from panoramas and
-    /// their depth (written per probe), in legs between up to 8 panoramas
+    /// their depth (written per probe), in legs between up to 16 panoramas
     /// part way where the ends alone do not see what the path sees (at most
     /// 2 % of the view unseen, or seen 4× coarser), a video where they do
     /// not do; depth: every path a glide; video: a 360° video each (the

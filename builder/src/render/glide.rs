@@ -62,9 +62,9 @@ pub fn depth_cube(tracer: &Tracer, eye: Vec3, cells: u32) -> DepthCube {
     DepthCube::new(cells, 1e-5 * diagonal, 2.0 * diagonal, &distances)
 }
 
-/// Panoramas part way a glide may add before a video is cheaper: each is
-/// a sixteenth of a final probe's pixels, a video a hundred frames.
-pub const MAX_WAYPOINTS: usize = 8;
+/// Panoramas part way a glide may add before a video is cheaper: at final
+/// each costs about a second and 150 KB, a video some 30 s and 4 MB.
+pub const MAX_WAYPOINTS: usize = 16;
 
 /// How a glide along a path goes: in legs between its ends and the
 /// panoramas part way, and what the worst leg leaves unseen.

@@ -18,7 +18,7 @@ use std::path::Path;
 
 /// JPEG quality of a panorama part way: seen only in passing, as a video's
 /// frames are (a probe's faces: 90).
-const WAYPOINT_QUALITY: u8 = 80;
+const WAYPOINT_QUALITY: u8 = 75;
 
 /// The video's and the poster's file names.
 pub(super) fn files(id: usize) -> (String, String) {
