@@ -24,6 +24,7 @@ echo "wasm: $(stat -c %s target/web-viewer/viewer/exploremaps_bg.wasm) bytes, $(
 echo "== native (lavapipe, Xvfb)"
 xvfb-run -a -s "-screen 0 1280x720x24" /usr/bin/time -f "peak memory (resident): %M KiB" "$exe" -q view "$bundle" --benchmark
 
+mkdir -p target/bench-viewer
 "$exe" -q serve "$bundle" --address 127.0.0.1:0 > target/bench-viewer/serve.log &
 server=$!
 trap 'kill $server 2>/dev/null' EXIT
