@@ -67,8 +67,10 @@ struct U { t: f32, tol: f32, pad: vec2f };
 @group(0) @binding(0) var<uniform> u: U;
 @group(0) @binding(1) var a: texture_2d<f32>;
 @group(0) @binding(2) var b: texture_2d<f32>;
-@group(0) @binding(3) var depth_a: texture_depth_2d;
-@group(0) @binding(4) var depth_b: texture_depth_2d;
+// Depth read as plain floats: WebGL2's shaders cannot fetch texels of a
+// depth texture bound for comparison.
+@group(0) @binding(3) var depth_a: texture_2d<f32>;
+@group(0) @binding(4) var depth_b: texture_2d<f32>;
 
 @vertex fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4f {
     let p = vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
@@ -85,8 +87,8 @@ fn hides(alpha: f32, near: f32, far: f32) -> f32 {
     let at = vec2i(pos.xy);
     let pa = textureLoad(a, at, 0);
     let pb = textureLoad(b, at, 0);
-    let za = textureLoad(depth_a, at, 0);
-    let zb = textureLoad(depth_b, at, 0);
+    let za = textureLoad(depth_a, at, 0).r;
+    let zb = textureLoad(depth_b, at, 0).r;
     // Where one end's sure surface lies well in front of the other's, the
     // other saw something this ray does not reach (the wall behind a
     // pillar): it steps back. Not near an end, whose own view is exact
@@ -490,8 +492,8 @@ fn blend_pipeline(device: &wgpu::Device, format: wgpu::TextureFormat) -> (wgpu::
             entry(0, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None }),
             entry(1, texture),
             entry(2, texture),
-            entry(3, depth),
-            entry(4, depth),
+            entry(3, texture),
+            entry(4, texture),
         ],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
