@@ -481,11 +481,6 @@ fn blend_pipeline(device: &wgpu::Device, format: wgpu::TextureFormat) -> (wgpu::
         view_dimension: wgpu::TextureViewDimension::D2,
         multisampled: false,
     };
-    let depth = wgpu::BindingType::Texture {
-        sample_type: wgpu::TextureSampleType::Depth,
-        view_dimension: wgpu::TextureViewDimension::D2,
-        multisampled: false,
-    };
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("glide blend"),
         entries: &[
