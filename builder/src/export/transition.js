@@ -311,13 +311,8 @@
         var begun = null;
         function draw(t) {
           var s = smoothstep(t);
-          var w = Math.max(1, Math.round(canvas.clientWidth * (window.devicePixelRatio || 1)));
-          var h = Math.max(1, Math.round(canvas.clientHeight * (window.devicePixelRatio || 1)));
-          if (!targets || canvas.width !== w || canvas.height !== h) {
-            canvas.width = w;
-            canvas.height = h;
-            targets = [target(gl, w, h), target(gl, w, h)];
-          }
+          var resized = fit(canvas), w = canvas.width, h = canvas.height;
+          if (!targets || resized) targets = [target(gl, w, h), target(gl, w, h)];
           gl.viewport(0, 0, w, h);
           // The leg the camera is on: the sources on either side of it.
           var k = 0;
@@ -355,6 +350,16 @@
       return false;
     });
     return transition;
+  }
+
+  // Sizes the canvas to its box in device pixels; true if it changed.
+  function fit(canvas) {
+    var w = Math.max(1, Math.round(canvas.clientWidth * (window.devicePixelRatio || 1)));
+    var h = Math.max(1, Math.round(canvas.clientHeight * (window.devicePixelRatio || 1)));
+    if (canvas.width === w && canvas.height === h) return false;
+    canvas.width = w;
+    canvas.height = h;
+    return true;
   }
 
   function overlay(container, canvas) {
@@ -423,12 +428,8 @@
       var begun = null;
       function draw(t) {
         var s = smoothstep(t);
-        var w = Math.max(1, Math.round(canvas.clientWidth * (window.devicePixelRatio || 1)));
-        var h = Math.max(1, Math.round(canvas.clientHeight * (window.devicePixelRatio || 1)));
-        if (canvas.width !== w || canvas.height !== h) {
-          canvas.width = w;
-          canvas.height = h;
-        }
+        fit(canvas);
+        var w = canvas.width, h = canvas.height;
         gl.viewport(0, 0, w, h);
         gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGB, gl.RGB, gl.UNSIGNED_BYTE, video);
         gl.uniform1f(uniform("yaw"), from.yaw + wrap(to.yaw - from.yaw) * s);
