@@ -390,6 +390,8 @@ pub struct App {
     glide_requested: HashSet<u32>,
     /// The sources of the last frame's glide, if it was one.
     glided: Option<(u32, u32)>,
+    /// The travel's speed before it was paused.
+    resume_speed: f32,
 }
 
 /// Options a platform chooses.
@@ -467,6 +469,7 @@ impl App {
             glide_meshes: HashMap::new(),
             glide_requested: HashSet::new(),
             glided: None,
+            resume_speed: 1.0,
         };
         if link.is_some_and(|l| l.dollhouse) {
             app.toggle_dollhouse(platform);
@@ -1194,6 +1197,9 @@ impl App {
             },
             Input::Wheel(steps) => self.nav.zoom(0.9f32.powf(steps)),
             Input::Key(key) => {
+                if self.steering(key) {
+                    return;
+                }
                 match key {
                     Key::Left => self.nav.look(-KEY_TURN, 0.0),
                     Key::Right => self.nav.look(KEY_TURN, 0.0),
@@ -1225,6 +1231,30 @@ impl App {
 
     /// A tap: on the interface it acts; on the view it takes the path whose
     /// marker is nearest, or the best-aligned one if it is within 45°.
+    /// Along a path drawn as a glide (no video keeps its own clock), the
+    /// keys steer the travel: Enter or Space pauses and resumes, down goes
+    /// back (again: faster), up goes on (again: faster, up to 4×). Whether
+    /// `key` did.
+    fn steering(&mut self, key: Key) -> bool {
+        if !(matches!(self.nav.state, State::Travelling { .. }) && self.video_failed) {
+            return false;
+        }
+        let speed = self.nav.speed;
+        self.nav.speed = match key {
+            Key::Go if speed == 0.0 => self.resume_speed,
+            Key::Go => {
+                self.resume_speed = speed;
+                0.0
+            }
+            Key::Up if speed > 0.0 => (2.0 * speed).min(4.0),
+            Key::Up => 1.0,
+            Key::Down if speed < 0.0 => (2.0 * speed).max(-4.0),
+            Key::Down => -1.0,
+            _ => return false,
+        };
+        true
+    }
+
     fn tap(&mut self, x: f32, y: f32, platform: &mut dyn Platform) {
         let result = match self.layout.hit(x, y) {
             Some(Action::GoTo(p)) => {

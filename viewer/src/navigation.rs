@@ -79,6 +79,9 @@ pub struct Navigator {
     /// The direction to face on arriving, when a move was asked to end
     /// facing something (point-to-go); else the probe's preferred one.
     facing: Option<(f32, f32)>,
+    /// How fast a travel goes, in multiples of its timing: 0 paused,
+    /// negative back toward its start (glides only: a video keeps its own clock).
+    pub speed: f32,
 }
 
 impl Navigator {
@@ -88,8 +91,14 @@ impl Navigator {
         if probe as usize >= graph.probes.len() {
             return Err(NavError::NoSuchProbe(probe));
         }
-        let mut nav =
-            Navigator { graph, state: State::AtProbe { probe }, view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 }, rng: seed | 1, facing: None };
+        let mut nav = Navigator {
+            graph,
+            state: State::AtProbe { probe },
+            view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 },
+            rng: seed | 1,
+            facing: None,
+            speed: 1.0,
+        };
         (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
         Ok(nav)
     }
@@ -226,23 +235,27 @@ impl Navigator {
         }
     }
 
-    /// Advances time: moves along the path, blends the view, arrives.
+    /// Advances time: moves along the path (at [`Navigator::speed`]), blends
+    /// the view, arrives (back at the start when going back).
     pub fn update(&mut self, dt_s: f32) {
+        let speed = self.speed;
         match &mut self.state {
             State::AtProbe { .. } => return,
-            State::Travelling { elapsed_s, .. } | State::CrossFading { elapsed_s, .. } => *elapsed_s += dt_s.max(0.0),
+            State::Travelling { elapsed_s, .. } => *elapsed_s = (*elapsed_s + dt_s.max(0.0) * speed).max(0.0),
+            State::CrossFading { elapsed_s, .. } => *elapsed_s += dt_s.max(0.0),
         }
         let t = self.progress().unwrap_or(1.0);
         match self.state {
-            State::Travelling { path, reversed, start, .. } => {
-                let to = self.endpoints(path, reversed).1;
+            State::Travelling { path, reversed, start, elapsed_s } => {
+                let (from, to) = self.endpoints(path, reversed);
                 let (yaw, pitch) = self.arrival_direction(to, Some((path, reversed)));
                 let s = ease(t);
                 self.view.yaw = wrap(start.yaw + wrap(yaw - start.yaw) * s);
                 self.view.pitch = start.pitch + (pitch - start.pitch) * s;
-                if t >= 1.0 {
-                    self.state = State::AtProbe { probe: to };
+                if t >= 1.0 || (speed < 0.0 && elapsed_s <= 0.0) {
+                    self.state = State::AtProbe { probe: if t >= 1.0 { to } else { from } };
                     self.facing = None;
+                    self.speed = 1.0;
                 }
             }
             State::CrossFading { to, .. } if t >= 1.0 => {
@@ -468,6 +481,26 @@ pub(crate) mod tests {
         assert!((bar[1].angle - PI / 2.0).abs() < 1e-4);
         nav.look(PI / 2.0, 0.0); // toward +X
         assert_eq!(nav.path_bar()[0].to, 1);
+    }
+
+    #[test]
+    fn a_travel_pauses_goes_back_to_its_start_and_on_at_any_speed() {
+        let mut nav = Navigator::new(graph(), Some(0), 1).unwrap();
+        nav.go_to(1).unwrap();
+        nav.update(0.5);
+        let here = nav.camera_position();
+        nav.speed = 0.0;
+        nav.update(0.5);
+        assert_eq!(nav.camera_position(), here, "paused");
+        nav.speed = -2.0;
+        nav.update(0.2);
+        assert!(nav.camera_position()[0] < here[0], "back toward probe 0: {:?}", nav.camera_position());
+        nav.update(0.2);
+        assert_eq!((nav.state, nav.speed), (State::AtProbe { probe: 0 }, 1.0), "back at the start, at the usual speed");
+        nav.go_to(1).unwrap();
+        nav.speed = 4.0;
+        nav.update(0.5);
+        assert_eq!(nav.state, State::AtProbe { probe: 1 }, "four times as fast: 2 s in 0.5 s");
     }
 
     #[test]

@@ -309,6 +309,20 @@ fn a_path_without_video_glides_once_both_ends_depth_is_in() {
     assert!(script.videos.is_empty(), "no video to play");
     assert!(glided > 10, "the travel was drawn as a glide ({glided} frames)");
     assert!(matches!(app.nav.state, State::AtProbe { .. }) && app.nav.probe() != 0 && !app.gliding(), "arrived: {:?}", app.nav.state);
+    // A glide pauses and goes back: here, where it set out.
+    let to = app.nav.probe();
+    app.input(Input::Key(Key::Go), &mut script);
+    assert!(matches!(app.nav.state, State::Travelling { .. }), "took the path back: {:?}", app.nav.state);
+    app.update(0.5, &mut script);
+    app.input(Input::Key(Key::Go), &mut script);
+    let here = app.nav.camera_position();
+    app.update(0.5, &mut script);
+    assert_eq!(app.nav.camera_position(), here, "paused");
+    app.input(Input::Key(Key::Down), &mut script);
+    for _ in 0..100 {
+        app.update(0.02, &mut script);
+    }
+    assert_eq!(app.nav.state, State::AtProbe { probe: to }, "went back to where it set out");
     assert_eq!(script.glide_requests.iter().filter(|&&p| p == 0).count(), 1, "each depth cube asked for once");
 }
 
