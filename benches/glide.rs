@@ -27,6 +27,7 @@ use exploremaps_format::{direction, CubeLevel, Graph};
 use exploremaps_scenes::{BuiltIn, Scene};
 use exploremaps_viewer::dollhouse::{Camera, FrameTarget};
 use exploremaps_viewer::glide::{toward, End, GlideFrame, GlideMesh, GlidePass};
+use exploremaps_viewer::offscreen::render_target;
 use exploremaps_viewer::panorama::Cube;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -228,39 +229,9 @@ fn score(python: &Path, rows: &[Row]) -> Vec<(Option<f64>, f64)> {
 
 /// Draws a glide frame into a `size`² sRGB target and reads it back (RGBA8).
 fn draw(device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut GlidePass, frame: &GlideFrame, size: u32) -> Vec<u8> {
-    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: None,
-        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = texture.create_view(&Default::default());
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: u64::from(size * size * 4),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    pass.draw(&mut FrameTarget { device, queue, encoder: &mut encoder, view: &view, width: size, height: size }, frame);
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo { texture: &texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &readback,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) },
-        },
-        wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-    );
-    queue.submit([encoder.finish()]);
-    readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map the readback buffer"));
-    device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finishes");
-    let pixels = readback.get_mapped_range(..).expect("mapped");
-    pixels.to_vec()
+    render_target(device, queue, size, |encoder, view| {
+        pass.draw(&mut FrameTarget { device, queue, encoder, view, width: size, height: size }, frame);
+    })
 }
 
 /// A headless GPU device (lavapipe or llvmpipe here), or None, saying why.

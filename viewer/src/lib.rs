@@ -8,6 +8,8 @@ pub mod glide;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod native;
 pub mod navigation;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod offscreen;
 pub mod overlay;
 pub mod panorama;
 pub mod ui;

@@ -79,6 +79,10 @@ pub struct Navigator {
     /// The direction to face on arriving, when a move was asked to end
     /// facing something (point-to-go); else the probe's preferred one.
     facing: Option<(f32, f32)>,
+    /// Glides draw from sources: the probes by id, then the panoramas part
+    /// way along the paths, numbered on from the last probe path by path:
+    /// per path, its first one's number.
+    waypoint_sources: Vec<u32>,
     /// How fast a travel goes, in multiples of its timing: 0 paused,
     /// negative back toward its start (glides only: a video keeps its own clock).
     pub speed: f32,
@@ -91,7 +95,17 @@ impl Navigator {
         if probe as usize >= graph.probes.len() {
             return Err(NavError::NoSuchProbe(probe));
         }
+        let waypoint_sources = graph
+            .paths
+            .iter()
+            .scan(graph.probes.len() as u32, |next, p| {
+                let first = *next;
+                *next += p.assets.transition.as_ref().map_or(0, |t| t.waypoints.len() as u32);
+                Some(first)
+            })
+            .collect();
         let mut nav = Navigator {
+            waypoint_sources,
             graph,
             state: State::AtProbe { probe },
             view: View { yaw: 0.0, pitch: 0.0, fov_y: 1.2 },
@@ -283,23 +297,15 @@ impl Navigator {
         self.graph.paths.get(path as usize).and_then(|p| p.assets.transition.as_ref()).map_or(&[], |t| &t.waypoints)
     }
 
-    /// Glides draw from sources: the probes by id, then the panoramas part
-    /// way along the paths, numbered on from the last probe path by path.
     fn first_waypoint_source(&self, path: u32) -> u32 {
-        let before: usize = (0..path).map(|p| self.waypoints(p).len()).sum();
-        (self.graph.probes.len() + before) as u32
+        self.waypoint_sources[path as usize]
     }
 
     /// The panorama part way that source `source` is, if it is one.
     pub fn waypoint(&self, source: u32) -> Option<&Waypoint> {
-        let mut i = (source as usize).checked_sub(self.graph.probes.len())?;
-        for p in 0..self.graph.paths.len() as u32 {
-            match self.waypoints(p).get(i) {
-                Some(w) => return Some(w),
-                None => i -= self.waypoints(p).len(),
-            }
-        }
-        None
+        // The last path whose first source is at most `source`.
+        let path = self.waypoint_sources.partition_point(|&first| first <= source).checked_sub(1)?;
+        self.waypoints(path as u32).get((source - self.waypoint_sources[path]) as usize)
     }
 
     /// Where source `source` (a probe or a panorama part way) stands.

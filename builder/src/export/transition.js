@@ -306,9 +306,8 @@
       return loadSource(gl, all[s[0]], base);
     })).then(function (meshes) {
       var legs = link.glide.sources.map(function (s, i) { return { mesh: meshes[i], at: s[1] }; });
-      var duration = Math.max(link.duration || 0, 0.1);
+      var elapsed = clock(link.duration);
       return new Promise(function (resolve) {
-        var begun = null;
         function draw(t) {
           var s = smoothstep(t);
           var resized = fit(canvas), w = canvas.width, h = canvas.height;
@@ -333,8 +332,7 @@
         }
         function frame(now) {
           if (closed) return resolve(false);
-          if (begun === null) begun = now;
-          var t = Math.min((now - begun) / 1000 / duration, 1);
+          var t = elapsed(now);
           draw(t);
           if (t >= 1) {
             transition.finished = true;
@@ -350,6 +348,17 @@
       return false;
     });
     return transition;
+  }
+
+  // A transition's clock: the fraction of `duration` seconds (at least a
+  // tenth) passed since the first frame's time, at most 1.
+  function clock(duration) {
+    var begun = null;
+    duration = Math.max(duration || 0, 0.1);
+    return function (now) {
+      if (begun === null) begun = now;
+      return Math.min((now - begun) / 1000 / duration, 1);
+    };
   }
 
   // Sizes the canvas to its box in device pixels; true if it changed.
@@ -424,8 +433,7 @@
       }, 250);
     };
     transition.played = new Promise(function (resolve) {
-      var duration = Math.max(link.duration || 0, 0.1);
-      var begun = null;
+      var elapsed = clock(link.duration);
       function draw(t) {
         var s = smoothstep(t);
         fit(canvas);
@@ -442,8 +450,7 @@
       }
       function frame(now) {
         if (closed) return resolve(false);
-        if (begun === null) begun = now;
-        var t = Math.min((now - begun) / 1000 / duration, 1);
+        var t = elapsed(now);
         // Forward the video plays on its own clock; reversed it is sought
         // frame by frame (its frames are all key frames or P-frames).
         if (link.reversed) {

@@ -64,60 +64,7 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
     })
 }
 
-/// Clears a `size`² RGBA8 sRGB target to black, lets `draw` record passes
-/// into it, and reads its pixels back.
-pub(crate) fn render_target(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    size: u32,
-    draw: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::TextureView),
-) -> Vec<u8> {
-    let target = device.create_texture(&wgpu::TextureDescriptor {
-        label: None,
-        size: wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8UnormSrgb,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = target.create_view(&Default::default());
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: u64::from(size * size * 4),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: None,
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    draw(&mut encoder, &view);
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo { texture: &target, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &readback,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(size * 4), rows_per_image: Some(size) },
-        },
-        wgpu::Extent3d { width: size, height: size, depth_or_array_layers: 1 },
-    );
-    queue.submit([encoder.finish()]);
-    readback.map_async(wgpu::MapMode::Read, .., |r| r.expect("map the readback buffer"));
-    device.poll(wgpu::PollType::wait_indefinitely()).expect("GPU finishes");
-    let pixels = readback.get_mapped_range(..).expect("mapped");
-    pixels.to_vec()
-}
+pub(crate) use crate::offscreen::render_target;
 
 fn pixel(p: &[u8], x: u32, y: u32) -> [u8; 3] {
     let i = ((y * SIZE + x) * 4) as usize;
