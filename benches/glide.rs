@@ -11,7 +11,9 @@
 //! why) and the means over the paths `auto` gives a glide. Goals: ≤ 0.07 at
 //! a quarter, ≤ 0.10 half way.
 //!
-//! `cargo bench --bench glide`; SCENES=gallery,house (built-in scenes),
+//! `cargo bench --bench glide`; SCENES=gallery,house,crytek (built-in
+//! scenes, or the shared ones by the map bench's names: crytek, dabrovic,
+//! staircase, apartment, grey_room),
 //! QUALITY=preview|final (default preview), SIZE=256 (view pixels, a
 //! multiple of 64). Needs `scripts/bench-env.sh` once for FLIP (PSNR only
 //! without it) and a GPU adapter (lavapipe or llvmpipe here). Images in
@@ -21,6 +23,7 @@ use exploremaps_builder::plan::{plan, PlanParams};
 use exploremaps_builder::raycast::RayScene;
 use exploremaps_builder::render::glide::MAX_UNSEEN;
 use exploremaps_builder::render::{render_missing, Settings, Shard, Transitions};
+use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer};
 use exploremaps_format::depthcube::DepthCube;
 use exploremaps_format::{direction, CubeLevel, Graph};
@@ -47,9 +50,12 @@ fn main() {
     let Some((device, queue)) = gpu() else { return };
     let mut summary = Vec::new();
     for name in names.split(',') {
-        let Some(scene) = BuiltIn::parse(name).map(|b| b.generate(1)) else {
-            println!("SKIPPED {name}: not a built-in scene");
-            continue;
+        let scene = match load_scene(name) {
+            Ok(scene) => scene,
+            Err(why) => {
+                println!("SKIPPED {name}: {why}");
+                continue;
+            }
         };
         let bundle = tempfile::tempdir().unwrap();
         let (graph, settings) = render_with_depth(&scene, name, bundle.path(), quality);
@@ -60,6 +66,23 @@ fn main() {
     }
     println!("\n{}", summary.join("\n"));
     println!("(goals on the paths auto glides: FLIP ≤ 0.07 a quarter of the way, ≤ 0.10 half way; images in {})", out.display());
+}
+
+/// A built-in scene, or a shared one (in `../shared/scenes`) by its short name.
+fn load_scene(name: &str) -> Result<Scene, String> {
+    const SHARED: [(&str, &str); 5] = [
+        ("crytek", "sponza_crytek/sponza_crytek.obj"),
+        ("dabrovic", "sponza_dabrovic/sponza.obj"),
+        ("staircase", "wooden_staircase/wooden_staircase.obj"),
+        ("apartment", "dream_apartment/dream_apartment.glb"),
+        ("grey_room", "grey_white_room/grey_white_room.obj"),
+    ];
+    if let Some(builtin) = BuiltIn::parse(name) {
+        return Ok(builtin.generate(1));
+    }
+    let (_, file) = SHARED.iter().find(|(n, _)| *n == name).ok_or("neither a built-in nor a shared scene")?;
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    load(&shared.join(file), &LoadOptions::default()).map_err(|e| e.to_string())
 }
 
 /// Plans the scene and renders it with every path a glide; the graph and the settings used.

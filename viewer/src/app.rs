@@ -8,7 +8,7 @@ use crate::dollhouse::{facing, Camera, DollhousePass, Floors, FrameTarget, Orbit
 use crate::glide::{GlideMesh, GlidePass};
 use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
-use crate::panorama::{visible_tiles, Cube, PanoramaPass, Shown, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
+use crate::panorama::{visible_tiles, Cube, Lens, PanoramaPass, Shown, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
 use crate::ui::{self, Action, DollhouseScreen, Link, Screen};
 use exploremaps_format::timing::ease;
 use exploremaps_format::{depthcube::DepthCube, depthmap::DepthMap, meshcode::MeshData, seen::NONE, ProxyLevel, ProxyStream};
@@ -45,6 +45,14 @@ impl Gpu {
         surface.configure(&device, &config);
         Ok((Gpu { device, queue, format }, config))
     }
+}
+
+/// One eye of a headset: where it draws in the frame (pixels, x and y from
+/// the top left, width, height) and how it sees.
+#[derive(Clone, Copy, Debug)]
+pub struct Eye {
+    pub viewport: [f32; 4],
+    pub lens: Lens,
 }
 
 /// A probe's panorama as loaded: a cube level, or the equirectangular image
@@ -529,6 +537,16 @@ impl App {
         self.width = width.max(1) as f32;
         self.height = height.max(1) as f32;
         self.scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+    }
+
+    /// In a headset the head looks: `rotation` from looking down −Z, with
+    /// the eyes' vertical field of view and pixels choosing tiles and levels
+    /// as a window of that size would.
+    pub fn look(&mut self, rotation: glam::Quat, fov_y: f32, (width, height): (u32, u32)) {
+        let forward = rotation * glam::Vec3::NEG_Z;
+        (self.nav.view.yaw, self.nav.view.pitch) = crate::navigation::yaw_pitch(forward.into());
+        self.nav.view.fov_y = fov_y;
+        self.resize(width, height, 1.0);
     }
 
     /// Cube sizes of a probe usable here, smallest first: those within
@@ -1405,25 +1423,7 @@ impl App {
             Some(Err(e)) => (None, Some(e)),
             None => (None, None),
         };
-        let source_of = |p: u32| self.panos.get(&p).map(|l| l.pano.source(self.tiled.get(&p)));
-        let here = source_of(self.nav.probe());
-        let source = match (self.nav.state, video) {
-            (State::Travelling { .. }, Some(v)) => Some(Source::Video(v)),
-            (State::CrossFading { from, to, .. }, _) => match (source_of(from), source_of(to)) {
-                (Some(Source::Cube(a, ta)), Some(Source::Cube(b, tb))) => Some(Source::Fade((a, ta), (b, tb), ease(progress))),
-                (_, Some(b)) if progress >= 0.5 => Some(b),
-                (a, _) => a,
-            },
-            (State::Travelling { .. }, None) => {
-                let there = self.nav.destination().and_then(source_of);
-                if progress >= 0.5 {
-                    there.or(here)
-                } else {
-                    here
-                }
-            }
-            (State::AtProbe { .. }, _) => here,
-        };
+        let source = Self::panorama_source(&self.nav, (&self.panos, &self.tiled), video);
         let glide = self.glide_ends(video.is_some()).filter(|_| camera.is_none() && opacity >= 1.0);
         self.glided = glide;
         self.shown_panorama |= source.is_some() && opacity > 0.0;
@@ -1449,7 +1449,13 @@ impl App {
                 multiview_mask: None,
             });
             if let Some(source) = source.filter(|_| opacity > 0.0 && glide.is_none()) {
-                self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &self.nav.view, self.width / self.height, Shown { source, opacity });
+                self.panorama.draw(
+                    &gpu.device,
+                    &gpu.queue,
+                    &mut pass,
+                    &Lens::of_view(&self.nav.view, self.width / self.height),
+                    Shown { source, opacity },
+                );
             }
         }
         if let Some((from, to)) = glide {
@@ -1481,6 +1487,76 @@ impl App {
             self.message(&format!("the path's video cannot be played ({e}); showing the panoramas instead"), platform);
         }
         encoder.finish()
+    }
+
+    /// What the panorama pass shows: the video's frame while travelling with
+    /// one, the cross-fade's two cubes, else the nearer probe's panorama.
+    /// (Of the fields it reads, so the caller may change others meanwhile.)
+    fn panorama_source<'a>(
+        nav: &Navigator,
+        (panos, tiled): (&'a HashMap<u32, Resident>, &'a HashMap<u32, Tiled>),
+        video: Option<&'a VideoTexture>,
+    ) -> Option<Source<'a>> {
+        let progress = nav.progress().unwrap_or(0.0);
+        let source_of = |p: u32| panos.get(&p).map(|l| l.pano.source(tiled.get(&p)));
+        let here = source_of(nav.probe());
+        match (nav.state, video) {
+            (State::Travelling { .. }, Some(v)) => Some(Source::Video(v)),
+            (State::CrossFading { from, to, .. }, _) => match (source_of(from), source_of(to)) {
+                (Some(Source::Cube(a, ta)), Some(Source::Cube(b, tb))) => Some(Source::Fade((a, ta), (b, tb), ease(progress))),
+                (_, Some(b)) if progress >= 0.5 => Some(b),
+                (a, _) => a,
+            },
+            (State::Travelling { .. }, None) => {
+                let there = nav.destination().and_then(source_of);
+                if progress >= 0.5 {
+                    there.or(here)
+                } else {
+                    here
+                }
+            }
+            (State::AtProbe { .. }, _) => here,
+        }
+    }
+
+    /// Draws a headset's frame into `target`: each eye's view of the
+    /// panorama in its viewport. One submission an eye, since the panorama
+    /// pass rewrites its uniforms for each draw.
+    pub fn render_eyes(&mut self, target: &wgpu::TextureView, eyes: &[Eye], platform: &mut dyn Platform) {
+        let gpu = self.gpu.clone();
+        let travelling = matches!(self.nav.state, State::Travelling { .. }) && !self.video_failed;
+        let progress = self.nav.progress().unwrap_or(0.0);
+        let video = match travelling.then(|| platform.video_frame(&gpu, progress)) {
+            Some(Ok(v)) => v,
+            _ => None,
+        };
+        let source = Self::panorama_source(&self.nav, (&self.panos, &self.tiled), video);
+        self.shown_panorama |= source.is_some();
+        for (i, eye) in eyes.iter().enumerate() {
+            let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("eye") });
+            {
+                let clear = wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 });
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("eye"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: target,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: if i == 0 { clear } else { wgpu::LoadOp::Load }, store: wgpu::StoreOp::Store },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                let [x, y, w, h] = eye.viewport;
+                pass.set_viewport(x, y, w, h, 0.0, 1.0);
+                if let Some(source) = source {
+                    self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &eye.lens, Shown { source, opacity: 1.0 });
+                }
+            }
+            gpu.queue.submit([encoder.finish()]);
+        }
     }
 
     /// The leg of the path being travelled that a glide draws, when it shows

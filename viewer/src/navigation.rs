@@ -28,6 +28,12 @@ pub struct View {
 use exploremaps_format::timing::{ease, ArcLength};
 pub use exploremaps_format::{direction, yaw_pitch};
 
+/// The rotation that turns a camera looking down −Z with +Y up (WebXR's
+/// convention) to look along `view`, the horizon level.
+pub fn rotation_of(view: &View) -> glam::Quat {
+    glam::Quat::from_rotation_y(-view.yaw) * glam::Quat::from_rotation_x(view.pitch)
+}
+
 /// Angle between two view directions, radians.
 fn angle_between(a: (f32, f32), b: (f32, f32)) -> f32 {
     let (u, v) = (direction(a.0, a.1), direction(b.0, b.1));

@@ -32,8 +32,12 @@ struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
 }
 
 @fragment fn fs(v: VOut) -> @location(0) vec4f {
-    // params: tan(fov_y / 2), aspect, fade toward cube_b, 1 for video.
-    let d = normalize(u.forward.xyz + u.right.xyz * (v.ndc.x * u.params.x * u.params.y) + u.up.xyz * (v.ndc.y * u.params.x));
+    // The lens (see Lens): the ray through a pixel leaves along forward, plus
+    // right and up by its offsets (params.xy: per NDC unit; forward.w,
+    // right.w: the frustum's off-axis shift). params.zw: fade toward cube_b, 1 for video.
+    let nx = v.ndc.x * u.params.x + u.forward.w;
+    let ny = v.ndc.y * u.params.y + u.right.w;
+    let d = normalize(u.forward.xyz + u.right.xyz * nx + u.up.xyz * ny);
     // Tiles hold tour-oriented faces, read with z negated (see Tiled); where
     // the mask says a tile has not arrived, the whole cube shows.
     let t = vec3f(d.x, d.y, -d.z);
@@ -88,11 +92,39 @@ pub fn unproject(view: &View, x: f32, y: f32, width: f32, height: f32) -> [f32; 
     d.map(|c| c / len)
 }
 
+/// How pixels map to world directions: a camera's forward, right and up,
+/// and for a pixel at normalised device coordinates (x, y) the ray
+/// forward + right·(x·scale.x + shift.x) + up·(y·scale.y + shift.y). A
+/// window's view is centred; a headset eye's frustum is off-axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub basis: [[f32; 3]; 3],
+    pub scale: [f32; 2],
+    pub shift: [f32; 2],
+}
+
+impl Lens {
+    /// A window's view with `aspect` = width / height.
+    pub fn of_view(view: &View, aspect: f32) -> Lens {
+        let t = (0.5 * view.fov_y).tan();
+        Lens { basis: basis(view), scale: [t * aspect, t], shift: [0.0, 0.0] }
+    }
+
+    /// A camera turned by `rotation` from looking down −Z with +Y up (the
+    /// WebXR convention), seen through `projection` (column-major, OpenGL
+    /// clip space): x_ndc = (P₀₀·x + P₀₂·z) / −z, so x / −z = (x_ndc + P₀₂) / P₀₀.
+    pub fn of_eye(rotation: glam::Quat, projection: &glam::Mat4) -> Lens {
+        let p = projection.to_cols_array();
+        let (forward, right, up) = (rotation * glam::Vec3::NEG_Z, rotation * glam::Vec3::X, rotation * glam::Vec3::Y);
+        Lens { basis: [forward.into(), right.into(), up.into()], scale: [1.0 / p[0], 1.0 / p[5]], shift: [p[8] / p[0], p[9] / p[5]] }
+    }
+}
+
 /// The uniforms as the shader reads them.
-fn uniforms(view: &View, aspect: f32, fade: f32, video: bool) -> [f32; 16] {
-    let [f, r, u] = basis(view);
+fn uniforms(lens: &Lens, fade: f32, video: bool) -> [f32; 16] {
+    let [f, r, u] = lens.basis;
     let video = if video { 1.0 } else { 0.0 };
-    [f[0], f[1], f[2], 0.0, r[0], r[1], r[2], 0.0, u[0], u[1], u[2], 0.0, (0.5 * view.fov_y).tan(), aspect, fade, video]
+    [f[0], f[1], f[2], lens.shift[0], r[0], r[1], r[2], lens.shift[1], u[0], u[1], u[2], 0.0, lens.scale[0], lens.scale[1], fade, video]
 }
 
 /// An RGBA8 sRGB image texture of `layers` layers, sampled and written by
@@ -464,7 +496,7 @@ impl PanoramaPass {
 
     /// Draws `shown` as seen in `view` into a pass over a target of aspect
     /// ratio `aspect`.
-    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, view: &View, aspect: f32, shown: Shown<'_>) {
+    pub fn draw(&self, device: &wgpu::Device, queue: &wgpu::Queue, pass: &mut wgpu::RenderPass<'_>, lens: &Lens, shown: Shown<'_>) {
         let Shown { source, opacity } = shown;
         let blank = (&self.blank_cube, None);
         let (a, b, video, fade) = match source {
@@ -477,7 +509,7 @@ impl PanoramaPass {
         };
         let ((tiles_a, mask_a), (tiles_b, mask_b)) = (views(a.1), views(b.1));
         let (a, b) = (a.0, b.0);
-        let u = uniforms(view, aspect, fade, matches!(source, Source::Video(_)));
+        let u = uniforms(lens, fade, matches!(source, Source::Video(_)));
         let bytes: Vec<u8> = u.iter().flat_map(|x| x.to_le_bytes()).collect();
         queue.write_buffer(&self.uniforms, 0, &bytes);
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {

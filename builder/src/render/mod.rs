@@ -89,6 +89,13 @@ impl Settings {
         self.video_width / 2
     }
 
+    /// How a panorama part way is traced: as the probes' panoramas, but, like
+    /// video frames, without refining edges (it is seen only in passing,
+    /// resampled through its depth; the refinement took a third of its time).
+    pub fn waypoint_trace(&self) -> crate::tracer::TraceParams {
+        crate::tracer::TraceParams { antialias: false, ..self.trace.panorama.clone() }
+    }
+
     /// Depth cells of a panorama part way: half the probes', at least 32.
     pub fn waypoint_cells(&self) -> u32 {
         (self.depth_cells / 2).max(32)

@@ -98,7 +98,8 @@ fn render_waypoint(
     let eye = Vec3::from(position);
     write(dir, &depth, &glide::depth_cube(&renderer.tracer, eye, settings.waypoint_cells()).encode())?;
     let k = key as u32;
-    let faces = traced_cube(dir, renderer, settings, (eye, size), crate::seeds::image::waypoint(id as u32, k), &cube.faces[0])?;
+    let faces =
+        traced_cube(dir, (renderer, &settings.waypoint_trace()), settings, (eye, size), crate::seeds::image::waypoint(id as u32, k), &cube.faces[0])?;
     let images: Vec<image::RgbImage> = faces.iter().map(|f| renderer.to_image(size, size, f)).collect();
     write_jpegs(dir, &cube.faces.iter().map(String::as_str).zip(&images).collect::<Vec<_>>(), WAYPOINT_QUALITY)?;
     Ok(Waypoint { key: k, position, cube, depth })

@@ -6,7 +6,7 @@
 use super::Settings;
 use crate::bundle::{write, BundleError};
 use crate::files::jpeg;
-use crate::tracer::{denoise, downsample, equirect_from_cube, photo_sphere_jpeg, Frame, Perspective, Renderer};
+use crate::tracer::{denoise, downsample, equirect_from_cube, photo_sphere_jpeg, Frame, Perspective, Renderer, TraceParams};
 use exploremaps_format::{CubeLevel, Probe, Tiles, CUBE_FACES};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -71,16 +71,16 @@ fn denoised(dir: &Path, settings: &Settings, mut frame: Frame, file: &str) -> Re
 }
 
 /// The six faces of the cube seen from `eye`, `size` pixels square, traced
-/// with the panoramas' settings from the stream of `image` (errors name `file`).
+/// with `params` from the stream of `image` (errors name `file`).
 pub(super) fn traced_cube(
     dir: &Path,
-    renderer: &Renderer,
+    (renderer, params): (&Renderer, &TraceParams),
     settings: &Settings,
     (eye, size): (Vec3, u32),
     image: u64,
     file: &str,
 ) -> Result<Vec<Vec<Vec3>>, BundleError> {
-    renderer.cube(&settings.trace.panorama, eye, size, image).into_iter().map(|f| denoised(dir, settings, f, file)).collect()
+    renderer.cube(params, eye, size, image).into_iter().map(|f| denoised(dir, settings, f, file)).collect()
 }
 
 /// Renders probe `id` and writes its files; files already there are kept.
@@ -94,7 +94,8 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
         write(dir, &depth, &super::glide::depth_cube(&renderer.tracer, eye, settings.depth_cells).encode())?;
     }
     let denoised = |f: Frame| denoised(dir, settings, f, &pano);
-    let mut faces = traced_cube(dir, renderer, settings, (eye, settings.face), crate::seeds::image::cube(id as u32), &pano)?;
+    let mut faces =
+        traced_cube(dir, (renderer, &settings.trace.panorama), settings, (eye, settings.face), crate::seeds::image::cube(id as u32), &pano)?;
     let full = faces.clone();
     // Levels from the largest down, each box-filtered from the one above.
     let mut images = Vec::with_capacity(cube.len());

@@ -110,7 +110,7 @@ fn draw_panorama(device: &wgpu::Device, queue: &wgpu::Queue, source: Source, vie
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.draw(device, queue, &mut rp, view, 1.0, Shown { source, opacity: 1.0 });
+        pass.draw(device, queue, &mut rp, &crate::panorama::Lens::of_view(view, 1.0), Shown { source, opacity: 1.0 });
     })
 }
 

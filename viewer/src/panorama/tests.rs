@@ -60,7 +60,7 @@ fn render_source(device: &wgpu::Device, queue: &wgpu::Queue, source: Source<'_>,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.draw(device, queue, &mut rp, &view, 1.0, Shown { source, opacity: 1.0 });
+        pass.draw(device, queue, &mut rp, &Lens::of_view(&view, 1.0), Shown { source, opacity: 1.0 });
     })
 }
 
@@ -210,4 +210,59 @@ fn tiles_show_over_the_whole_cube_where_they_have_arrived() {
     assert!(is_red(look([-0.5, 1.0, 0.5])), "up, toward −X and +Z: {:?}", look([-0.5, 1.0, 0.5]));
     assert!(!is_red(look([0.5, 1.0, 0.5])) && !is_red(look([-0.5, 1.0, -0.5])), "the rest of the top is the whole cube's");
     assert_eq!(tiled.count(), 2);
+}
+
+/// OpenGL's projection (glFrustum's) of a frustum whose edges at depth 1
+/// are [left, right, bottom, top], near 0.1, far 100: how WebXR gives an eye's.
+fn gl_frustum([l, r, b, t]: [f32; 4]) -> glam::Mat4 {
+    let (n, f) = (0.1, 100.0);
+    let (l, r, b, t) = (l * n, r * n, b * n, t * n);
+    glam::Mat4::from_cols_array(&[
+        2.0 * n / (r - l),
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        2.0 * n / (t - b),
+        0.0,
+        0.0,
+        (r + l) / (r - l),
+        (t + b) / (t - b),
+        -(f + n) / (f - n),
+        -1.0,
+        0.0,
+        0.0,
+        -2.0 * f * n / (f - n),
+        0.0,
+    ])
+}
+
+/// The ray the shader casts through a pixel at NDC (x, y), before normalising.
+fn ray(lens: &Lens, x: f32, y: f32) -> glam::Vec3 {
+    let [f, r, u] = lens.basis.map(glam::Vec3::from);
+    f + r * (x * lens.scale[0] + lens.shift[0]) + u * (y * lens.scale[1] + lens.shift[1])
+}
+
+#[test]
+fn a_headset_eye_with_a_centred_frustum_sees_what_the_window_view_does() {
+    let view = View { yaw: 0.7, pitch: -0.3, fov_y: 1.4 };
+    let rotation = crate::navigation::rotation_of(&view);
+    let t = (0.5 * view.fov_y).tan();
+    let eye = Lens::of_eye(rotation, &gl_frustum([-t * 0.9, t * 0.9, -t, t]));
+    let window = Lens::of_view(&view, 0.9);
+    for (x, y) in [(0.0, 0.0), (1.0, 1.0), (-1.0, 0.5), (0.3, -1.0)] {
+        let (a, b) = (ray(&eye, x, y).normalize(), ray(&window, x, y).normalize());
+        assert!(a.dot(b) > 0.99999, "at ({x}, {y}): eye {a} against window {b}");
+    }
+}
+
+#[test]
+fn an_off_axis_eye_frustum_reaches_its_own_edges() {
+    // A left eye: wider toward the nose (right) than outward, taller above than below.
+    let (l, r, b, t) = (-0.9f32, 1.2f32, -1.0f32, 1.3f32);
+    let lens = Lens::of_eye(glam::Quat::IDENTITY, &gl_frustum([l, r, b, t]));
+    for (x, y, expected) in [(-1.0, -1.0, glam::vec3(l, b, -1.0)), (1.0, 1.0, glam::vec3(r, t, -1.0)), (1.0, -1.0, glam::vec3(r, b, -1.0))] {
+        let got = ray(&lens, x, y);
+        assert!((got - expected).length() < 1e-4, "corner ({x}, {y}): {got} against {expected}");
+    }
 }
