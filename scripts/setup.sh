@@ -88,16 +88,18 @@ if [ "$(wasm-bindgen --version 2>/dev/null)" != "wasm-bindgen 0.2.130" ]; then
   echo "setup: installing wasm-bindgen-cli 0.2.130 (about 4 minutes)"
   cargo install --quiet wasm-bindgen-cli --version 0.2.130
 fi
-# Playwright (the library only; it drives Debian's Chromium) for the browser tests.
+# Playwright (the library only; it drives Debian's Chromium) for the browser tests, and iwer
+# (Meta's WebXR emulator, injected into the page for the headset test).
 # The tour viewers `exploremaps export` writes for, at the versions it pins
 # (builder/src/export/mod.rs), for the export tests (--library target/node/node_modules).
 node_dir="$(cd "$(dirname "$0")/.." && pwd)/target/node"
-if [ ! -e "$node_dir/node_modules/playwright-core/index.mjs" ] || [ ! -e "$node_dir/node_modules/@photo-sphere-viewer/virtual-tour-plugin/index.module.js" ]; then
+if [ ! -e "$node_dir/node_modules/playwright-core/index.mjs" ] || [ ! -e "$node_dir/node_modules/@photo-sphere-viewer/virtual-tour-plugin/index.module.js" ] \
+  || [ ! -e "$node_dir/node_modules/iwer/build/iwer.js" ]; then
   mkdir -p "$node_dir"
   npm install --prefix "$node_dir" --no-audit --no-fund --silent playwright-core@1.65.1 \
     pannellum@2.5.7 marzipano@0.10.2 three@0.185.1 @photo-sphere-viewer/core@5.15.1 \
     @photo-sphere-viewer/cubemap-adapter@5.15.1 @photo-sphere-viewer/cubemap-tiles-adapter@5.15.1 \
-    @photo-sphere-viewer/virtual-tour-plugin@5.15.1
+    @photo-sphere-viewer/virtual-tour-plugin@5.15.1 iwer@2.5.0
 fi
 echo "setup: building the web viewer"
 "$(dirname "$0")/../web/build.sh"

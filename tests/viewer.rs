@@ -380,6 +380,64 @@ fn the_web_viewer_glides_along_a_path_without_video() {
     assert!(arrived["glide_frames"].as_u64().unwrap() > gliding["glide_frames"].as_u64().unwrap(), "{arrived}");
 }
 
+/// Mean difference (levels of 255) between the left and right halves of a screenshot.
+fn halves_differ(png: &Path) -> f64 {
+    let img = image::open(png).unwrap_or_else(|e| panic!("{}: {e}", png.display())).to_rgb8();
+    let half = img.width() / 2;
+    let mut sum = 0u64;
+    for y in 0..img.height() {
+        for x in 0..half {
+            let (a, b) = (img.get_pixel(x, y).0, img.get_pixel(x + half, y).0);
+            sum += a.iter().zip(b).map(|(&p, q)| (p as i32 - q as i32).unsigned_abs() as u64).sum::<u64>();
+        }
+    }
+    sum as f64 / (3 * half * img.height()) as f64
+}
+
+#[test]
+fn in_an_emulated_headset_both_eyes_see_the_panorama_turning_with_the_head_and_leaving_gives_the_window_back() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let iwer = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/node/node_modules/iwer/build/iwer.js");
+    assert!(iwer.exists(), "{} is missing: run scripts/setup.sh", iwer.display());
+    let (dir, server) = served(|_| {});
+    let lines = browser_with("xr", &server.url, dir.path(), false, &[("IWER", iwer.display().to_string())]);
+    let (window, xr, turned, after) = (step(&lines, "window"), step(&lines, "xr"), step(&lines, "turned_head"), step(&lines, "after"));
+    assert!(xr["xr"] == true && xr["xr_frames"].as_u64().unwrap() >= 60 && xr["xr_eyes"] == 2, "{xr}");
+    // The emulated Quest 3 puts the eyes side by side on the 1280 × 720 canvas.
+    let shot = dir.path().join("xr.png");
+    let (left, right) = (colour_at(&shot, 320, 360), colour_at(&shot, 960, 360));
+    assert!(!near(left, [5, 5, 6], 20), "the left eye shows the panorama, not the background: {left:?}");
+    assert!(near(left, right, 8), "a panorama at infinity looks the same to both eyes: {left:?} against {right:?}");
+    let differ = halves_differ(&shot);
+    assert!(differ < 4.0, "the eyes' images differ by {differ:.1} levels on average");
+    // Facing where the window faced; the head turned 90° right, level.
+    assert!((xr["yaw"].as_f64().unwrap() - window["yaw"].as_f64().unwrap()).abs() < 1.0, "{xr}\n{window}");
+    let turn = turned["yaw"].as_f64().unwrap() - xr["yaw"].as_f64().unwrap();
+    assert!(((turn + 540.0) % 360.0 - 180.0 - 90.0).abs() < 2.0, "turned by {turn}°: {turned}");
+    assert!(turned["pitch"].as_f64().unwrap().abs() < 0.5, "the horizon stays level: {turned}");
+    let seen = colour_at(&dir.path().join("xr_turned.png"), 320, 360);
+    assert!(!near(seen, left, 20), "the view turned: {seen:?} against {left:?}");
+    // The session over, the window draws again at the same probe, heading as the head left it.
+    assert!(after["xr"] == false && after["probe"] == window["probe"], "{after}");
+    assert_eq!(after["canvas"], serde_json::json!([1280, 720, 1280, 720]));
+    assert!((after["yaw"].as_f64().unwrap() - turned["yaw"].as_f64().unwrap()).abs() < 1.0, "{after}");
+    assert!(!near(colour_at(&dir.path().join("after.png"), 640, 300), [5, 5, 6], 20));
+}
+
+#[test]
+fn without_a_headset_the_web_viewer_offers_no_vr_and_says_nothing() {
+    if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
+        return;
+    }
+    let (dir, server) = served(|_| {});
+    let lines = browser("no_xr", &server.url, dir.path());
+    let page = step(&lines, "no_xr");
+    assert!(page["button"] == false && page["message"].is_null() && page["error"].is_null(), "{page}");
+    assert!(page["first_panorama_ms"].is_number(), "{page}");
+}
+
 #[test]
 fn the_web_viewer_shows_turns_travels_and_survives_a_corrupt_asset_on_webgl2() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {

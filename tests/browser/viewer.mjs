@@ -3,6 +3,9 @@
 // MODE tour: load, drag, take the path and back, screenshot each step; then a deep link
 // to a probe with a corrupt face, and on to the next probe.
 // MODE message: load and report the message the page shows.
+// MODE xr: with an emulated headset (IWER: iwer's build): Enter VR, 60 XR frames, the head
+// turned, the session ended; screenshots window.png, xr.png, xr_turned.png, after.png.
+// MODE no_xr: whether the Enter VR button shows without WebXR.
 // MODE tiles: on a phone-sized page, the tiles of the first view: asked for, in, fetched.
 // MODE bench: time to first panorama and frame times in a probe and along a path.
 // MODE dollhouse: open in the dollhouse (#dollhouse=1), screenshot it; then click at
@@ -232,6 +235,45 @@ try {
     await page.waitForTimeout(300);
     await page.screenshot({ path: `${out}/broken.png` });
     report('broken', await status(page));
+  } else if (mode === 'no_xr') {
+    // A browser without WebXR: no button, no message.
+    const { page } = await open(url);
+    report('no_xr', { button: await page.isVisible('#enter-vr'), ...(await status(page)) });
+  } else if (mode === 'xr') {
+    // An emulated Meta Quest 3 (IWER: iwer's build, injected before the page).
+    const context = await browser.newContext({ viewport: { width: 1280, height: 720 } });
+    await context.addInitScript({ path: process.env.IWER });
+    await context.addInitScript(() => {
+      window.xrDevice = new IWER.XRDevice(IWER.metaQuest3, { visibilityMaskEnabled: false, stereoEnabled: true });
+      window.xrDevice.installRuntime({ forceInstall: true });
+    });
+    const page = await context.newPage();
+    page.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    await page.goto(url);
+    await page.waitForFunction(() => window.exploremaps && window.exploremaps.first_panorama_ms, null, { timeout: 30000 });
+    await page.waitForSelector('#enter-vr', { state: 'visible', timeout: 10000 });
+    await page.waitForTimeout(300);
+    await page.screenshot({ path: `${out}/window.png` });
+    report('window', await status(page));
+    await page.click('#enter-vr');
+    const frames = async (n) => {
+      const start = await page.evaluate(() => window.exploremaps.xr_frames || 0);
+      await page.waitForFunction((k) => (window.exploremaps.xr_frames || 0) >= k, start + n, { timeout: 60000 });
+    };
+    await frames(60);
+    await page.screenshot({ path: `${out}/xr.png` });
+    report('xr', await status(page));
+    // The head turns 90° to the right (about +Y, negative angle), level.
+    await page.evaluate(() => { const a = -Math.PI / 4; window.xrDevice.quaternion.set(0, Math.sin(a), 0, Math.cos(a)); });
+    await frames(10);
+    await page.screenshot({ path: `${out}/xr_turned.png` });
+    report('turned_head', await status(page));
+    await page.evaluate(() => window.xrDevice.activeSession.end());
+    await page.waitForFunction(() => window.exploremaps.xr === false, null, { timeout: 10000 });
+    await page.waitForTimeout(500);
+    await page.screenshot({ path: `${out}/after.png` });
+    report('after', { ...(await status(page)), canvas: await page.evaluate(() => {
+      const c = document.getElementById('view'); return [c.width, c.height, c.clientWidth, c.clientHeight]; }) });
   } else if (mode === 'message') {
     const { page } = await open(url);
     report('message', await status(page));

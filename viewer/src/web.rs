@@ -15,6 +15,8 @@ use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 use wasm_bindgen_futures::JsFuture;
 
+mod xr;
+
 fn window() -> web_sys::Window {
     web_sys::window().expect("a browser window")
 }
@@ -514,6 +516,8 @@ struct State {
     glide_frames: u32,
     /// The proxy level the dollhouse last showed.
     dollhouse_level: Option<usize>,
+    /// A headset's session, while one runs (it draws instead of the window).
+    xr: Option<xr::Session>,
 }
 
 impl State {
@@ -534,6 +538,9 @@ impl State {
     }
 
     fn frame(&mut self, now_ms: f64) {
+        if self.xr.is_some() {
+            return;
+        }
         self.fit();
         let dt = ((now_ms - self.last_ms) / 1000.0).clamp(0.0, 0.1) as f32;
         self.last_ms = now_ms;
@@ -560,6 +567,7 @@ impl State {
             set_status("first_panorama_ms", &ms.into());
         }
         set_status("probe", &self.app.nav.probe().into());
+        set_status("yaw", &self.app.nav.view.yaw.to_degrees().into());
         let (asked, arrived) = self.app.tile_counts();
         set_status("tiles_requested", &(asked as u32).into());
         set_status("tiles_in", &(arrived as u32).into());
@@ -647,7 +655,9 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         .ok_or_else(|| format!("no canvas #{canvas_id}"))?
         .dyn_into()
         .map_err(|_| format!("#{canvas_id} is not a canvas"))?;
-    let (gpu, surface, config) = open_gpu(&canvas).await?;
+    // A headset needs WebGL2, on a context made for it before wgpu opens it.
+    let xr_context = if xr::supported().await { xr::compatible_context(&canvas) } else { None };
+    let (gpu, surface, config) = open_gpu(&canvas, xr_context.is_some()).await?;
     let mut platform = WebPlatform {
         base: base.to_string(),
         done: Rc::default(),
@@ -681,8 +691,12 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         first_frame_logged: false,
         glide_frames: 0,
         dollhouse_level: None,
+        xr: None,
     }));
     listen_to_input(canvas.as_ref(), &state);
+    if let Some(gl) = xr_context {
+        xr::offer(&state, gl);
+    }
     start_frame_loop(state);
     Ok(())
 }
@@ -699,10 +713,13 @@ async fn fetch_graph(base: &str) -> Result<Graph, String> {
     Ok(graph)
 }
 
-/// WebGPU when the browser has it, else WebGL2, drawing on `canvas`.
-async fn open_gpu(canvas: &web_sys::HtmlCanvasElement) -> Result<(Gpu, wgpu::Surface<'static>, wgpu::SurfaceConfiguration), String> {
+/// WebGPU when the browser has it (unless `webgl2_only`), else WebGL2, drawing on `canvas`.
+async fn open_gpu(
+    canvas: &web_sys::HtmlCanvasElement,
+    webgl2_only: bool,
+) -> Result<(Gpu, wgpu::Surface<'static>, wgpu::SurfaceConfiguration), String> {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    desc.backends = wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL;
+    desc.backends = if webgl2_only { wgpu::Backends::GL } else { wgpu::Backends::BROWSER_WEBGPU | wgpu::Backends::GL };
     let instance = wgpu::util::new_instance_with_webgpu_detection(desc).await;
     let surface = instance.create_surface(wgpu::SurfaceTarget::Canvas(canvas.clone())).map_err(|e| format!("cannot draw on the canvas: {e}"))?;
     let adapter = instance
