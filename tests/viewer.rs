@@ -395,7 +395,7 @@ fn halves_differ(png: &Path) -> f64 {
 }
 
 #[test]
-fn in_an_emulated_headset_both_eyes_see_the_panorama_turning_with_the_head_and_leaving_gives_the_window_back() {
+fn in_an_emulated_headset_both_eyes_see_the_panorama_turning_with_the_head_a_controller_takes_a_path_and_leaving_gives_the_window_back() {
     if skip("EXPLOREMAPS_SKIP_BROWSER", "no headless Chromium on this machine") {
         return;
     }
@@ -419,8 +419,12 @@ fn in_an_emulated_headset_both_eyes_see_the_panorama_turning_with_the_head_and_l
     assert!(turned["pitch"].as_f64().unwrap().abs() < 0.5, "the horizon stays level: {turned}");
     let seen = colour_at(&dir.path().join("xr_turned.png"), 320, 360);
     assert!(!near(seen, left, 20), "the view turned: {seen:?} against {left:?}");
+    // The controller points at a path's target and selects: the visitor goes along it.
+    let (selected, arrived) = (step(&lines, "selected"), step(&lines, "arrived"));
+    assert!(selected["moving"] == true && selected["probe"] == window["probe"], "{selected}");
+    assert!(arrived["probe"] == arrived["expected"] && arrived["probe"] != window["probe"], "{arrived}");
     // The session over, the window draws again at the same probe, heading as the head left it.
-    assert!(after["xr"] == false && after["probe"] == window["probe"], "{after}");
+    assert!(after["xr"] == false && after["probe"] == arrived["probe"], "{after}");
     assert_eq!(after["canvas"], serde_json::json!([1280, 720, 1280, 720]));
     assert!((after["yaw"].as_f64().unwrap() - turned["yaw"].as_f64().unwrap()).abs() < 1.0, "{after}");
     assert!(!near(colour_at(&dir.path().join("after.png"), 640, 300), [5, 5, 6], 20));

@@ -4,7 +4,8 @@
 // to a probe with a corrupt face, and on to the next probe.
 // MODE message: load and report the message the page shows.
 // MODE xr: with an emulated headset (IWER: iwer's build): Enter VR, 60 XR frames, the head
-// turned, the session ended; screenshots window.png, xr.png, xr_turned.png, after.png.
+// turned, a path's target selected with the right controller and travelled, the session
+// ended; screenshots window.png, xr.png, xr_turned.png, xr_moving.png, xr_arrived.png, after.png.
 // MODE no_xr: whether the Enter VR button shows without WebXR.
 // MODE tiles: on a phone-sized page, the tiles of the first view: asked for, in, fetched.
 // MODE bench: time to first panorama and frame times in a probe and along a path.
@@ -268,6 +269,28 @@ try {
     await frames(10);
     await page.screenshot({ path: `${out}/xr_turned.png` });
     report('turned_head', await status(page));
+    // The right controller points at the first path's target and pulls its trigger.
+    const here = await page.evaluate(() => window.exploremaps.probe);
+    const [goal, yaw, pitch] = await page.evaluate(() => window.exploremaps.xr_targets.find((t) => t[0].startsWith('path')));
+    const graph = await (await fetch(new URL('graph.json', url))).json();
+    const path = graph.paths[Number(goal.split(' ')[1])];
+    const expected = path.from === here ? path.to : path.from;
+    await page.evaluate(([yaw, pitch]) => {
+      const [y, p] = [-yaw * Math.PI / 360, pitch * Math.PI / 360];
+      // The rotation turning −Z to (yaw, pitch), the horizon level: about Y by −yaw, then about X by pitch.
+      window.xrDevice.controllers.right.quaternion.set(Math.cos(y) * Math.sin(p), Math.sin(y) * Math.cos(p), -Math.sin(y) * Math.sin(p), Math.cos(y) * Math.cos(p));
+    }, [yaw, pitch]);
+    await frames(5);
+    await page.evaluate(() => window.xrDevice.controllers.right.updateButtonValue('trigger', 1));
+    await frames(5);
+    await page.evaluate(() => window.xrDevice.controllers.right.updateButtonValue('trigger', 0));
+    await page.waitForFunction(() => window.exploremaps.moving === true, null, { timeout: 10000 });
+    await page.waitForTimeout(600);
+    await page.screenshot({ path: `${out}/xr_moving.png` });
+    report('selected', { ...(await status(page)), goal, expected });
+    await page.waitForFunction((p) => window.exploremaps.moving === false && window.exploremaps.probe === p, expected, { timeout: 60000 });
+    await page.screenshot({ path: `${out}/xr_arrived.png` });
+    report('arrived', { ...(await status(page)), expected });
     await page.evaluate(() => window.xrDevice.activeSession.end());
     await page.waitForFunction(() => window.exploremaps.xr === false, null, { timeout: 10000 });
     await page.waitForTimeout(500);

@@ -6,6 +6,7 @@
 
 use crate::dollhouse::{facing, Camera, DollhousePass, Floors, FrameTarget, Orbit, ProxyMesh};
 use crate::glide::{GlideMesh, GlidePass};
+use crate::headset::{Gaze, Goal, Headset, Target};
 use crate::navigation::{direction, NavError, Navigator, State};
 use crate::overlay::{OverlayPass, Shape};
 use crate::panorama::{visible_tiles, Cube, Lens, PanoramaPass, Shown, Source, TilePixels, Tiled, VideoTexture, TILE_SLOTS};
@@ -257,6 +258,8 @@ const MARKER_TESTS: usize = 8;
 /// Seconds of a flight over the dollhouse between probes no path joins.
 const OVER_S: f32 = 1.8;
 const FADE_S: f32 = 0.35;
+/// Probes within this many metres are a headset's targets (beside the paths).
+const NEAR_TARGET_M: f32 = 12.0;
 
 /// A proxy level and a height.
 type SectionKey = (usize, f32);
@@ -394,6 +397,8 @@ pub struct App {
     depth_requested: HashSet<u32>,
     /// Glides: the pass, probes' depth meshes, and the probes asked for.
     glide: GlidePass,
+    /// In a headset: its targets, what points at them, the veil.
+    headset: Option<Headset>,
     glide_meshes: HashMap<u32, GlideMesh>,
     glide_requested: HashSet<u32>,
     /// The sources of the last frame's glide, if it was one.
@@ -474,6 +479,7 @@ impl App {
             depth_maps: HashMap::new(),
             depth_requested: HashSet::new(),
             glide,
+            headset: None,
             glide_meshes: HashMap::new(),
             glide_requested: HashSet::new(),
             glided: None,
@@ -1458,8 +1464,17 @@ impl App {
                 );
             }
         }
-        if let Some((from, to)) = glide {
-            self.draw_glide(&gpu, &mut encoder, target, (from, to));
+        if let Some(ends) = glide {
+            let lens = Lens::of_view(&self.nav.view, self.width / self.height);
+            let mut frame = FrameTarget {
+                device: &gpu.device,
+                queue: &gpu.queue,
+                encoder: &mut encoder,
+                view: target,
+                width: self.width as u32,
+                height: self.height as u32,
+            };
+            self.draw_glide(&mut frame, ends, lens, [0.0, 0.0]);
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
             let rect = [frame.x0, frame.y0, frame.size];
@@ -1519,9 +1534,10 @@ impl App {
         }
     }
 
-    /// Draws a headset's frame into `target`: each eye's view of the
-    /// panorama in its viewport. One submission an eye, since the panorama
-    /// pass rewrites its uniforms for each draw.
+    /// Draws a headset's frame into `target`: in each eye's viewport the
+    /// panorama (or the glide along a path without video), the targets and
+    /// the pointer, and while moving the veil. One submission an eye, since
+    /// the passes rewrite their uniforms for each draw.
     pub fn render_eyes(&mut self, target: &wgpu::TextureView, eyes: &[Eye], platform: &mut dyn Platform) {
         let gpu = self.gpu.clone();
         let travelling = matches!(self.nav.state, State::Travelling { .. }) && !self.video_failed;
@@ -1530,32 +1546,85 @@ impl App {
             Some(Ok(v)) => v,
             _ => None,
         };
-        let source = Self::panorama_source(&self.nav, (&self.panos, &self.tiled), video);
-        self.shown_panorama |= source.is_some();
+        let glide = self.glide_ends(video.is_some());
+        self.glided = glide;
+        let headset = self.headset.get_or_insert_with(|| Headset::new(&gpu.device, gpu.format));
+        // The veil comes in over the first and goes over the last tenth of a move.
+        let moving = self.nav.progress().map_or(0.0, |p| (10.0 * p.min(1.0 - p)).clamp(0.0, 1.0));
+        headset.veil.set(&gpu.queue, 0.85 * moving);
         for (i, eye) in eyes.iter().enumerate() {
             let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("eye") });
+            let [x, y, w, h] = eye.viewport;
             {
                 let clear = wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 });
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("eye"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: target,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: if i == 0 { clear } else { wgpu::LoadOp::Load }, store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                let [x, y, w, h] = eye.viewport;
+                let mut pass = eye_pass(&mut encoder, target, if i == 0 { clear } else { wgpu::LoadOp::Load });
                 pass.set_viewport(x, y, w, h, 0.0, 1.0);
+                let source = Self::panorama_source(&self.nav, (&self.panos, &self.tiled), video).filter(|_| glide.is_none());
                 if let Some(source) = source {
                     self.panorama.draw(&gpu.device, &gpu.queue, &mut pass, &eye.lens, Shown { source, opacity: 1.0 });
+                    self.shown_panorama = true;
                 }
             }
+            if let Some(ends) = glide {
+                let mut frame =
+                    FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder: &mut encoder, view: target, width: w as u32, height: h as u32 };
+                self.draw_glide(&mut frame, ends, eye.lens, [x, y]);
+            }
+            {
+                let mut pass = eye_pass(&mut encoder, target, wgpu::LoadOp::Load);
+                pass.set_viewport(x, y, w, h, 0.0, 1.0);
+                let headset = self.headset.as_ref().expect("made above");
+                if moving > 0.0 {
+                    headset.veil.draw(&mut pass);
+                }
+                let shapes = crate::headset::eye_shapes(&headset.targets, headset.pointed, headset.gaze.progress(), headset.ray, eye);
+                self.overlay.draw(&gpu.device, &gpu.queue, &mut pass, &shapes, w, h);
+            }
             gpu.queue.submit([encoder.finish()]);
+        }
+    }
+
+    /// In a headset, what points: a controller's ray (`controller`, world
+    /// directions), else the gaze (`head`), which picks a target by resting
+    /// on it. The targets are found again at each probe (and as the proxy,
+    /// which hides the probes behind walls, sharpens). Each frame, after [`App::look`].
+    pub fn point(&mut self, controller: Option<Vec3>, head: Vec3, dt_s: f32) {
+        let gpu = self.gpu.clone();
+        let headset = self.headset.get_or_insert_with(|| Headset::new(&gpu.device, gpu.format));
+        let still = matches!(self.nav.state, State::AtProbe { .. }) && self.flight.is_none();
+        let key = still.then(|| (self.nav.probe(), self.proxy.as_ref().map_or(0, |m| m.triangles.len())));
+        if key != headset.key {
+            let near = NEAR_TARGET_M / self.nav.graph().scene.metres_per_unit;
+            let proxy = &self.proxy;
+            headset.targets = if still { crate::headset::targets(&self.nav, near, |a, b| hidden_by(proxy.as_ref(), a, b)) } else { Vec::new() };
+            (headset.key, headset.gaze) = (key, Gaze::default());
+        }
+        let ray = controller.unwrap_or(head);
+        headset.ray = Some(ray);
+        headset.pointed = crate::headset::pointed(&headset.targets, ray);
+        let picked = if controller.is_none() { headset.gaze.update(headset.pointed, dt_s) } else { None };
+        if let Some(i) = picked {
+            self.take_target(i);
+        }
+    }
+
+    /// A controller's select: goes where it points, if at a target.
+    pub fn select(&mut self) {
+        if let Some(i) = self.headset.as_ref().and_then(|h| h.pointed) {
+            self.take_target(i);
+        }
+    }
+
+    /// The headset's targets (world directions), for tests and the page's status.
+    pub fn targets(&self) -> &[Target] {
+        self.headset.as_ref().map_or(&[], |h| &h.targets)
+    }
+
+    fn take_target(&mut self, i: usize) {
+        let Some(t) = self.headset.as_ref().and_then(|h| h.targets.get(i).copied()) else { return };
+        match t.goal {
+            Goal::Path(p) => log_refusal(self.nav.take_path(p)),
+            Goal::Probe(p) => self.go_to(p, None),
         }
     }
 
@@ -1576,19 +1645,17 @@ impl App {
     }
 
     /// Draws the glide between two sources (both ready: [`App::glide_ends`])
-    /// from where the camera is on the path, blended by its distance to each.
-    fn draw_glide(&mut self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, (from, to): (u32, u32)) {
+    /// from where the camera is on the path, blended by its distance to
+    /// each, through `lens` into the viewport at `origin` of `frame`.
+    fn draw_glide(&mut self, frame: &mut FrameTarget, (from, to): (u32, u32), lens: Lens, origin: [f32; 2]) {
         let end = |p: u32| {
             let Some(Pano::Cube(cube)) = self.panos.get(&p).map(|l| &l.pano) else { return None };
             Some(crate::glide::End { mesh: self.glide_meshes.get(&p)?, cube, tiles: self.tiled.get(&p) })
         };
         let (Some(a), Some(b)) = (end(from), end(to)) else { return };
-        let camera = self.panorama_camera();
-        let t = crate::glide::toward(camera.eye, a.mesh.probe, b.mesh.probe);
-        let frame = crate::glide::GlideFrame { camera, aspect: self.width / self.height, from: a, to: b, t };
-        let mut target =
-            FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder, view: target, width: self.width as u32, height: self.height as u32 };
-        self.glide.draw(&mut target, &frame);
+        let eye = Vec3::from(self.nav.camera_position());
+        let t = crate::glide::toward(eye, a.mesh.probe, b.mesh.probe);
+        self.glide.draw_in(frame, &crate::glide::GlideFrame { eye, lens, from: a, to: b, t }, origin);
     }
 
     /// The frame's target, the size of the window.
@@ -1614,6 +1681,33 @@ mod tests;
 
 /// A move the navigator refused: a press while on the way is expected and
 /// ignored; a path or probe the bundle lacks is a fault, logged.
+/// A render pass into `target` for one eye (its viewport set by the caller).
+fn eye_pass<'a>(encoder: &'a mut wgpu::CommandEncoder, target: &'a wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu::RenderPass<'a> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("eye"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: target,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
+/// Whether the proxy hides `to` from `from` (without a proxy, nothing can be
+/// told, and a probe counts as hidden).
+fn hidden_by(proxy: Option<&ProxyMesh>, from: Vec3, to: Vec3) -> bool {
+    let Some(mesh) = proxy else { return true };
+    let d = to - from;
+    let dist = d.length();
+    let slack = 1e-3 * mesh.diagonal();
+    mesh.pick(from, d / dist.max(1e-9), f32::INFINITY).is_some_and(|(_, t)| t < dist - slack)
+}
+
 fn log_refusal(result: Result<(), NavError>) {
     let text = match result {
         Ok(()) | Err(NavError::Busy) => return,

@@ -176,6 +176,18 @@ pub struct Camera {
     pub fov_y: f32,
 }
 
+/// World to camera coordinates for a camera at `eye` whose right, up and
+/// forward are the given unit vectors (the camera looks down its −Z).
+pub(crate) fn view_matrix(eye: Vec3, (r, u, f): (Vec3, Vec3, Vec3)) -> Mat4 {
+    let b = -f;
+    Mat4::from_cols(
+        Vec4::new(r.x, u.x, b.x, 0.0),
+        Vec4::new(r.y, u.y, b.y, 0.0),
+        Vec4::new(r.z, u.z, b.z, 0.0),
+        Vec4::new(-r.dot(eye), -u.dot(eye), -b.dot(eye), 1.0),
+    )
+}
+
 impl Camera {
     /// Right and up vectors (up is +Y as far as the view allows).
     fn basis(&self) -> (Vec3, Vec3) {
@@ -186,13 +198,7 @@ impl Camera {
     /// World to the camera's space (right-handed: x right, y up, looking down −z).
     pub fn view(&self) -> Mat4 {
         let (r, u) = self.basis();
-        let b = -self.forward;
-        Mat4::from_cols(
-            Vec4::new(r.x, u.x, b.x, 0.0),
-            Vec4::new(r.y, u.y, b.y, 0.0),
-            Vec4::new(r.z, u.z, b.z, 0.0),
-            Vec4::new(-r.dot(self.eye), -u.dot(self.eye), -b.dot(self.eye), 1.0),
-        )
+        view_matrix(self.eye, (r, u, self.forward))
     }
 
     /// World to clip space (right-handed, depth 0 at `near` to 1 at `far`).

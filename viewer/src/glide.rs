@@ -10,8 +10,8 @@
 //! exactly its panorama (every pixel's ray from the probe meets the mesh
 //! where the probe's own ray did).
 
-use crate::dollhouse::Camera;
-use crate::panorama::{mask_texture, Cube, Tiled};
+use crate::dollhouse::view_matrix;
+use crate::panorama::{mask_texture, Cube, Lens, Tiled};
 use exploremaps_format::depthcube::DepthCube;
 use glam::{Mat4, Vec3, Vec4};
 use std::collections::HashMap;
@@ -63,7 +63,8 @@ struct FOut { @location(0) colour: vec4f, @builtin(frag_depth) depth: f32 };
 const BLEND_SHADER: &str = r#"
 // t: 0 at the departure, 1 at the arrival; tol: how much nearer (as a
 // fraction) one end's sure surface must be to hide the other's.
-struct U { t: f32, tol: f32, pad: vec2f };
+// origin: the target's viewport corner (a headset eye's), in pixels.
+struct U { t: f32, tol: f32, origin: vec2f };
 @group(0) @binding(0) var<uniform> u: U;
 @group(0) @binding(1) var a: texture_2d<f32>;
 @group(0) @binding(2) var b: texture_2d<f32>;
@@ -84,7 +85,7 @@ fn hides(alpha: f32, near: f32, far: f32) -> f32 {
 }
 
 @fragment fn fs(@builtin(position) pos: vec4f) -> @location(0) vec4f {
-    let at = vec2i(pos.xy);
+    let at = vec2i(pos.xy - u.origin);
     let pa = textureLoad(a, at, 0);
     let pb = textureLoad(b, at, 0);
     let za = textureLoad(depth_a, at, 0).r;
@@ -159,10 +160,10 @@ pub struct End<'a> {
     pub tiles: Option<&'a Tiled>,
 }
 
-/// A glide's frame: from where, toward what, and how far from the departure.
+/// A glide's frame: from where, seen how, toward what, and how far from the departure.
 pub struct GlideFrame<'a> {
-    pub camera: Camera,
-    pub aspect: f32,
+    pub eye: Vec3,
+    pub lens: Lens,
     pub from: End<'a>,
     pub to: End<'a>,
     /// 0 at the departure, 1 at the arrival.
@@ -244,15 +245,21 @@ impl GlidePass {
     /// Draws the glide's frame into `target` (`width` × `height`), over
     /// what is there where neither end has anything to show.
     pub fn draw(&mut self, frame: &mut crate::dollhouse::FrameTarget, glide: &GlideFrame) {
+        self.draw_in(frame, glide, [0.0, 0.0]);
+    }
+
+    /// As [`GlidePass::draw`], into the `width` × `height` viewport at
+    /// `origin` (pixels from the top left) of a larger target: a headset eye's.
+    pub fn draw_in(&mut self, frame: &mut crate::dollhouse::FrameTarget, glide: &GlideFrame, origin: [f32; 2]) {
         let crate::dollhouse::FrameTarget { device, queue, ref mut encoder, view: target, width, height } = *frame;
         self.ensure_targets(device, width, height);
         let near = 0.5 * glide.from.mesh.nearest.min(glide.to.mesh.nearest).max(1e-6);
-        let view_proj = reversed_infinite(&glide.camera, glide.aspect, near);
+        let view_proj = reversed_infinite(glide.eye, &glide.lens, near);
         for (k, end) in [&glide.from, &glide.to].into_iter().enumerate() {
             self.draw_end(device, queue, encoder, k, end, view_proj);
         }
         let tolerance = OCCLUSION_TOLERANCE + 2.0 * cell_angle(glide.from.mesh.cells.min(glide.to.mesh.cells));
-        queue.write_buffer(&self.blend_uniforms, 0, &le_bytes(&[glide.t.clamp(0.0, 1.0), tolerance, 0.0, 0.0]));
+        queue.write_buffer(&self.blend_uniforms, 0, &le_bytes(&[glide.t.clamp(0.0, 1.0), tolerance, origin[0], origin[1]]));
         let targets = self.targets.as_ref().expect("made above");
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glide blend"),
@@ -278,6 +285,7 @@ impl GlidePass {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        pass.set_viewport(origin[0], origin[1], width as f32, height as f32, 0.0, 1.0);
         pass.set_pipeline(&self.blend);
         pass.set_bind_group(0, &bind, &[]);
         pass.draw(0..3, 0..1);
@@ -395,17 +403,20 @@ fn lattice_indices(cells: u32) -> Vec<u32> {
     indices
 }
 
-/// The camera's view and a projection with reversed depth (1 at `near`, 0 at
-/// infinity) and no far plane, so the far-away sky keeps its precision.
-fn reversed_infinite(camera: &Camera, aspect: f32, near: f32) -> Mat4 {
-    let f = 1.0 / (0.5 * camera.fov_y).tan();
+/// The view from `eye` through `lens`, and a projection with reversed depth
+/// (1 at `near`, 0 at infinity) and no far plane, so the far-away sky keeps
+/// its precision. With the lens's x / −z = x_ndc·scale + shift (and so for
+/// y): clip x = (x + shift·z) / scale, clip w = −z.
+fn reversed_infinite(eye: Vec3, lens: &Lens, near: f32) -> Mat4 {
+    let ([sx, sy], [ox, oy]) = (lens.scale, lens.shift);
     let proj = Mat4::from_cols(
-        Vec4::new(f / aspect, 0.0, 0.0, 0.0),
-        Vec4::new(0.0, f, 0.0, 0.0),
-        Vec4::new(0.0, 0.0, 0.0, -1.0),
+        Vec4::new(1.0 / sx, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 1.0 / sy, 0.0, 0.0),
+        Vec4::new(ox / sx, oy / sy, 0.0, -1.0),
         Vec4::new(0.0, 0.0, near, 0.0),
     );
-    proj * camera.view()
+    let [f, r, u] = lens.basis.map(Vec3::from);
+    proj * view_matrix(eye, (r, u, f))
 }
 
 fn mesh_pipeline(device: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {

@@ -5,6 +5,7 @@
 pub mod app;
 pub mod dollhouse;
 pub mod glide;
+pub mod headset;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod native;
 pub mod navigation;

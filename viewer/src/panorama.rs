@@ -120,6 +120,16 @@ impl Lens {
     }
 }
 
+impl Lens {
+    /// Where direction `d` shows, in normalised device coordinates, if in
+    /// front of the camera: the inverse of the shader's ray.
+    pub fn project(&self, d: glam::Vec3) -> Option<[f32; 2]> {
+        let [f, r, u] = self.basis.map(glam::Vec3::from);
+        let z = d.dot(f);
+        (z > 1e-3).then(|| [(d.dot(r) / z - self.shift[0]) / self.scale[0], (d.dot(u) / z - self.shift[1]) / self.scale[1]])
+    }
+}
+
 /// The uniforms as the shader reads them.
 fn uniforms(lens: &Lens, fade: f32, video: bool) -> [f32; 16] {
     let [f, r, u] = lens.basis;

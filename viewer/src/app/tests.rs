@@ -696,3 +696,94 @@ fn markers_the_proxy_hides_are_told_apart() {
     render_frame(&mut app, &mut script);
     assert_eq!(app.hidden, vec![false; 5]);
 }
+
+/// Two eyes side by side on a 128 × 64 frame, each 90° wide, turned by `rotation`.
+fn eyes(rotation: glam::Quat) -> Vec<Eye> {
+    // OpenGL's projection of a frustum 1 wide and high at depth 1 (near 0.1, far 100).
+    let (n, f) = (0.1f32, 100.0f32);
+    let projection = glam::Mat4::from_cols_array(&[
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        -(f + n) / (f - n),
+        -1.0,
+        0.0,
+        0.0,
+        -2.0 * f * n / (f - n),
+        0.0,
+    ]);
+    let lens = Lens::of_eye(rotation, &projection);
+    vec![Eye { viewport: [0.0, 0.0, 64.0, 64.0], lens }, Eye { viewport: [64.0, 0.0, 64.0, 64.0], lens }]
+}
+
+/// A headset frame looking along `rotation`: its pixels.
+fn headset_frame(app: &mut App, script: &mut Script, rotation: glam::Quat) -> Vec<u8> {
+    let gpu = app.gpu().clone();
+    let target = crate::offscreen::texture(&gpu.device, 128, 64);
+    app.render_eyes(&target.create_view(&Default::default()), &eyes(rotation), script);
+    crate::offscreen::read_back(&gpu.device, &gpu.queue, &target)
+}
+
+#[test]
+fn in_a_headset_a_controller_picks_a_path_both_eyes_glide_along_it_and_a_resting_gaze_picks_the_way_back() {
+    let mut graph = bundle_graph();
+    for p in &mut graph.paths {
+        p.assets.video = None;
+    }
+    for p in &mut graph.probes {
+        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+    }
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
+    let level = glam::Quat::IDENTITY;
+    for _ in 0..3 {
+        app.look(level, std::f32::consts::FRAC_PI_2, (64, 64));
+        app.point(None, Vec3::NEG_Z, 0.016);
+        app.update(0.016, &mut script);
+    }
+    let out = app.targets().iter().find(|t| t.goal == Goal::Path(0)).copied().expect("a target on path 0 at probe 0");
+    app.point(Some(Vec3::Y), Vec3::NEG_Z, 0.016);
+    app.select();
+    assert_eq!(app.nav.state, State::AtProbe { probe: 0 }, "pointing at nothing, a select does nothing");
+    app.point(Some(out.direction), Vec3::NEG_Z, 0.016);
+    app.select();
+    assert!(matches!(app.nav.state, State::Travelling { path: 0, .. }), "{:?}", app.nav.state);
+    let (mut glided, mut frames) = (0, 0);
+    while matches!(app.nav.state, State::Travelling { .. }) && frames < 300 {
+        app.update(0.02, &mut script);
+        app.point(None, Vec3::NEG_Z, 0.02);
+        let pixels = headset_frame(&mut app, &mut script, level);
+        glided += usize::from(app.gliding());
+        frames += 1;
+        let centre = |x: usize| [pixels[(32 * 128 + x) * 4], pixels[(32 * 128 + x) * 4 + 1], pixels[(32 * 128 + x) * 4 + 2]];
+        let left = centre(32);
+        // (The script's depth, everything 2 away from every probe, leaves
+        // holes part way; the glide's own tests look at what it draws.)
+        assert!(app.gliding() || left.iter().all(|&c| c.abs_diff(128) <= 12), "frame {frames}: the left eye shows the grey panorama: {left:?}");
+        let (l, r): (Vec<&[u8]>, Vec<&[u8]>) = pixels.chunks(4 * 128).map(|row| row.split_at(4 * 64)).unzip();
+        assert_eq!(l, r, "frame {frames}: both eyes see the same");
+    }
+    assert!(glided > 10, "drawn as a glide in the headset ({glided} of {frames} frames)");
+    assert_eq!(app.nav.state, State::AtProbe { probe: 1 });
+    assert!(app.targets().is_empty() || app.targets().iter().all(|t| t.goal != Goal::Path(1)), "targets are those of probe 1");
+    // No controller: the gaze rests on the way back for a second.
+    app.point(None, Vec3::NEG_Z, 0.016);
+    let back = app.targets().iter().find(|t| t.goal == Goal::Path(0)).copied().expect("path 0 leads back");
+    let facing = glam::Quat::from_rotation_arc(Vec3::NEG_Z, back.direction);
+    for _ in 0..9 {
+        app.look(facing, std::f32::consts::FRAC_PI_2, (64, 64));
+        app.point(None, back.direction, 0.1);
+    }
+    assert_eq!(app.nav.state, State::AtProbe { probe: 1 }, "not yet: 0.9 s");
+    for _ in 0..3 {
+        app.point(None, back.direction, 0.1);
+    }
+    assert!(matches!(app.nav.state, State::Travelling { path: 0, reversed: true, .. }), "{:?}", app.nav.state);
+}

@@ -90,10 +90,6 @@ impl Room {
     }
 }
 
-fn camera(eye: Vec3, view: &View) -> Camera {
-    Camera { eye, forward: Vec3::from(exploremaps_format::direction(view.yaw, view.pitch)), fov_y: view.fov_y }
-}
-
 fn draw_panorama(device: &wgpu::Device, queue: &wgpu::Queue, source: Source, view: &View) -> Vec<u8> {
     let pass = PanoramaPass::new(device, wgpu::TextureFormat::Rgba8UnormSrgb);
     render_target(device, queue, SIZE, |encoder, target| {
@@ -142,7 +138,7 @@ fn glides(device: &wgpu::Device, queue: &wgpu::Queue, room: Room) -> impl FnMut(
             let mut frame = crate::dollhouse::FrameTarget { device: &device, queue: &queue, encoder, view: target, width: SIZE, height: SIZE };
             let from = End { mesh: &mesh_a, cube: &cube_a, tiles: None };
             let to = End { mesh: &mesh_b, cube: &cube_b, tiles: None };
-            pass.draw(&mut frame, &GlideFrame { camera: camera(eye, view), aspect: 1.0, from, to, t });
+            pass.draw(&mut frame, &GlideFrame { eye, lens: crate::panorama::Lens::of_view(view, 1.0), from, to, t });
         })
     }
 }

@@ -16,6 +16,7 @@
 
 use super::{set_status, window, State};
 use crate::app::Eye;
+use crate::headset::Goal;
 use crate::panorama::Lens;
 use glam::{Mat4, Quat};
 use std::cell::RefCell;
@@ -35,6 +36,21 @@ pub(super) struct Session {
     /// The window's field of view, given back when the session ends.
     window_fov_y: f32,
     frames: u32,
+}
+
+/// Where a controller points (world direction), from its target ray's pose in `frame`.
+fn ray_of(frame: &XrFrame, source: &web_sys::XrInputSource, space: &XrReferenceSpace, heading: Quat) -> Option<glam::Vec3> {
+    let pose = frame.get_pose(&source.target_ray_space(), space)?;
+    Some(heading * orientation(&pose.transform()) * glam::Vec3::NEG_Z)
+}
+
+/// The pointing controller's ray, if one points (the right hand's first).
+fn controller_ray(frame: &XrFrame, session: &XrSession, space: &XrReferenceSpace, heading: Quat) -> Option<glam::Vec3> {
+    let sources = session.input_sources();
+    let mut pointers: Vec<web_sys::XrInputSource> =
+        (0..sources.length()).filter_map(|i| sources.get(i)).filter(|s| s.target_ray_mode() == web_sys::XrTargetRayMode::TrackedPointer).collect();
+    pointers.sort_by_key(|s| s.handedness() != web_sys::XrHandedness::Right);
+    pointers.iter().find_map(|s| ray_of(frame, s, space, heading))
 }
 
 /// Whether the browser can start an `immersive-vr` session (false, quietly,
@@ -114,6 +130,19 @@ async fn start(state: &Rc<RefCell<State>>, gl: &Gl) -> Result<(), String> {
     });
     session.set_onend(Some(on_end.as_ref().unchecked_ref()));
     on_end.forget();
+    // A controller's select goes where it points.
+    let selecting = state.clone();
+    let on_select = Closure::<dyn FnMut(web_sys::XrInputSourceEvent)>::new(move |e: web_sys::XrInputSourceEvent| {
+        let mut s = selecting.borrow_mut();
+        let Some(xr) = &s.xr else { return };
+        let ray = ray_of(&e.frame(), &e.input_source(), &xr.space, xr.heading);
+        if let Some(ray) = ray {
+            s.app.point(Some(ray), ray, 0.0);
+            s.app.select();
+        }
+    });
+    session.set_onselect(Some(on_select.as_ref().unchecked_ref()));
+    on_select.forget();
     request_frames(state.clone(), session, gl.clone());
     Ok(())
 }
@@ -144,7 +173,7 @@ impl State {
     fn xr_frame(&mut self, now_ms: f64, frame: &XrFrame, gl: &Gl) {
         let Some(xr) = &self.xr else { return };
         let Some(pose) = frame.get_viewer_pose(&xr.space) else { return };
-        let (layer, heading) = (xr.layer.clone(), xr.heading);
+        let (layer, heading, session, space) = (xr.layer.clone(), xr.heading, xr.session.clone(), xr.space.clone());
         let (width, height) = (layer.framebuffer_width().max(1), layer.framebuffer_height().max(1));
         self.size_to(width, height);
         let eyes: Vec<Eye> = pose
@@ -164,9 +193,12 @@ impl State {
         let Some(first) = eyes.first() else { return };
         let fov_y = 2.0 * first.lens.scale[1].atan();
         let (eye_w, eye_h) = (first.viewport[2] as u32, first.viewport[3] as u32);
-        self.app.look(heading * orientation(&pose.transform()), fov_y, (eye_w, eye_h));
+        let head = heading * orientation(&pose.transform());
+        self.app.look(head, fov_y, (eye_w, eye_h));
         let dt = ((now_ms - self.last_ms) / 1000.0).clamp(0.0, 0.1) as f32;
         self.last_ms = now_ms;
+        let controller = controller_ray(frame, &session, &space, heading);
+        self.app.point(controller, head * glam::Vec3::NEG_Z, dt);
         self.app.update(dt, &mut self.platform);
         let texture = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(f) | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
@@ -194,6 +226,26 @@ impl State {
         set_status("probe", &self.app.nav.probe().into());
         set_status("yaw", &view.yaw.to_degrees().into());
         set_status("pitch", &view.pitch.to_degrees().into());
+        set_status("moving", &self.app.nav.progress().is_some().into());
+        set_status(
+            "glide_frames",
+            &{
+                self.glide_frames += u32::from(self.app.gliding());
+                self.glide_frames
+            }
+            .into(),
+        );
+        // The targets as a controller in the session's space must point: [goal, yaw°, pitch°].
+        let targets = js_sys::Array::new();
+        for t in self.app.targets() {
+            let (yaw, pitch) = crate::navigation::yaw_pitch((heading.inverse() * t.direction).into());
+            let goal = match t.goal {
+                Goal::Path(p) => format!("path {p}"),
+                Goal::Probe(p) => format!("probe {p}"),
+            };
+            targets.push(&js_sys::Array::of3(&goal.into(), &yaw.to_degrees().into(), &pitch.to_degrees().into()));
+        }
+        set_status("xr_targets", &targets);
     }
 
     /// The canvas and the surface at the layer's size.
