@@ -437,9 +437,12 @@ fn without_a_headset_the_web_viewer_offers_no_vr_and_says_nothing() {
     }
     let (dir, server) = served(|_| {});
     let lines = browser("no_xr", &server.url, dir.path());
-    let page = step(&lines, "no_xr");
-    assert!(page["button"] == false && page["message"].is_null() && page["error"].is_null(), "{page}");
-    assert!(page["first_panorama_ms"].is_number(), "{page}");
+    for name in ["no_xr", "no_webxr"] {
+        let page = step(&lines, name);
+        assert!(page["button"] == false && page["message"].is_null() && page["error"].is_null(), "{page}");
+        assert!(page["first_panorama_ms"].is_number(), "{page}");
+    }
+    assert_eq!(step(&lines, "no_webxr")["has_xr"], false, "the page ran without navigator.xr");
 }
 
 #[test]

@@ -237,9 +237,17 @@ try {
     await page.screenshot({ path: `${out}/broken.png` });
     report('broken', await status(page));
   } else if (mode === 'no_xr') {
-    // A browser without WebXR: no button, no message.
+    // A browser whose WebXR offers no headset (Chromium here), and one without WebXR at all
+    // (as Safari on iOS): no button, no message.
     const { page } = await open(url);
     report('no_xr', { button: await page.isVisible('#enter-vr'), ...(await status(page)) });
+    const context = await browser.newContext({ viewport: { width: 1280, height: 720 } });
+    await context.addInitScript(() => { delete Navigator.prototype.xr; });
+    const bare = await context.newPage();
+    bare.on('pageerror', (e) => report('pageerror', { error: e.message }));
+    await bare.goto(url);
+    await bare.waitForFunction(() => window.exploremaps && (window.exploremaps.first_panorama_ms || window.exploremaps.error), null, { timeout: 30000 });
+    report('no_webxr', { button: await bare.isVisible('#enter-vr'), has_xr: await bare.evaluate(() => 'xr' in navigator), ...(await status(bare)) });
   } else if (mode === 'xr') {
     // An emulated Meta Quest 3 (IWER: iwer's build, injected before the page).
     const context = await browser.newContext({ viewport: { width: 1280, height: 720 } });

@@ -673,10 +673,17 @@ async fn run(canvas_id: &str, base: &str) -> Result<(), String> {
         refined: None,
     };
     let nav = Navigator::new(graph, probe, 1).map_err(|e| e.to_string())?;
-    // Phones: faces up to 1024 and a smaller texture budget.
+    // Phones: faces up to 1024 and a smaller texture budget. Headsets: an
+    // eye's 20-odd pixels a degree need the 2048 faces (as tiles, those in
+    // view), in half a desktop's budget, as standalone headsets share memory.
     let small = canvas.client_width().min(canvas.client_height()) < 600;
-    let options =
-        Options { budget_bytes: if small { 96 << 20 } else { 256 << 20 }, max_face: if small { 1024 } else { 2048 }, show_map: !small, tour: false };
+    let budget_bytes = match (small, xr_context.is_some()) {
+        (true, _) => 96 << 20,
+        (false, true) => 128 << 20,
+        (false, false) => 256 << 20,
+    };
+    let max_face = if small && xr_context.is_none() { 1024 } else { 2048 };
+    let options = Options { budget_bytes, max_face, show_map: !small, tour: false };
     let view_format = gpu.format;
     let app = App::new(gpu, nav, Some(&link), options, &mut platform);
     mark("app");
