@@ -26,12 +26,13 @@ use exploremaps_builder::render::{render_missing, Settings, Shard, Transitions};
 use exploremaps_builder::scene_io::{load, LoadOptions};
 use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer};
 use exploremaps_format::depthcube::DepthCube;
-use exploremaps_format::{direction, CubeLevel, Graph};
+use exploremaps_format::{CubeLevel, Graph};
 use exploremaps_scenes::{BuiltIn, Scene};
-use exploremaps_viewer::dollhouse::{Camera, FrameTarget};
+use exploremaps_viewer::dollhouse::FrameTarget;
 use exploremaps_viewer::glide::{toward, End, GlideFrame, GlideMesh, GlidePass};
+use exploremaps_viewer::navigation::View;
 use exploremaps_viewer::offscreen::render_target;
-use exploremaps_viewer::panorama::Cube;
+use exploremaps_viewer::panorama::{Cube, Lens};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -146,10 +147,9 @@ impl Subject<'_> {
                 for k in 0..4 {
                     let yaw = key.yaw + k as f32 * std::f32::consts::FRAC_PI_2;
                     let stem = self.out.join(format!("{}-{id}-{:.0}-{k}", self.name, 100.0 * along));
-                    let camera = Camera { eye, forward: Vec3::from(direction(yaw, 0.0)), fov_y: FOV };
                     let frame = GlideFrame {
-                        camera,
-                        aspect: 1.0,
+                        eye,
+                        lens: Lens::of_view(&View { yaw, pitch: 0.0, fov_y: FOV }, 1.0),
                         from: End { mesh: &a.1, cube: &a.0, tiles: None },
                         to: End { mesh: &b.1, cube: &b.0, tiles: None },
                         t: toward(eye, a.1.probe, b.1.probe),

@@ -1465,6 +1465,12 @@ impl App {
             }
         }
         if let Some(ends) = glide {
+            // The proxy's baked colours behind it, where neither end saw.
+            if let Some(mesh) = &self.proxy {
+                let (centre, extent) = ((mesh.lo + mesh.hi) / 2.0, mesh.diagonal().max(1e-3));
+                let mut frame = self.frame_target(&gpu, &mut encoder, target);
+                self.dollhouse.draw(&mut frame, &self.panorama_camera(), f32::INFINITY, centre, extent);
+            }
             let lens = Lens::of_view(&self.nav.view, self.width / self.height);
             let mut frame = FrameTarget {
                 device: &gpu.device,

@@ -787,3 +787,47 @@ fn in_a_headset_a_controller_picks_a_path_both_eyes_glide_along_it_and_a_resting
     }
     assert!(matches!(app.nav.state, State::Travelling { path: 0, reversed: true, .. }), "{:?}", app.nav.state);
 }
+
+/// The window's frame as pixels (the app sized 128 × 64).
+fn window_frame(app: &mut App, script: &mut Script) -> Vec<u8> {
+    let gpu = app.gpu().clone();
+    let target = crate::offscreen::texture(&gpu.device, 128, 64);
+    let commands = app.render(&target.create_view(&Default::default()), script);
+    gpu.queue.submit([commands]);
+    crate::offscreen::read_back(&gpu.device, &gpu.queue, &target)
+}
+
+#[test]
+fn where_neither_end_of_a_glide_sees_the_proxy_shows_its_colours() {
+    // The script's depth (everything 2 away from every probe) leaves holes part way along path 0.
+    let glide_at_half_way = |mut graph: Graph| {
+        for p in &mut graph.paths {
+            p.assets.video = None;
+        }
+        for p in &mut graph.probes {
+            p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+        }
+        let mut script = Script::default();
+        let mut app = app_of(graph, &mut script, 1 << 30, 64)?;
+        app.resize(128, 64, 1.0);
+        for _ in 0..20 {
+            app.update(0.016, &mut script);
+            render_frame(&mut app, &mut script);
+        }
+        app.nav.take_path(0).unwrap();
+        while app.nav.progress().is_some_and(|p| p < 0.45) {
+            app.update(0.02, &mut script);
+        }
+        let pixels = window_frame(&mut app, &mut script);
+        assert!(app.gliding(), "drawn as a glide");
+        Some((pixels, app.proxy.is_some()))
+    };
+    let Some((without, _)) = glide_at_half_way(bundle_graph()) else { return };
+    let (with, loaded) = glide_at_half_way(graph_with_proxy()).expect("a GPU, as above");
+    assert!(loaded, "the proxy came after the first panorama");
+    // The window's background, (0.02, 0.02, 0.025) in sRGB.
+    let background = |p: &[u8]| p.chunks(4).filter(|c| c[0].abs_diff(39) <= 2 && c[2].abs_diff(44) <= 2).count();
+    let (holes, left) = (background(&without), background(&with));
+    assert!(holes > 100, "the glide alone leaves holes: {holes} pixels");
+    assert!(left * 4 < holes, "the proxy fills them: {left} of {holes} left");
+}
