@@ -1185,7 +1185,7 @@ impl App {
                 self.show_map = !self.show_map;
                 return;
             }
-            Some(Action::ToggleTour | Action::TakePath(_) | Action::PlanPoint) => return,
+            Some(Action::ToggleTour | Action::TakePath(_) | Action::PlanPoint | Action::Back | Action::Pause | Action::On) => return,
             None => {}
         }
         let (Some(mesh), Some(orbit)) = (&self.proxy, &self.orbit) else { return };
@@ -1299,6 +1299,15 @@ impl App {
                 Ok(())
             }
             Some(Action::NextFloor) => Ok(()),
+            Some(action @ (Action::Back | Action::Pause | Action::On)) => {
+                let key = match action {
+                    Action::Back => Key::Down,
+                    Action::On => Key::Up,
+                    _ => Key::Go,
+                };
+                self.steering(key);
+                Ok(())
+            }
             Some(Action::PlanPoint) => {
                 self.plan_to_go(x, y);
                 Ok(())
@@ -1387,6 +1396,7 @@ impl App {
             proxy: self.nav.graph().proxy.is_some(),
             plan: self.proxy.as_ref().filter(|_| camera.is_none()).map(|m| [m.lo.x, m.lo.z, m.hi.x, m.hi.z]),
             sections: if camera.is_none() && self.show_map { self.plan_sections() } else { std::rc::Rc::new([]) },
+            steering: (matches!(self.nav.state, State::Travelling { .. }) && self.video_failed).then_some(self.nav.speed),
             dollhouse,
         };
         self.layout = ui::layout(&self.nav, &screen);

@@ -26,6 +26,10 @@ pub enum Action {
     NextFloor,
     /// A point of the floor plan (not a probe's dot): go where it is seen best.
     PlanPoint,
+    /// Steering a glide: back (again: faster), pause or resume, on (again: faster).
+    Back,
+    Pause,
+    On,
 }
 
 /// A tappable region: a rectangle, or a disc when `round`.
@@ -105,6 +109,8 @@ pub struct Screen {
     /// The plan's wall outlines: segments (x, z, x, z) where the proxy
     /// crosses the section height.
     pub sections: std::rc::Rc<[[f32; 4]]>,
+    /// While a glide can be steered: its speed (0 paused, negative back).
+    pub steering: Option<f32>,
 }
 
 /// Where the overhead map is and how it shows the world: a top view, +X to
@@ -186,11 +192,52 @@ pub fn layout(nav: &Navigator, s: &Screen) -> Layout {
     dollhouse_markers(&mut out, nav.probe(), s);
     let bar = probe_bar(&mut out, nav, s);
     path_bar(&mut out, nav, s, &choices, bar);
+    if let Some(speed) = s.steering {
+        steering(&mut out, s, speed, bar.0);
+    }
     if s.show_map && s.dollhouse.is_none() {
         map(&mut out, nav, nav.graph(), s);
     }
     buttons(&mut out, s);
     out
+}
+
+/// Over the probe bar (its top at `bar_y`) while gliding: back, pause or
+/// resume, on; the direction under way lit.
+fn steering(out: &mut Layout, s: &Screen, speed: f32, bar_y: f32) {
+    let k = s.scale;
+    let (r, gap) = (20.0 * k, 6.0 * k);
+    let y = bar_y - 2.0 * gap - r;
+    let lit = |on: bool| if on { [0.2, 0.5, 0.9, 0.95] } else { [0.1, 0.1, 0.1, 0.7] };
+    for (i, action) in [Action::Back, Action::Pause, Action::On].into_iter().enumerate() {
+        let x = s.width / 2.0 + (i as f32 - 1.0) * (2.0 * r + 2.0 * gap);
+        let on = match action {
+            Action::Back => speed < 0.0,
+            Action::On => speed > 0.0,
+            _ => speed == 0.0,
+        };
+        out.shapes.push(Shape::disc(x, y, r, lit(on)));
+        let line = |a: [f32; 2], b: [f32; 2]| Shape::line([x + a[0] * r, y + a[1] * r], [x + b[0] * r, y + b[1] * r], 3.0 * k, WHITE);
+        match action {
+            // Chevrons pointing back or on; two bars to pause, or one chevron to resume.
+            Action::Back | Action::On => {
+                let d = if action == Action::On { 1.0 } else { -1.0 };
+                for off in [-0.25, 0.2] {
+                    out.shapes.push(line([d * (off - 0.15), -0.4], [d * (off + 0.2), 0.0]));
+                    out.shapes.push(line([d * (off + 0.2), 0.0], [d * (off - 0.15), 0.4]));
+                }
+            }
+            _ if speed == 0.0 => {
+                out.shapes.push(line([-0.2, -0.45], [0.35, 0.0]));
+                out.shapes.push(line([0.35, 0.0], [-0.2, 0.45]));
+            }
+            _ => {
+                out.shapes.push(line([-0.2, -0.4], [-0.2, 0.4]));
+                out.shapes.push(line([0.2, -0.4], [0.2, 0.4]));
+            }
+        }
+        out.hits.push(Hit { x: x - r, y: y - r, w: 2.0 * r, h: 2.0 * r, round: true, action });
+    }
 }
 
 /// Markers where paths leave, in the view.

@@ -831,3 +831,40 @@ fn where_neither_end_of_a_glide_sees_the_proxy_shows_its_colours() {
     assert!(holes > 100, "the glide alone leaves holes: {holes} pixels");
     assert!(left * 4 < holes, "the proxy fills them: {left} of {holes} left");
 }
+
+#[test]
+fn along_a_glide_taps_on_the_buttons_pause_go_back_and_go_on() {
+    let mut graph = bundle_graph();
+    for p in &mut graph.paths {
+        p.assets.video = None;
+    }
+    for p in &mut graph.probes {
+        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+    }
+    let mut script = Script::default();
+    let Some(mut app) = app_of(graph, &mut script, 1 << 30, 360) else { return };
+    for _ in 0..3 {
+        app.update(0.016, &mut script);
+    }
+    app.input(Input::Key(Key::Go), &mut script);
+    app.update(0.3, &mut script);
+    render_frame(&mut app, &mut script);
+    let button = |app: &App, a: Action| {
+        let h = app.layout.hits.iter().find(|h| h.action == a).copied().unwrap_or_else(|| panic!("no {a:?} button while gliding"));
+        [h.x + h.w / 2.0, h.y + h.h / 2.0]
+    };
+    let at = button(&app, Action::Pause);
+    tap(&mut app, &mut script, at);
+    assert_eq!(app.nav.speed, 0.0, "paused");
+    render_frame(&mut app, &mut script);
+    let at = button(&app, Action::Back);
+    tap(&mut app, &mut script, at);
+    assert_eq!(app.nav.speed, -1.0, "going back");
+    render_frame(&mut app, &mut script);
+    let at = button(&app, Action::On);
+    tap(&mut app, &mut script, at);
+    let at = button(&app, Action::On);
+    tap(&mut app, &mut script, at);
+    assert_eq!(app.nav.speed, 2.0, "on, then faster");
+    assert!(matches!(app.nav.state, State::Travelling { .. }), "still under way: {:?}", app.nav.state);
+}

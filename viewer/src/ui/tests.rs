@@ -14,6 +14,7 @@ fn screen(width: f32, height: f32, scale: f32) -> Screen {
         dollhouse: None,
         plan: None,
         sections: std::rc::Rc::new([]),
+        steering: None,
     }
 }
 
@@ -162,4 +163,25 @@ fn a_bar_shows_the_proxy_refining() {
     let half = layout(&nav, &over(Some(0.4)));
     assert!(filled(&half).is_some_and(|len| (len - 400.0).abs() < 1.0), "{:?}", filled(&half));
     assert_eq!(filled(&layout(&nav, &over(None))), None);
+}
+
+#[test]
+fn while_gliding_three_buttons_steer_back_pause_and_on_the_way_under_way_lit() {
+    let mut nav = Navigator::new(graph(), Some(0), 1).unwrap();
+    nav.take_path(0).unwrap();
+    let s = screen(1280.0, 720.0, 1.0);
+    assert!(layout(&nav, &s).hits.iter().all(|h| !matches!(h.action, Action::Back | Action::Pause | Action::On)), "not without steering");
+    let steered = layout(&nav, &Screen { steering: Some(1.0), ..screen(1280.0, 720.0, 1.0) });
+    let at = |a: Action| steered.hits.iter().find(|h| h.action == a).copied().unwrap_or_else(|| panic!("no {a:?} button"));
+    let (back, pause, on) = (at(Action::Back), at(Action::Pause), at(Action::On));
+    assert!(back.x < pause.x && pause.x < on.x && (pause.x + pause.w / 2.0 - 640.0).abs() < 1.0, "left to right, centred");
+    assert_eq!(steered.hit(pause.x + pause.w / 2.0, pause.y + pause.h / 2.0), Some(Action::Pause), "on top of what is under it");
+    let lit = [0.2, 0.5, 0.9, 0.95];
+    let disc_at = |l: &Layout, h: Hit| {
+        l.shapes.iter().find(|s| s.round == 1.0 && (s.a[0] - h.x).abs() < 0.01 && (s.a[1] - (h.y + h.h / 2.0)).abs() < 0.01).map(|s| s.colour)
+    };
+    assert_eq!(disc_at(&steered, on), Some(lit), "going on: on lit");
+    let paused = layout(&nav, &Screen { steering: Some(0.0), ..screen(1280.0, 720.0, 1.0) });
+    assert_eq!(disc_at(&paused, pause), Some(lit), "paused: pause lit");
+    assert_ne!(disc_at(&paused, on), Some(lit));
 }
