@@ -93,7 +93,7 @@ impl Settings {
     /// video frames, without refining edges (it is seen only in passing,
     /// resampled through its depth; the refinement took a third of its time).
     pub fn waypoint_trace(&self) -> crate::tracer::TraceParams {
-        crate::tracer::TraceParams { antialias: false, ..self.trace.panorama.clone() }
+        crate::tracer::TraceParams { antialias: false, ..self.trace.panorama }
     }
 
     /// Depth cells of a panorama part way: half the probes', at least 32.
