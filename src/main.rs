@@ -3,6 +3,7 @@
 //! place ([`exit_code`]; 1: failure, 2: bad input).
 
 mod cli;
+mod progress;
 mod serve;
 
 use anyhow::{bail, Context, Result};
@@ -19,6 +20,7 @@ use exploremaps_builder::scenes::{BuiltIn, Light, ScaleSource, Scene, CATALOGUE}
 use exploremaps_format::record::PlanRecord;
 use exploremaps_format::{Graph, GRAPH_FILE};
 use glam::Vec3;
+use progress::Progress;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -157,11 +159,10 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
     }
     let graph = read_graph(bundle)?;
     let out = output.map_or_else(|| export::default_folder(bundle), Path::to_path_buf);
-    let bar = indicatif::ProgressBar::new(graph.probes.len() as u64)
-        .with_style(indicatif::ProgressStyle::with_template("exporting {bar:30} {pos}/{len} probes").expect("a valid template"));
+    let progress = Progress::new("exporting".into(), "probes");
     let started = Instant::now();
-    let report = export::export(bundle, &graph, &viewers, &out, library, |done, _| bar.set_position(done as u64))?;
-    bar.finish_and_clear();
+    let report = export::export(bundle, &graph, &viewers, &out, library, |done, total| progress.set(done as u64, total as u64))?;
+    drop(progress);
     let names: Vec<&str> = viewers.iter().map(|v| v.folder()).collect();
     println!(
         "wrote {}: {} views, {} links, {} tiles, {:.1} MB, for {} in {:.1} s; serve the folder and open index.html",
@@ -349,23 +350,16 @@ fn render_settings(args: &RenderArgs, seed: u64) -> Result<Settings> {
 /// `exploremaps render`: the assets the bundle lacks, given its graph and scene.
 fn render(bundle: &Path, settings: &Settings, shard: Option<(usize, usize)>, (mut graph, scene): (Graph, Scene)) -> Result<()> {
     let (index, count) = shard.unwrap_or((0, 1));
-    let bar = indicatif::ProgressBar::new(0).with_message(format!("rendering ({} quality)", settings.trace.quality.name()));
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} probes and paths, {eta} left")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let progress = Progress::new(format!("rendering ({} quality)", settings.trace.quality.name()), "assets");
     let report = exploremaps_builder::render::render_missing(
         bundle,
         &scene,
         &mut graph,
         settings,
         exploremaps_builder::render::Shard { index, count },
-        |done, total| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        },
+        |done, total| progress.set(done as u64, total as u64),
     )?;
-    bar.finish_and_clear();
+    drop(progress);
     if let Some(proxy) = &graph.proxy {
         let levels: Vec<String> = proxy
             .levels

@@ -401,9 +401,17 @@ fn render_fills_in_assets_resumably_and_in_shards() {
     let built = dir.path().join("built");
     let mut args = vec!["build", "maze:3", "-o", built.to_str().unwrap(), "--samples", "5000"];
     args.extend(small);
-    let run = exploremaps(&args);
+    // Off a terminal (stderr is a pipe here) the render logs a line a finished asset.
+    let run = Command::new(exe()).args(&args).env("RUST_LOG", "info").output().expect("run exploremaps");
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(built.join("probes/0/pano.jpg").exists() && built.join("paths/0.mp4").exists() && built.join("graph.json").exists());
+    let graph = exploremaps_format::Graph::from_json(&std::fs::read_to_string(built.join("graph.json")).unwrap()).unwrap();
+    // The probes, the paths and the proxy.
+    let assets = graph.probes.len() + graph.paths.len() + 1;
+    let log = stderr(&run);
+    let lines: Vec<&str> = log.lines().filter(|l| l.contains("assets done after") && l.contains("left")).collect();
+    assert_eq!(lines.len(), assets, "a line an asset:\n{log}");
+    assert!(lines.last().unwrap().contains(&format!("rendering (preview quality): {assets}/{assets} assets")), "{log}");
     // Path traced with a real bounce and denoised.
     let denoised = dir.path().join("denoised");
     std::fs::create_dir_all(&denoised).unwrap();
