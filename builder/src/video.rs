@@ -12,6 +12,8 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
+mod spherical;
+
 /// Seconds between key frames: players seek, and play backwards, a key-frame
 /// interval at a time (a path's only key frame at its start made each
 /// backward step in Chromium decode up to the whole path: 163 ms a seek on a
@@ -162,12 +164,12 @@ impl Stream {
         Ok(())
     }
 
-    /// The MP4 file.
+    /// The MP4 file, marked as a mono equirectangular 360° video.
     pub fn finish(mut self) -> Result<Vec<u8>, VideoError> {
         if self.size.is_none() {
             return Err(VideoError::Empty);
         }
-        match &mut self.kind {
+        let mp4 = match &mut self.kind {
             Kind::Held(frames) => openh264(frames, self.fps),
             Kind::Ffmpeg(_, running) => {
                 let mut ffmpeg = running.take().ok_or_else(stopped)?;
@@ -178,7 +180,8 @@ impl Stream {
                     _ => Err(ffmpeg_failed(&mut ffmpeg)),
                 }
             }
-        }
+        }?;
+        spherical::tag(mp4).map_err(|e| VideoError::Mux(e.to_string()))
     }
 }
 
@@ -300,6 +303,7 @@ mod tests {
             worst = worst.min(db);
         }
         eprintln!("{}: {} frames, {} bytes, worst frame {worst:.1} dB", encoder.name(), frames.len(), mp4.len());
+        spherical_metadata_is_seen(encoder.name(), &mp4);
         // Key frames where asked and nowhere else; decoding from one gives the
         // same frames as decoding from the start (how players go backwards).
         let mut decoder = Mp4Decoder::new(mp4).unwrap();
@@ -311,6 +315,20 @@ mod tests {
         }
         assert!(decoder.next_frame().unwrap().is_none());
         assert!(decoder.seek(3).is_err(), "not a key frame");
+    }
+
+    /// ffprobe (where it is installed) reads the video as 360°: mono, equirectangular.
+    fn spherical_metadata_is_seen(name: String, mp4: &[u8]) {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("v.mp4");
+        std::fs::write(&file, mp4).unwrap();
+        let Ok(probe) = Command::new("ffprobe").args(["-v", "error", "-show_streams", "-of", "json"]).arg(&file).output() else {
+            return eprintln!("SKIPPED: no ffprobe on the PATH");
+        };
+        let report = String::from_utf8_lossy(&probe.stdout);
+        assert!(probe.status.success() && report.contains("\"Spherical Mapping\"") && report.contains("\"equirectangular\""), "{name}: {report}");
+        assert!(report.contains("\"Stereo 3D\"") && report.contains("\"2D\""), "{name}: mono: {report}");
+        assert_eq!(spherical::tag(mp4.to_vec()).unwrap(), mp4, "{name}: tagged once");
     }
 
     #[test]
