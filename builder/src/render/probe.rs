@@ -28,10 +28,6 @@ pub(super) struct ProbeFiles {
     pub thumb: String,
     /// With glides.
     pub depth: Option<String>,
-    /// With glides, only the smallest level is written as whole faces: the
-    /// sharper ones come as tiles only (every reader of such a bundle, the
-    /// viewer and the tour export, takes them so), which halves the bytes.
-    pub tiles_only: bool,
 }
 
 impl ProbeFiles {
@@ -40,12 +36,15 @@ impl ProbeFiles {
         let face = levels.last().copied().unwrap_or(TILE);
         let tiles = Tiles::new(format!("probes/{id}/tiles"), face, TILE, TILE_PREVIEW.min(face));
         let depth = glides.then(|| format!("probes/{id}/depth.emdc"));
-        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg"), depth, tiles_only: glides }
+        ProbeFiles { cube, tiles, pano: format!("probes/{id}/pano.jpg"), thumb: format!("thumbs/{id}.jpg"), depth }
     }
 
-    /// The levels written as whole faces.
+    /// The levels written as whole faces: the smallest only, which the
+    /// viewer shows first. The sharper ones are in the tiles alone (every
+    /// reader of a bundle, the viewer and the tour export, takes them so):
+    /// one copy of each panorama.
     pub fn face_levels(&self) -> &[CubeLevel] {
-        &self.cube[..if self.tiles_only { self.cube.len().min(1) } else { self.cube.len() }]
+        &self.cube[..self.cube.len().min(1)]
     }
 
     /// Every file: the faces written, the tiles and their preview.
