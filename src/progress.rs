@@ -20,8 +20,8 @@ pub struct Progress {
     unit: &'static str,
     started: Instant,
     say: Say,
-    /// Steps done and in all, shared with the heartbeat.
-    counts: Arc<Mutex<(u64, u64)>>,
+    /// Steps done and in all, and when a line was last given, shared with the heartbeat.
+    counts: Arc<Mutex<(u64, u64, Instant)>>,
     /// Dropped to stop the heartbeat.
     stop: Option<Sender<()>>,
     heartbeat: Option<std::thread::JoinHandle<()>>,
@@ -35,20 +35,31 @@ impl Progress {
             let template = format!("{{msg}} {{bar:30}} {{pos}}/{{len}} {unit}, {{eta}} left");
             bar.set_style(indicatif::ProgressStyle::with_template(&template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
             let say: Say = Arc::new(|_| {});
-            return Progress { bar: Some(bar), what, unit, started: Instant::now(), say, counts: Arc::default(), stop: None, heartbeat: None };
+            let counts = Arc::new(Mutex::new((0, 0, Instant::now())));
+            return Progress { bar: Some(bar), what, unit, started: Instant::now(), say, counts, stop: None, heartbeat: None };
         }
         Progress::lines(what, unit, QUIET_AT_MOST, Arc::new(|line| tracing::info!("{line}")))
     }
 
     /// Progress as lines given to `say`, one a step and one every `every` at least.
     fn lines(what: String, unit: &'static str, every: Duration, say: Say) -> Progress {
-        let (counts, started) = (Arc::new(Mutex::new((0, 0))), Instant::now());
+        let started = Instant::now();
+        let counts = Arc::new(Mutex::new((0, 0, started)));
         let (stop, stopped) = channel::<()>();
         let (shared, label, heartbeat_say) = (counts.clone(), what.clone(), say.clone());
         let heartbeat = std::thread::spawn(move || {
-            while let Err(RecvTimeoutError::Timeout) = stopped.recv_timeout(every) {
-                let (done, total) = *shared.lock().unwrap_or_else(|e| e.into_inner());
-                heartbeat_say(format!("{label}: {done}/{total} {unit} done after {}, still at work", clock(started.elapsed())));
+            let mut wait = every;
+            while let Err(RecvTimeoutError::Timeout) = stopped.recv_timeout(wait) {
+                let mut counts = shared.lock().unwrap_or_else(|e| e.into_inner());
+                let quiet = counts.2.elapsed();
+                // A line only where the log has been quiet for the whole interval.
+                wait = if quiet >= every {
+                    counts.2 = Instant::now();
+                    heartbeat_say(format!("{label}: {}/{} {unit} done after {}, still at work", counts.0, counts.1, clock(started.elapsed())));
+                    every
+                } else {
+                    every - quiet
+                };
             }
         });
         Progress { bar: None, what, unit, started, say, counts, stop: Some(stop), heartbeat: Some(heartbeat) }
@@ -63,9 +74,9 @@ impl Progress {
         }
         let mut counts = self.counts.lock().unwrap_or_else(|e| e.into_inner());
         let before = counts.0;
-        *counts = (done, total);
-        drop(counts);
+        (counts.0, counts.1) = (done, total);
         if done > before {
+            counts.2 = Instant::now();
             let elapsed = self.started.elapsed();
             // The steps so far at their mean pace (the first ones include setting up).
             let left = elapsed.mul_f64((total - done.min(total)) as f64 / done as f64);
