@@ -1451,19 +1451,7 @@ impl App {
         }
         {
             let load = if camera.is_some() { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }) };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("frame"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = colour_pass(&mut encoder, target, load, "frame");
             if let Some(source) = source.filter(|_| opacity > 0.0 && glide.is_none()) {
                 self.panorama.draw(
                     &gpu.device,
@@ -1498,19 +1486,7 @@ impl App {
             self.dollhouse.draw_plan(&mut target, rect, frame.centre, frame.scale, self.plan_cut(), mesh.lo.y);
         }
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("interface"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = colour_pass(&mut encoder, target, wgpu::LoadOp::Load, "interface");
             self.overlay.draw(&gpu.device, &gpu.queue, &mut pass, &shapes, self.width, self.height);
         }
         if let Some(e) = video_error {
@@ -1573,7 +1549,7 @@ impl App {
             let [x, y, w, h] = eye.viewport;
             {
                 let clear = wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 });
-                let mut pass = eye_pass(&mut encoder, target, if i == 0 { clear } else { wgpu::LoadOp::Load });
+                let mut pass = colour_pass(&mut encoder, target, if i == 0 { clear } else { wgpu::LoadOp::Load }, "eye");
                 pass.set_viewport(x, y, w, h, 0.0, 1.0);
                 let source = Self::panorama_source(&self.nav, (&self.panos, &self.tiled), video).filter(|_| glide.is_none());
                 if let Some(source) = source {
@@ -1587,7 +1563,7 @@ impl App {
                 self.draw_glide(&mut frame, ends, eye.lens, [x, y]);
             }
             {
-                let mut pass = eye_pass(&mut encoder, target, wgpu::LoadOp::Load);
+                let mut pass = colour_pass(&mut encoder, target, wgpu::LoadOp::Load, "eye interface");
                 pass.set_viewport(x, y, w, h, 0.0, 1.0);
                 let headset = self.headset.as_ref().expect("made above");
                 if moving > 0.0 {
@@ -1697,10 +1673,15 @@ mod tests;
 
 /// A move the navigator refused: a press while on the way is expected and
 /// ignored; a path or probe the bundle lacks is a fault, logged.
-/// A render pass into `target` for one eye (its viewport set by the caller).
-fn eye_pass<'a>(encoder: &'a mut wgpu::CommandEncoder, target: &'a wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu::RenderPass<'a> {
+/// A render pass drawing colour into `target`, nothing else attached.
+fn colour_pass<'a>(
+    encoder: &'a mut wgpu::CommandEncoder,
+    target: &'a wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+    label: &str,
+) -> wgpu::RenderPass<'a> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("eye"),
+        label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view: target,
             depth_slice: None,

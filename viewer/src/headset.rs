@@ -149,15 +149,6 @@ mod tests;
 const VEIL_SHADER: &str = r#"
 @group(0) @binding(0) var<uniform> strength: vec4f;
 
-struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
-
-@vertex fn vs(@builtin(vertex_index) i: u32) -> VOut {
-    let p = vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
-    var o: VOut;
-    o.pos = vec4f(p, 0.0, 1.0);
-    o.ndc = p;
-    return o;
-}
 
 @fragment fn fs(v: VOut) -> @location(0) vec4f {
     // Clear in the middle, darkening toward the edges of the eye.
@@ -174,8 +165,10 @@ pub struct VeilPass {
 
 impl VeilPass {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> VeilPass {
-        let shader =
-            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("veil"), source: wgpu::ShaderSource::Wgsl(VEIL_SHADER.into()) });
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("veil"),
+            source: wgpu::ShaderSource::Wgsl(format!("{}{VEIL_SHADER}", crate::panorama::FULL_SCREEN).into()),
+        });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("veil"),
             entries: &[wgpu::BindGroupLayoutEntry {

@@ -8,6 +8,21 @@
 use crate::navigation::View;
 use exploremaps_format::direction;
 
+/// One triangle over the whole target (or viewport), passing each pixel's
+/// normalised device coordinates on; shaders that draw a full-screen pass
+/// begin with it.
+pub(crate) const FULL_SCREEN: &str = r#"
+struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
+
+@vertex fn vs(@builtin(vertex_index) i: u32) -> VOut {
+    let p = vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
+    var o: VOut;
+    o.pos = vec4f(p, 0.0, 1.0);
+    o.ndc = p;
+    return o;
+}
+"#;
+
 const SHADER: &str = r#"
 struct U { forward: vec4f, right: vec4f, up: vec4f, params: vec4f };
 @group(0) @binding(0) var<uniform> u: U;
@@ -21,15 +36,6 @@ struct U { forward: vec4f, right: vec4f, up: vec4f, params: vec4f };
 @group(0) @binding(8) var mask_b: texture_cube<f32>;
 @group(0) @binding(9) var nearest: sampler;
 
-struct VOut { @builtin(position) pos: vec4f, @location(0) ndc: vec2f };
-
-@vertex fn vs(@builtin(vertex_index) i: u32) -> VOut {
-    let p = vec2f(f32((i << 1u) & 2u), f32(i & 2u)) * 2.0 - 1.0;
-    var o: VOut;
-    o.pos = vec4f(p, 0.0, 1.0);
-    o.ndc = p;
-    return o;
-}
 
 @fragment fn fs(v: VOut) -> @location(0) vec4f {
     // The lens (see Lens): the ray through a pixel leaves along forward, plus
@@ -420,8 +426,10 @@ pub struct PanoramaPass {
 
 impl PanoramaPass {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> PanoramaPass {
-        let shader =
-            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("panorama"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("panorama"),
+            source: wgpu::ShaderSource::Wgsl(format!("{FULL_SCREEN}{SHADER}").into()),
+        });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::FRAGMENT, ty, count: None };
         let texture = |dim| wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: true },

@@ -168,6 +168,17 @@ fn bundle_graph() -> Graph {
     g
 }
 
+/// `graph` with no videos and every probe's depth: its paths glide.
+fn without_video_with_depth(mut graph: Graph) -> Graph {
+    for p in &mut graph.paths {
+        p.assets.video = None;
+    }
+    for p in &mut graph.probes {
+        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
+    }
+    graph
+}
+
 fn app(script: &mut Script, budget: u64, height: u32) -> Option<App> {
     app_of(bundle_graph(), script, budget, height)
 }
@@ -285,13 +296,7 @@ fn taking_a_path_plays_its_video_and_a_failed_probe_gives_a_message_without_stop
 
 #[test]
 fn a_path_without_video_glides_once_both_ends_depth_is_in() {
-    let mut graph = bundle_graph();
-    for p in &mut graph.paths {
-        p.assets.video = None;
-    }
-    for p in &mut graph.probes {
-        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
-    }
+    let graph = without_video_with_depth(bundle_graph());
     let mut script = Script::default();
     let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
     app.update(0.016, &mut script);
@@ -733,13 +738,7 @@ fn headset_frame(app: &mut App, script: &mut Script, rotation: glam::Quat) -> Ve
 
 #[test]
 fn in_a_headset_a_controller_picks_a_path_both_eyes_glide_along_it_and_a_resting_gaze_picks_the_way_back() {
-    let mut graph = bundle_graph();
-    for p in &mut graph.paths {
-        p.assets.video = None;
-    }
-    for p in &mut graph.probes {
-        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
-    }
+    let graph = without_video_with_depth(bundle_graph());
     let mut script = Script::default();
     let Some(mut app) = app_of(graph, &mut script, 1 << 30, 30) else { return };
     let level = glam::Quat::IDENTITY;
@@ -800,13 +799,8 @@ fn window_frame(app: &mut App, script: &mut Script) -> Vec<u8> {
 #[test]
 fn where_neither_end_of_a_glide_sees_the_proxy_shows_its_colours() {
     // The script's depth (everything 2 away from every probe) leaves holes part way along path 0.
-    let glide_at_half_way = |mut graph: Graph| {
-        for p in &mut graph.paths {
-            p.assets.video = None;
-        }
-        for p in &mut graph.probes {
-            p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
-        }
+    let glide_at_half_way = |graph: Graph| {
+        let graph = without_video_with_depth(graph);
         let mut script = Script::default();
         let mut app = app_of(graph, &mut script, 1 << 30, 64)?;
         app.resize(128, 64, 1.0);
@@ -834,13 +828,7 @@ fn where_neither_end_of_a_glide_sees_the_proxy_shows_its_colours() {
 
 #[test]
 fn along_a_glide_taps_on_the_buttons_pause_go_back_and_go_on() {
-    let mut graph = bundle_graph();
-    for p in &mut graph.paths {
-        p.assets.video = None;
-    }
-    for p in &mut graph.probes {
-        p.assets.depth = Some(format!("probes/{}/depth.emdc", p.id));
-    }
+    let graph = without_video_with_depth(bundle_graph());
     let mut script = Script::default();
     let Some(mut app) = app_of(graph, &mut script, 1 << 30, 360) else { return };
     for _ in 0..3 {
