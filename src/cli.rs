@@ -110,7 +110,8 @@ pub enum Command {
         /// Folder to write (default: <BUNDLE>-tour beside the bundle); replaced if
         /// an earlier export wrote it.
         output: Option<PathBuf>,
-        /// Viewers, comma-separated: pannellum, marzipano, psv, or all.
+        /// Viewers, comma-separated: pannellum, marzipano, psv, or all; or
+        /// matterport3d alone (a scan of the Matterport3D Simulator).
         #[arg(long, default_value = "all", value_delimiter = ',')]
         to: Vec<String>,
         /// A node_modules folder with the viewers' npm packages to copy into the

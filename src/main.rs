@@ -148,6 +148,12 @@ fn run(cli: &Cli) -> Result<()> {
 
 fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Option<&Path>) -> Result<()> {
     use exploremaps_builder::export::{self, Viewer};
+    if to.iter().any(|t| t == SIMULATOR) {
+        if to.len() > 1 {
+            bail!(BadInput(format!("--to {SIMULATOR} writes a simulator scan on its own; export the tours in another run")));
+        }
+        return export_scan(bundle, output);
+    }
     let mut viewers = Vec::new();
     for name in to {
         let chosen: Vec<Viewer> = if name == "all" { Viewer::ALL.to_vec() } else { vec![name.parse().map_err(|e| BadInput(format!("--to {e}")))?] };
@@ -173,6 +179,30 @@ fn export_tour(bundle: &Path, output: Option<&Path>, to: &[String], library: Opt
         report.bytes as f64 / 1e6,
         names.join(", "),
         started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The name `export --to` takes for the Matterport3D Simulator's layout.
+const SIMULATOR: &str = "matterport3d";
+
+/// `export --to matterport3d`: the bundle as a scan of the Matterport3D Simulator.
+fn export_scan(bundle: &Path, output: Option<&Path>) -> Result<()> {
+    let graph = read_graph(bundle)?;
+    let name = bundle.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "bundle".into());
+    let out = output.map_or_else(|| bundle.with_file_name(format!("{name}-{SIMULATOR}")), Path::to_path_buf);
+    let progress = Progress::new("exporting".into(), "probes");
+    let report = exploremaps_builder::export::matterport::export(bundle, &graph, &out, |done, total| progress.set(done as u64, total as u64))?;
+    drop(progress);
+    println!(
+        "wrote {}: scan {} with {} viewpoints ({} with depth) as the Matterport3D Simulator reads it: \
+         point its navigation graph at {}/connectivity and its dataset at {}/data/v1/scans",
+        out.display(),
+        report.scan,
+        report.viewpoints,
+        report.with_depth,
+        out.display(),
+        out.display()
     );
     Ok(())
 }

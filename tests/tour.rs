@@ -185,6 +185,16 @@ fn export_tours(bundle_dir: &Path, out: &Path, library: &Path) {
     let bad = exploremaps(&["export", bundle_dir.to_str().unwrap(), out.to_str().unwrap(), "--to", "pannellum,krpano"]);
     assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
     assert!(stderr(&bad).contains("krpano: not a tour viewer") && !out.exists(), "{}", stderr(&bad));
+    let mixed = exploremaps(&["export", bundle_dir.to_str().unwrap(), out.to_str().unwrap(), "--to", "matterport3d,psv"]);
+    assert!(mixed.status.code() == Some(2) && !out.exists(), "{}", stderr(&mixed));
+    // The simulator's scan (its layout and arithmetic: builder/src/export/matterport/tests.rs).
+    let scan = out.with_file_name("scan");
+    let run = exploremaps(&["export", bundle_dir.to_str().unwrap(), scan.to_str().unwrap(), "--to", "matterport3d"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let scans = std::fs::read_to_string(scan.join("connectivity/scans.txt")).unwrap();
+    let name = scans.trim();
+    assert!(scan.join(format!("connectivity/{name}_connectivity.json")).exists(), "{scans}");
+    assert!(scan.join(format!("data/v1/scans/{name}/matterport_skybox_images/{:032x}_skybox_small.jpg", 1)).exists());
     let run = exploremaps(&["export", bundle_dir.to_str().unwrap(), out.to_str().unwrap(), "--library", library.to_str().unwrap()]);
     assert!(run.status.success(), "{}", stderr(&run));
     // Probe 0's tiles were copied, probe 1's cut from its faces: the same

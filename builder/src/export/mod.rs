@@ -22,6 +22,7 @@
 //! export leaves no half-written folder.
 
 mod glides;
+pub mod matterport;
 
 use exploremaps_format::{Graph, Tiles};
 use serde_json::{json, Value};
@@ -136,9 +137,6 @@ pub fn export(
     library: Option<&Path>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<TourReport, TourError> {
-    if out.exists() && !out.join(MARKER).exists() && std::fs::read_dir(out).map_err(io(out))?.next().is_some() {
-        return Err(TourError::Occupied(out.display().to_string()));
-    }
     if let Some(p) = graph.probes.iter().find(|p| p.assets.tiles.is_none() && p.assets.cube_levels.is_empty()) {
         return Err(TourError::NotRendered(p.id));
     }
@@ -156,12 +154,22 @@ pub fn export(
             }
         }
     }
+    into_folder(out, |part| write_tour(bundle, graph, viewers, part, library, &mut progress))
+}
+
+/// Fills `out` through `fill`, which writes into a hidden folder beside it
+/// renamed into place at the end (no half-written folder, whatever fails).
+/// `out` may be absent, empty, or a folder this command wrote.
+fn into_folder<R>(out: &Path, fill: impl FnOnce(&Path) -> Result<R, TourError>) -> Result<R, TourError> {
+    if out.exists() && !out.join(MARKER).exists() && std::fs::read_dir(out).map_err(io(out))?.next().is_some() {
+        return Err(TourError::Occupied(out.display().to_string()));
+    }
     let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "tour".into());
     let part = out.with_file_name(format!(".{name}.part"));
     if part.exists() {
         std::fs::remove_dir_all(&part).map_err(io(&part))?;
     }
-    let result = write_tour(bundle, graph, viewers, &part, library, &mut progress);
+    let result = fill(&part);
     let report = match result {
         Ok(report) => report,
         Err(e) => {
