@@ -21,7 +21,7 @@
 //! looks up), its images upright, and its neighbours' headings where they
 //! are seen.
 
-use super::{into_folder, io, write, TourError, MARKER};
+use super::{into_folder, io, read_faces, write, TourError, MARKER};
 use exploremaps_format::depthcube::DepthCube;
 use exploremaps_format::{cube_direction, cube_face_of, Graph};
 use std::path::Path;
@@ -67,14 +67,7 @@ fn write_scan(bundle: &Path, graph: &Graph, out: &Path, progress: &mut impl FnMu
     for (i, probe) in graph.probes.iter().enumerate() {
         progress(i, n);
         let level = probe.assets.cube_levels.first().ok_or(TourError::NotRendered(probe.id))?;
-        let faces = level
-            .faces
-            .iter()
-            .map(|f| {
-                let path = bundle.join(f);
-                image::open(&path).map(|im| im.to_rgb8()).map_err(|source| TourError::Image { path: path.display().to_string(), source })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let faces = read_faces(bundle, level)?;
         let size = faces[0].width();
         let mut strip = image::RgbImage::new(6 * size, size);
         for (column, &face) in COLUMNS.iter().enumerate() {

@@ -184,6 +184,18 @@ fn into_folder<R>(out: &Path, fill: impl FnOnce(&Path) -> Result<R, TourError>) 
     Ok(report)
 }
 
+/// The six faces of a cube level of the bundle.
+fn read_faces(bundle: &Path, level: &exploremaps_format::CubeLevel) -> Result<Vec<image::RgbImage>, TourError> {
+    level
+        .faces
+        .iter()
+        .map(|f| {
+            let path = bundle.join(f);
+            image::open(&path).map(|i| i.to_rgb8()).map_err(|source| TourError::Image { path: path.display().to_string(), source })
+        })
+        .collect()
+}
+
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<u64, TourError> {
     let path = dir.join(name);
     crate::files::write_atomic(&path, bytes).map_err(io(&path))?;
@@ -222,14 +234,7 @@ fn probe_tiles(bundle: &Path, graph: &Graph, id: usize, dir: &Path) -> Result<(T
         return Ok((moved, files.len(), bytes));
     }
     let largest = assets.cube_levels.iter().max_by_key(|l| l.size).ok_or(TourError::NotRendered(id as u32))?;
-    let faces = largest
-        .faces
-        .iter()
-        .map(|f| {
-            let path = bundle.join(f);
-            image::open(&path).map(|i| i.to_rgb8()).map_err(|source| TourError::Image { path: path.display().to_string(), source })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let faces = read_faces(bundle, largest)?;
     let tiles = Tiles::new(folder, largest.size, TILE, 256.min(largest.size));
     let (mut files, mut bytes) = (0, 0);
     crate::tiles::cut(&tiles, &[(largest.size, faces)], |name, tile| {

@@ -8,8 +8,8 @@
 //! and with the movie header before the media data (fast start), every
 //! chunk offset moves on by as much too.
 
-/// Box types that hold boxes, on the way from the file to the sample entry.
-const PATH: [&[u8; 4]; 6] = [b"moov", b"trak", b"mdia", b"minf", b"stbl", b"stsd"];
+/// Box types from a track down to its video sample entry.
+const TO_ENTRY: [&[u8; 4]; 5] = [b"mdia", b"minf", b"stbl", b"stsd", b"avc1"];
 /// Bytes of a visual sample entry before its child boxes (ISO/IEC 14496-12).
 const VISUAL_ENTRY_FIELDS: usize = 78;
 /// Named in `svhd` as the metadata's source.
@@ -22,7 +22,7 @@ pub enum SphericalError {
 }
 
 /// A box at `start` in `data`: (type, start, end, header size).
-fn box_at(data: &[u8], start: usize, limit: usize) -> Option<([u8; 4], usize, usize, usize)> {
+fn box_at(data: &[u8], start: usize, limit: usize) -> Option<Bx> {
     let head = data.get(start..start + 8)?;
     let size32 = u32::from_be_bytes(head[..4].try_into().ok()?) as usize;
     let kind: [u8; 4] = head[4..8].try_into().ok()?;
@@ -35,7 +35,7 @@ fn box_at(data: &[u8], start: usize, limit: usize) -> Option<([u8; 4], usize, us
 }
 
 /// The child boxes in `data[from..to]`.
-fn children(data: &[u8], from: usize, to: usize) -> Vec<([u8; 4], usize, usize, usize)> {
+fn children(data: &[u8], from: usize, to: usize) -> Vec<Bx> {
     let mut out = Vec::new();
     let mut at = from;
     while let Some(b) = box_at(data, at, to) {
@@ -74,54 +74,53 @@ fn metadata() -> Vec<u8> {
     [full_box(b"st3d", &[0]), sv3d].concat()
 }
 
+/// A box: type, start, end, header size.
+type Bx = ([u8; 4], usize, usize, usize);
+
+/// Where a box's children are (after the entry count, in a `stsd`).
+fn inside(&(kind, start, end, header): &Bx) -> (usize, usize) {
+    let skip = if &kind == b"stsd" { 8 } else { 0 };
+    (start + header + skip, end)
+}
+
+/// The boxes of `kinds` nested one in the next, from `scope` down (the first of each kind).
+fn descend(data: &[u8], mut scope: (usize, usize), kinds: &[&[u8; 4]]) -> Option<Vec<Bx>> {
+    let mut chain = Vec::with_capacity(kinds.len());
+    for kind in kinds {
+        let found = children(data, scope.0, scope.1).into_iter().find(|b| &b.0 == *kind)?;
+        scope = inside(&found);
+        chain.push(found);
+    }
+    Some(chain)
+}
+
+/// The file's movie header box.
+fn movie_header(data: &[u8]) -> Result<Bx, SphericalError> {
+    children(data, 0, data.len()).into_iter().find(|b| &b.0 == b"moov").ok_or(SphericalError::Layout("no movie header"))
+}
+
 /// The MP4 with the metadata in its video track (unchanged if it has it already).
 pub fn tag(mut mp4: Vec<u8>) -> Result<Vec<u8>, SphericalError> {
-    // The boxes from the file down to the video's sample entry, whose sizes grow.
-    let mut ancestors = Vec::new();
-    let mut scope = (0, mp4.len());
-    let mut entry = None;
-    for (depth, kind) in PATH.iter().enumerate() {
-        let boxes = children(&mp4, scope.0, scope.1);
-        let found = if *kind == b"trak" {
-            // The track whose sample entry is a video's (avc1).
-            boxes.iter().filter(|b| &b.0 == *kind).find_map(|&t| video_entry(&mp4, t).map(|e| (t, Some(e))))
-        } else {
-            boxes.iter().find(|b| &b.0 == *kind).map(|&b| (b, None))
-        };
-        let ((_, start, end, header), avc1) = found.ok_or(SphericalError::Layout(match depth {
-            0 => "no movie header",
-            1 => "no video track",
-            _ => "no sample description",
-        }))?;
-        ancestors.push((start, header));
-        entry = entry.or(avc1);
-        // stsd is a full box with an entry count before its entries.
-        scope = if *kind == b"stsd" { (start + header + 8, end) } else { (start + header, end) };
-    }
-    let (_, avc1_start, avc1_end, avc1_header) = entry.ok_or(SphericalError::Layout("no video sample entry"))?;
-    let inner = avc1_start + avc1_header + VISUAL_ENTRY_FIELDS;
-    if children(&mp4, inner, avc1_end).iter().any(|b| &b.0 == b"sv3d") {
+    let moov = movie_header(&mp4)?;
+    // The boxes from the movie header down to the video's sample entry (avc1), whose sizes grow.
+    let (scope_start, scope_end) = inside(&moov);
+    let chain = children(&mp4, scope_start, scope_end)
+        .into_iter()
+        .filter(|b| &b.0 == b"trak")
+        .find_map(|trak| descend(&mp4, inside(&trak), &TO_ENTRY).map(|rest| [vec![moov, trak], rest].concat()))
+        .ok_or(SphericalError::Layout("no video track"))?;
+    let (_, avc1_start, avc1_end, avc1_header) = *chain.last().expect("the sample entry");
+    if children(&mp4, avc1_start + avc1_header + VISUAL_ENTRY_FIELDS, avc1_end).iter().any(|b| &b.0 == b"sv3d") {
         return Ok(mp4);
     }
-    ancestors.push((avc1_start, avc1_header));
     let added = metadata();
     let delta = added.len();
-    for &(start, header) in &ancestors {
+    for &(_, start, _, header) in &chain {
         grow(&mut mp4, start, header, delta)?;
     }
     mp4.splice(avc1_end..avc1_end, added);
     shift_chunk_offsets(&mut mp4, avc1_end, delta)?;
     Ok(mp4)
-}
-
-/// The avc1 sample entry of track `trak`, if it is a video track's.
-fn video_entry(data: &[u8], (_, start, end, header): ([u8; 4], usize, usize, usize)) -> Option<([u8; 4], usize, usize, usize)> {
-    let mut scope = (start + header, end);
-    for kind in &PATH[2..] {
-        let &(_, s, e, h) = children(data, scope.0, scope.1).iter().find(|b| &b.0 == *kind)?;
-        scope = if *kind == b"stsd" { (s + h + 8, e) } else { (s + h, e) };
-    }
-    children(data, scope.0, scope.1).into_iter().find(|b| &b.0 == b"avc1")
 }
 
 /// Adds `delta` to the size of the box at `start`.
@@ -139,17 +138,14 @@ fn grow(data: &mut [u8], start: usize, header: usize, delta: usize) -> Result<()
 
 /// Moves every chunk offset (`stco`, `co64`) past `at` on by `delta`.
 fn shift_chunk_offsets(data: &mut [u8], at: usize, delta: usize) -> Result<(), SphericalError> {
-    let Some(&(_, moov, moov_end, header)) = children(data, 0, data.len()).iter().find(|b| &b.0 == b"moov") else {
-        return Err(SphericalError::Layout("no movie header"));
-    };
+    let moov = movie_header(data)?;
+    let (from, to) = inside(&moov);
     let mut tables = Vec::new();
-    for trak in children(data, moov + header, moov_end).into_iter().filter(|b| &b.0 == b"trak") {
-        let mut scope = (trak.1 + trak.3, trak.2);
-        for kind in [b"mdia", b"minf", b"stbl"] {
-            let Some(&(_, s, e, h)) = children(data, scope.0, scope.1).iter().find(|b| &b.0 == kind) else { break };
-            scope = (s + h, e);
+    for trak in children(data, from, to).into_iter().filter(|b| &b.0 == b"trak") {
+        if let Some(stbl) = descend(data, inside(&trak), &TO_ENTRY[..3]).and_then(|c| c.last().copied()) {
+            let (from, to) = inside(&stbl);
+            tables.extend(children(data, from, to).into_iter().filter(|b| &b.0 == b"stco" || &b.0 == b"co64"));
         }
-        tables.extend(children(data, scope.0, scope.1).into_iter().filter(|b| &b.0 == b"stco" || &b.0 == b"co64"));
     }
     for (kind, start, end, header) in tables {
         let body = start + header + 4;

@@ -704,26 +704,8 @@ fn markers_the_proxy_hides_are_told_apart() {
 
 /// Two eyes side by side on a 128 × 64 frame, each 90° wide, turned by `rotation`.
 fn eyes(rotation: glam::Quat) -> Vec<Eye> {
-    // OpenGL's projection of a frustum 1 wide and high at depth 1 (near 0.1, far 100).
-    let (n, f) = (0.1f32, 100.0f32);
-    let projection = glam::Mat4::from_cols_array(&[
-        1.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        1.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        -(f + n) / (f - n),
-        -1.0,
-        0.0,
-        0.0,
-        -2.0 * f * n / (f - n),
-        0.0,
-    ]);
+    // 90° each way: edges at ±1 at depth 1.
+    let projection = crate::panorama::tests::gl_frustum([-1.0, 1.0, -1.0, 1.0]);
     let lens = Lens::of_eye(rotation, &projection);
     vec![Eye { viewport: [0.0, 0.0, 64.0, 64.0], lens }, Eye { viewport: [64.0, 0.0, 64.0, 64.0], lens }]
 }

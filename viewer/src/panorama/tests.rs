@@ -214,7 +214,7 @@ fn tiles_show_over_the_whole_cube_where_they_have_arrived() {
 
 /// OpenGL's projection (glFrustum's) of a frustum whose edges at depth 1
 /// are [left, right, bottom, top], near 0.1, far 100: how WebXR gives an eye's.
-fn gl_frustum([l, r, b, t]: [f32; 4]) -> glam::Mat4 {
+pub(crate) fn gl_frustum([l, r, b, t]: [f32; 4]) -> glam::Mat4 {
     let (n, f) = (0.1, 100.0);
     let (l, r, b, t) = (l * n, r * n, b * n, t * n);
     glam::Mat4::from_cols_array(&[
