@@ -117,7 +117,8 @@ pub(super) fn render(dir: &Path, renderer: &Renderer, settings: &Settings, probe
         Ok::<(), BundleError>(())
     })?;
     write_jpegs(dir, &cut.iter().map(|(name, tile)| (name.as_str(), tile)).collect::<Vec<_>>(), QUALITY)?;
-    let pano_width = settings.face.max(1024);
+    // The photo sphere keeps the sharpest faces' detail: two faces wide.
+    let pano_width = (2 * settings.face).max(1024);
     let equirect = equirect_from_cube(&full, settings.face, pano_width);
     write(dir, &pano, &photo_sphere_jpeg(&renderer.to_image(pano_width, pano_width / 2, &equirect), QUALITY))?;
     let (yaw, pitch) = probe.preferred_directions.first().map_or((0.0, 0.0), |d| (d.yaw, d.pitch));

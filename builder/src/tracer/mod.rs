@@ -458,7 +458,6 @@ pub fn psnr(a: &RgbImage, b: &RgbImage) -> f64 {
 /// JPEG bytes of an equirectangular panorama with photo-sphere (GPano) XMP
 /// metadata, so panorama viewers and photo apps show it as a sphere.
 pub fn photo_sphere_jpeg(image: &RgbImage, quality: u8) -> Vec<u8> {
-    let jpeg = crate::files::jpeg(image, quality);
     let (w, h) = image.dimensions();
     let xmp = format!(
         "http://ns.adobe.com/xap/1.0/\0<?xpacket begin=\"\u{feff}\" id=\"W5M0MpCehiHzreSzNTczkc9d\"?>\
@@ -469,14 +468,7 @@ GPano:FullPanoWidthPixels=\"{w}\" GPano:FullPanoHeightPixels=\"{h}\" \
 GPano:CroppedAreaImageWidthPixels=\"{w}\" GPano:CroppedAreaImageHeightPixels=\"{h}\" \
 GPano:CroppedAreaLeftPixels=\"0\" GPano:CroppedAreaTopPixels=\"0\"/></rdf:RDF></x:xmpmeta><?xpacket end=\"w\"?>"
     );
-    // An APP1 segment right after the start-of-image marker.
-    let mut out = Vec::with_capacity(jpeg.len() + xmp.len() + 4);
-    out.extend_from_slice(&jpeg[..2]);
-    out.extend_from_slice(&[0xFF, 0xE1]);
-    out.extend_from_slice(&((xmp.len() + 2) as u16).to_be_bytes());
-    out.extend_from_slice(xmp.as_bytes());
-    out.extend_from_slice(&jpeg[2..]);
-    out
+    crate::files::jpeg_with_app1(image, quality, Some(xmp.as_bytes()))
 }
 
 #[cfg(test)]
