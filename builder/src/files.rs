@@ -105,7 +105,7 @@ mod tests {
     fn jpegs_decode_in_the_decoders_we_read_them_with() {
         // Detail in every channel: a decoder that misreads the fitted
         // Huffman tables or the sampling returns noise, not this.
-        let image = image::RgbImage::from_fn(200, 120, |x, y| image::Rgb([(x * 7 ^ y * 3) as u8, (x * y) as u8, (x + 2 * y) as u8]));
+        let image = image::RgbImage::from_fn(200, 120, |x, y| image::Rgb([((x * 7) ^ (y * 3)) as u8, (x * y) as u8, (x + 2 * y) as u8]));
         let back = image::load_from_memory(&jpeg(&image, 90)).unwrap().to_rgb8();
         let psnr = crate::tracer::psnr(&image, &back);
         assert!(psnr > 30.0, "{psnr} dB");
