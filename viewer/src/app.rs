@@ -253,6 +253,9 @@ const KEY_TURN: f32 = 0.08;
 /// Seconds of a flight between the dollhouse and a probe, and of the
 /// panorama's fade over the proxy at either end of it.
 const FLIGHT_S: f32 = 1.0;
+/// The longest route (at its glides' pace) taken to a probe no path joins;
+/// farther ones fly over the dollhouse.
+const MAX_ROUTE_S: f32 = 10.0;
 /// Probes whose markers are tested against the proxy each frame.
 const MARKER_TESTS: usize = 8;
 /// Seconds of a flight over the dollhouse between probes no path joins.
@@ -642,7 +645,7 @@ impl App {
         sharp.extend(self.flight.and_then(|f| f.arrive).map(|a| a.0));
         match self.nav.state {
             State::CrossFading { to, .. } => sharp.push(to),
-            State::Travelling { .. } => sharp.extend(self.nav.destination()),
+            State::Travelling { .. } => sharp.extend(self.nav.destination().into_iter().chain(self.nav.stops_ahead())),
             State::AtProbe { .. } => {}
         }
         let wanted = self.wanted_face();
@@ -693,6 +696,9 @@ impl App {
     fn request_glides(&mut self, sharp: &[u32], platform: &mut dyn Platform) {
         let mut wanted = sharp.to_vec();
         let mut waypoints = self.nav.glide_sources().map(|(s, _)| s.iter().map(|w| w.0).collect::<Vec<_>>()).unwrap_or_default();
+        for &(path, reversed) in self.nav.route_ahead() {
+            waypoints.extend(self.nav.sources_along(path, reversed).iter().map(|w| w.0).filter(|&w| self.nav.waypoint(w).is_some()));
+        }
         if matches!(self.nav.state, State::AtProbe { .. }) {
             for c in self.nav.path_bar() {
                 wanted.push(c.to);
@@ -855,9 +861,16 @@ impl App {
         self.nav.update(if waiting { 0.0 } else { dt_s });
 
         let state = self.nav.state;
-        if std::mem::discriminant(&state) != std::mem::discriminant(&self.last_state) {
+        let next_leg = |s: State| match s {
+            State::Travelling { path, reversed, .. } => Some((path, reversed)),
+            _ => None,
+        };
+        if std::mem::discriminant(&state) != std::mem::discriminant(&self.last_state) || next_leg(state) != next_leg(self.last_state) {
             match state {
                 State::Travelling { path, reversed, .. } => {
+                    if matches!(self.last_state, State::Travelling { .. }) {
+                        platform.stop_video();
+                    }
                     self.came_by = Some(path);
                     self.video_failed = false;
                     match &self.nav.graph().paths[path as usize].assets.video {
@@ -883,6 +896,7 @@ impl App {
         self.request_assets(platform);
         let mut keep = vec![self.nav.probe()];
         keep.extend(self.nav.destination());
+        keep.extend(self.nav.stops_ahead());
         keep.extend(self.nav.glide_sources().into_iter().flat_map(|(s, _)| s.into_iter().map(|w| w.0)));
         for p in &keep {
             if let Some(l) = self.panos.get_mut(p) {
@@ -916,8 +930,9 @@ impl App {
 
     /// Goes to a probe from the panorama, facing `point` on arrival if given
     /// (else the probe's preferred direction): along a path when one joins
-    /// them, else flying over the dollhouse when the proxy is here, else by
-    /// a cross-fade.
+    /// them, else along a route of paths if it takes at most
+    /// [`MAX_ROUTE_S`], else flying over the dollhouse when the proxy is
+    /// here, else along any route, else by a cross-fade.
     fn go_to(&mut self, probe: u32, point: Option<Vec3>) {
         let Some(p) = self.nav.graph().probes.get(probe as usize) else { return };
         if !matches!(self.nav.state, State::AtProbe { .. }) || probe == self.nav.probe() {
@@ -925,8 +940,8 @@ impl App {
         }
         let target = Vec3::from(p.position);
         let facing = point.map(|q| facing(target, q));
-        let joined = self.nav.path_bar().iter().any(|c| c.to == probe);
-        if joined || self.proxy.is_none() {
+        let walk = self.nav.route(probe).is_some_and(|r| r.legs.len() == 1 || r.duration_s / r.pace() <= MAX_ROUTE_S);
+        if walk || self.proxy.is_none() {
             log_refusal(match facing {
                 Some(f) => self.nav.go_to_facing(probe, f),
                 None => self.nav.go_to(probe),

@@ -4,7 +4,9 @@
 //!
 //! States: at a probe (look around); travelling along a path (its 360° video
 //! plays while the view blends from the user's direction to the arrival
-//! direction); cross-fading to a probe that no path reaches. Paths can be
+//! direction), or along a route of paths to a probe no single path reaches
+//! (passing through the probes between without stopping where the paths
+//! glide); cross-fading to a probe that no route reaches. Paths can be
 //! travelled either way. Angles: yaw 0 looks toward −Z and π/2 toward +X;
 //! pitch is positive upward.
 
@@ -13,6 +15,10 @@ use std::f32::consts::{PI, TAU};
 
 /// Seconds a jump between unconnected probes takes.
 pub const CROSS_FADE_S: f32 = 0.8;
+/// A route's glides go faster, up to [`MAX_PACE`] times, so that it takes
+/// about this long (videos keep their own clock).
+pub const ROUTE_S: f32 = 6.0;
+pub const MAX_PACE: f32 = 4.0;
 const MIN_FOV_Y: f32 = 0.35;
 const MAX_FOV_Y: f32 = 2.0;
 const MAX_PITCH: f32 = 1.45;
@@ -92,6 +98,42 @@ pub struct Navigator {
     /// How fast a travel goes, in multiples of its timing: 0 paused,
     /// negative back toward its start (glides only: a video keeps its own clock).
     pub speed: f32,
+    /// The legs of the route still to go after the current one, and its
+    /// glides' pace.
+    route: Vec<(u32, bool)>,
+    pace: f32,
+    /// Whether the current travel passes through its start and its end
+    /// (inner probes of a route, between glides) rather than stopping there.
+    through: (bool, bool),
+}
+
+/// A way to a probe along paths: its legs (path, reversed), in order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Route {
+    pub legs: Vec<(u32, bool)>,
+    /// Seconds at the paths' own timing.
+    pub duration_s: f32,
+}
+
+impl Route {
+    /// How much faster than their timing the route's glides go.
+    pub fn pace(&self) -> f32 {
+        (self.duration_s / ROUTE_S).clamp(1.0, MAX_PACE)
+    }
+}
+
+/// The fraction of a path's length reached at fraction `t` of its duration:
+/// slow in and out ([`ease`]), except at an end passed through, where the
+/// camera keeps the path's mean speed (2t² − t³ leaves rest and arrives at
+/// speed 1; its mirror does the opposite).
+fn pace_along(t: f32, (through_start, through_end): (bool, bool)) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    match (through_start, through_end) {
+        (false, false) => ease(t),
+        (false, true) => t * t * (2.0 - t),
+        (true, false) => 1.0 - (1.0 - t) * (1.0 - t) * (1.0 + t),
+        (true, true) => t,
+    }
 }
 
 impl Navigator {
@@ -118,6 +160,9 @@ impl Navigator {
             rng: seed | 1,
             facing: None,
             speed: 1.0,
+            route: Vec::new(),
+            pace: 1.0,
+            through: (false, false),
         };
         (nav.view.yaw, nav.view.pitch) = nav.arrival_direction(probe, None);
         Ok(nav)
@@ -148,7 +193,7 @@ impl Navigator {
     /// The direction to face on arriving at `probe`: its best preferred direction,
     /// else the direction of travel.
     fn arrival_direction(&self, probe: u32, via: Option<(u32, bool)>) -> (f32, f32) {
-        if let Some(f) = self.facing {
+        if let Some(f) = self.facing.filter(|_| self.route.is_empty()) {
             return f;
         }
         match via {
@@ -200,12 +245,65 @@ impl Navigator {
         if p.from != probe && p.to != probe {
             return Err(NavError::NotFromHere { path, probe });
         }
-        self.state = State::Travelling { path, reversed: p.to == probe, elapsed_s: 0.0, start: self.view };
+        self.route.clear();
+        self.start_leg(path, p.to == probe, false, 0.0);
         self.facing = None;
         Ok(())
     }
 
-    /// Goes to any probe: along a path when one joins them, else by cross-fading.
+    /// Starts along `path` (the next leg of a route when `on_route`): it
+    /// passes through its start when the leg before glided too, through its
+    /// end when the next one glides, and glides at the route's pace.
+    /// `elapsed_s` is the time already gone past the leg before.
+    fn start_leg(&mut self, path: u32, reversed: bool, on_route: bool, elapsed_s: f32) {
+        let glides = |p: u32| self.graph.paths[p as usize].assets.video.is_none();
+        let start = on_route && self.through.1;
+        let end = glides(path) && self.route.first().is_some_and(|&(next, _)| glides(next));
+        self.through = (start, end);
+        self.speed = if glides(path) { self.pace } else { 1.0 };
+        self.state = State::Travelling { path, reversed, elapsed_s, start: self.view };
+    }
+
+    /// The quickest way from the current probe to `target` along paths (by
+    /// their durations), if any: Dijkstra over the graph (a few hundred
+    /// probes at most; a graph library would weigh on the web viewer).
+    pub fn route(&self, target: u32) -> Option<Route> {
+        let (n, from) = (self.graph.probes.len(), self.probe());
+        if target as usize >= n || target == from {
+            return None;
+        }
+        // Per probe: its best time, and the leg that reached it.
+        let mut best: Vec<(f32, Option<(u32, bool)>)> = vec![(f32::INFINITY, None); n];
+        let mut done = vec![false; n];
+        best[from as usize].0 = 0.0;
+        while let Some(here) = (0..n).filter(|&i| !done[i] && best[i].0.is_finite()).min_by(|&a, &b| best[a].0.total_cmp(&best[b].0)) {
+            if here == target as usize {
+                break;
+            }
+            done[here] = true;
+            for p in self.graph.paths.iter().filter(|p| p.from as usize == here || p.to as usize == here) {
+                let (next, reversed) = if p.from as usize == here { (p.to as usize, false) } else { (p.from as usize, true) };
+                let time = best[here].0 + p.duration_s.max(0.0);
+                if next < n && time < best[next].0 {
+                    best[next] = (time, Some((p.id, reversed)));
+                }
+            }
+        }
+        let duration_s = best[target as usize].0;
+        let mut legs = Vec::new();
+        let mut at = target;
+        while at != from {
+            let (path, reversed) = best[at as usize].1?;
+            legs.push((path, reversed));
+            let p = &self.graph.paths[path as usize];
+            at = if reversed { p.to } else { p.from };
+        }
+        legs.reverse();
+        Some(Route { legs, duration_s })
+    }
+
+    /// Goes to any probe: along a path when one joins them, else along the
+    /// quickest route of paths, else by cross-fading.
     pub fn go_to(&mut self, target: u32) -> Result<(), NavError> {
         let State::AtProbe { probe } = self.state else { return Err(NavError::Busy) };
         if target as usize >= self.graph.probes.len() {
@@ -214,14 +312,31 @@ impl Navigator {
         if target == probe {
             return Ok(());
         }
-        match self.path_bar().iter().find(|c| c.to == target) {
-            Some(c) => self.take_path(c.path),
-            None => {
-                self.state = State::CrossFading { from: probe, to: target, elapsed_s: 0.0 };
-                self.facing = None;
-                Ok(())
-            }
+        if let Some(c) = self.path_bar().iter().find(|c| c.to == target) {
+            return self.take_path(c.path);
         }
+        self.facing = None;
+        match self.route(target) {
+            Some(route) => {
+                self.pace = route.pace();
+                self.route = route.legs;
+                let (path, reversed) = self.route.remove(0);
+                self.through = (false, false);
+                self.start_leg(path, reversed, true, 0.0);
+            }
+            None => self.state = State::CrossFading { from: probe, to: target, elapsed_s: 0.0 },
+        }
+        Ok(())
+    }
+
+    /// The legs of the route still ahead after the current travel (path, reversed).
+    pub fn route_ahead(&self) -> &[(u32, bool)] {
+        &self.route
+    }
+
+    /// The probes the route still reaches after the current travel's end.
+    pub fn stops_ahead(&self) -> impl Iterator<Item = u32> + '_ {
+        self.route.iter().map(|&(path, reversed)| self.endpoints(path, reversed).1)
     }
 
     /// As [`Navigator::go_to`], arriving facing (yaw, pitch).
@@ -241,6 +356,7 @@ impl Navigator {
         }
         self.state = State::AtProbe { probe };
         self.facing = None;
+        (self.route, self.pace, self.through) = (Vec::new(), 1.0, (false, false));
         (self.view.yaw, self.view.pitch) = (0.0, 0.0);
         self.look(yaw, pitch);
         Ok(())
@@ -269,13 +385,18 @@ impl Navigator {
             State::Travelling { path, reversed, start, elapsed_s } => {
                 let (from, to) = self.endpoints(path, reversed);
                 let (yaw, pitch) = self.arrival_direction(to, Some((path, reversed)));
-                let s = ease(t);
+                let s = self.travelled().unwrap_or(1.0);
                 self.view.yaw = wrap(start.yaw + wrap(yaw - start.yaw) * s);
                 self.view.pitch = start.pitch + (pitch - start.pitch) * s;
-                if t >= 1.0 || (speed < 0.0 && elapsed_s <= 0.0) {
+                if t >= 1.0 && !self.route.is_empty() {
+                    let over_s = elapsed_s - self.graph.paths[path as usize].duration_s;
+                    let (path, reversed) = self.route.remove(0);
+                    self.start_leg(path, reversed, true, over_s.max(0.0));
+                } else if t >= 1.0 || (speed < 0.0 && elapsed_s <= 0.0) {
                     self.state = State::AtProbe { probe: if t >= 1.0 { to } else { from } };
                     self.facing = None;
                     self.speed = 1.0;
+                    (self.route, self.pace, self.through) = (Vec::new(), 1.0, (false, false));
                 }
             }
             State::CrossFading { to, .. } if t >= 1.0 => {
@@ -287,13 +408,20 @@ impl Navigator {
         }
     }
 
-    /// Where the camera is: the probe, or the point along the path reached with
-    /// slow-in/slow-out timing (by arc length of the polyline).
+    /// The fraction of the path's length travelled, if travelling: slow in
+    /// and out, except through a route's inner probes ([`pace_along`]).
+    pub fn travelled(&self) -> Option<f32> {
+        let State::Travelling { .. } = self.state else { return None };
+        Some(pace_along(self.progress().unwrap_or(0.0), self.through))
+    }
+
+    /// Where the camera is: the probe, or the point along the path reached
+    /// ([`Navigator::travelled`], by arc length of the polyline).
     pub fn camera_position(&self) -> [f32; 3] {
         let State::Travelling { path, reversed, .. } = self.state else {
             return self.graph.probes[self.probe() as usize].position;
         };
-        let s = ease(self.progress().unwrap_or(0.0));
+        let s = self.travelled().unwrap_or(0.0);
         let s = if reversed { 1.0 - s } else { s };
         ArcLength::new(&self.graph.paths[path as usize].polyline).at(s)
     }
@@ -337,7 +465,7 @@ impl Navigator {
     /// and the fraction of the way the camera has come.
     pub fn glide_sources(&self) -> Option<(Vec<(u32, f32)>, f32)> {
         let State::Travelling { path, reversed, .. } = self.state else { return None };
-        Some((self.sources_along(path, reversed), self.progress().map_or(0.0, ease)))
+        Some((self.sources_along(path, reversed), self.travelled().unwrap_or(0.0)))
     }
 
     /// Turns the view (drag, keys); pitch is clamped short of straight up/down.
@@ -555,6 +683,60 @@ pub(crate) mod tests {
         assert_eq!(nav.state, State::AtProbe { probe: 4 });
         assert_eq!(nav.go_to(9), Err(NavError::NoSuchProbe(9)));
         assert_eq!(nav.take_path(0), Err(NavError::NotFromHere { path: 0, probe: 4 }));
+    }
+
+    #[test]
+    fn a_probe_no_path_joins_is_reached_along_the_quickest_route_without_stopping_between() {
+        let mut g = graph();
+        // A slow detour from probe 1 to probe 3: the route avoids it.
+        let detour = Path { id: 3, from: 1, to: 3, duration_s: 9.0, ..g.paths[0].clone() };
+        g.paths.push(Path { polyline: vec![[4.0, 0.0, 0.0], [2.0, 0.0, 4.0]], ..detour });
+        g.paths[2].duration_s = 3.0; // 6 m at 2 m/s, as path 1's 4 m in 2 s
+        g.paths[3].duration_s = 6.0;
+        let mut nav = Navigator::new(g, Some(2), 1).unwrap();
+        let route = nav.route(3).unwrap();
+        assert_eq!(route.legs, vec![(1, false), (2, false)], "2 → 0 → 3 in 5 s, not 2 → 0 → 1 → 3 in 10 s");
+        assert_eq!((route.duration_s, route.pace()), (5.0, 1.0));
+        assert_eq!((nav.route(4), nav.route(2)), (None, None), "probe 4 has no path; probe 2 is here");
+        nav.go_to_facing(3, (-1.0, 0.2)).unwrap();
+        assert_eq!(nav.stops_ahead().collect::<Vec<_>>(), vec![3]);
+        // Through probe 0 at the paths' mean speed (2 m/s), with no stop.
+        let mut positions = Vec::new();
+        for _ in 0..51 {
+            nav.update(0.1);
+            positions.push(nav.camera_position());
+        }
+        let steps: Vec<f32> = positions.windows(2).map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt()).collect();
+        let through = 19; // from 1.9 s to 2.0 s, the step that reaches probe 0
+        assert!(positions[through][2].abs() < 1e-4 && positions[through][0].abs() < 1e-4, "{:?}", positions[through]);
+        assert!(steps[through - 1..=through + 1].iter().all(|&d| (d - 0.2).abs() < 0.02), "steady through probe 0: {:?}", &steps[15..24]);
+        assert_eq!(nav.state, State::AtProbe { probe: 3 });
+        assert!((nav.view.yaw + 1.0).abs() < 1e-4 && (nav.view.pitch - 0.2).abs() < 1e-4, "faces what was asked, at the end only");
+    }
+
+    #[test]
+    fn going_back_on_a_route_stops_at_the_leg_s_start() {
+        let mut nav = Navigator::new(graph(), Some(1), 1).unwrap();
+        nav.go_to(2).unwrap();
+        assert!(matches!(nav.state, State::Travelling { path: 0, reversed: true, .. }));
+        nav.update(2.5);
+        assert!(matches!(nav.state, State::Travelling { path: 1, reversed: true, .. }), "on the second leg: {:?}", nav.state);
+        nav.speed = -1.0;
+        nav.update(1.0);
+        assert_eq!((nav.state, nav.stops_ahead().count()), (State::AtProbe { probe: 0 }, 0));
+    }
+
+    #[test]
+    fn the_pace_through_a_route_s_inner_probes_is_continuous() {
+        let speed = |f: &dyn Fn(f32) -> f32, t: f32| (f(t + 1e-3) - f(t - 1e-3)) / 2e-3;
+        for through in [(false, false), (false, true), (true, false), (true, true)] {
+            let f = |t: f32| pace_along(t, through);
+            assert!(f(0.0) == 0.0 && f(1.0) == 1.0, "{through:?}");
+            assert!((0..=100).all(|i| speed(&f, 0.01 * i as f32 + 1e-3) >= -1e-3), "never backwards: {through:?}");
+            let ends = (speed(&f, 1e-3), speed(&f, 1.0 - 1e-3));
+            let expected = (if through.0 { 1.0 } else { 0.0 }, if through.1 { 1.0 } else { 0.0 });
+            assert!((ends.0 - expected.0).abs() < 0.01 && (ends.1 - expected.1).abs() < 0.01, "{through:?}: {ends:?}");
+        }
     }
 
     #[test]

@@ -622,9 +622,9 @@ fn a_tap_in_a_panorama_goes_to_the_probe_that_sees_that_point_best_facing_it() {
 }
 
 #[test]
-fn going_to_a_probe_no_path_joins_flies_over_the_dollhouse() {
+fn going_to_a_probe_no_route_reaches_flies_over_the_dollhouse_and_one_a_route_reaches_walks() {
     let mut script = Script::default();
-    let Some(mut app) = app_of(graph_with_proxy(), &mut script, 1 << 30, 360) else { return };
+    let Some(mut app) = app_of(without_video_with_depth(graph_with_proxy()), &mut script, 1 << 30, 360) else { return };
     app.resize(640, 360, 1.0);
     for _ in 0..3 {
         app.update(0.016, &mut script);
@@ -650,6 +650,25 @@ fn going_to_a_probe_no_path_joins_flies_over_the_dollhouse() {
     }
     assert!(highest > 5.0, "it rose over the scene: {highest}");
     assert_eq!((app.mode, app.nav.state), (Mode::Panorama, State::AtProbe { probe: 4 }));
+    // Probe 3 from probe 1 is two paths away (1 → 0 → 3): walked, not flown,
+    // with probe 3's panorama and depth asked for from the start.
+    app.nav.state = State::AtProbe { probe: 1 };
+    app.update(0.02, &mut script);
+    app.go_to(3, None);
+    assert!(app.flight.is_none() && matches!(app.nav.state, State::Travelling { path: 0, reversed: true, .. }), "{:?}", app.nav.state);
+    app.update(0.02, &mut script);
+    assert!(script.requests.iter().any(|r| r.0 == 3) && script.glide_requests.contains(&3), "{:?}", script.requests);
+    let mut legs = vec![];
+    for _ in 0..400 {
+        if let State::Travelling { path, .. } = app.nav.state {
+            if legs.last() != Some(&path) {
+                legs.push(path);
+            }
+        }
+        assert!(app.flight.is_none());
+        app.update(0.02, &mut script);
+    }
+    assert_eq!((legs, app.mode, app.nav.state), (vec![0, 2], Mode::Panorama, State::AtProbe { probe: 3 }));
 }
 
 #[test]
