@@ -1,9 +1,14 @@
 //! Glide quality (issue 69): the frames the viewer's glide pass draws along
 //! each path from its ends' panoramas and depth (leg by leg, with the
-//! panoramas part way the render adds), against frames the
-//! renderer traces at the same camera positions with the panoramas'
-//! settings (mean FLIP, the quality bench's metric: NVIDIA's flip-evaluator,
-//! LDR, 67 pixels a degree; PSNR beside it). Per scene: plans it, renders it
+//! panoramas part way the render adds), against frames the renderer traces
+//! at the same camera positions, converged: the panoramas' lighting (the
+//! same radiance cache and gather) at REF_SAMPLES jittered samples a pixel
+//! (default 16; 1 gives the panoramas' own single trace), so that what is
+//! scored is the glide, not the reference's noise and aliasing. Each view is
+//! also scored against the reference at half its samples: the "halved"
+//! figure says how far from converged the reference still is. Metric: mean
+//! FLIP (the quality bench's: NVIDIA's flip-evaluator, LDR, 67 pixels a
+//! degree; PSNR beside it). Per scene: plans it, renders it
 //! with `--transitions depth` (every path measured, every probe's depth),
 //! then for every path at 0 (a check: the glide there is the panorama), a
 //! quarter and half of its camera keys, four views 90° wide around the
@@ -19,7 +24,7 @@
 //! scenes, or the shared ones by the map bench's names: crytek, dabrovic,
 //! staircase, apartment, grey_room),
 //! QUALITY=preview|final (default preview), SIZE=256 (view pixels, a
-//! multiple of 64). Needs `scripts/bench-env.sh` once for FLIP (PSNR only
+//! multiple of 64), REF_SAMPLES=16 (even, or 1). Needs `scripts/bench-env.sh` once for FLIP (PSNR only
 //! without it) and a GPU adapter (lavapipe or llvmpipe here). Images in
 //! target/bench-glide.
 
@@ -28,7 +33,7 @@ use exploremaps_builder::raycast::RayScene;
 use exploremaps_builder::render::glide::MAX_UNSEEN;
 use exploremaps_builder::render::{render_missing, Settings, Shard, Transitions};
 use exploremaps_builder::scene_io::{load, LoadOptions};
-use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer};
+use exploremaps_builder::tracer::{psnr, Perspective, Quality, Renderer, TraceParams};
 use exploremaps_format::depthcube::DepthCube;
 use exploremaps_format::{CubeLevel, Graph};
 use exploremaps_scenes::{BuiltIn, Scene};
@@ -43,6 +48,11 @@ use std::path::{Path, PathBuf};
 const FOV: f32 = std::f32::consts::FRAC_PI_2;
 /// Where along a path frames are compared, as fractions of its camera keys.
 const ALONG: [f32; 3] = [0.0, 0.25, 0.5];
+
+/// The reference's samples a pixel (REF_SAMPLES: even, or 1).
+fn ref_samples() -> u32 {
+    std::env::var("REF_SAMPLES").ok().and_then(|s| s.parse().ok()).filter(|&n: &u32| n == 1 || (n >= 2 && n % 2 == 0)).unwrap_or(16)
+}
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -100,11 +110,12 @@ fn render_with_depth(scene: &Scene, name: &str, dir: &Path, quality: Quality) ->
     (graph, settings)
 }
 
-/// A frame compared: the path, where along it, the view's images (glide, traced).
+/// A frame compared: the path, where along it, the view's images (glide,
+/// the converged reference, the reference at half its samples).
 struct Row {
     path: usize,
     along: f32,
-    images: Vec<(PathBuf, PathBuf)>,
+    images: Vec<(PathBuf, PathBuf, PathBuf)>,
     /// The share of the views' pixels the glide left empty (neither end's
     /// mesh drew there) where the traced frame shows something.
     holes: f64,
@@ -168,19 +179,37 @@ impl Subject<'_> {
                         t: toward(eye, a.1.probe, b.1.probe),
                     };
                     let glide = draw(device, queue, &mut pass, &frame, self.size);
-                    let traced =
-                        renderer.perspective(&settings.trace.panorama, Perspective { eye, yaw, pitch: 0.0, fov_y: FOV }, self.size, self.size, k);
-                    let (g, t) = (stem.with_extension("glide.png"), stem.with_extension("traced.png"));
-                    let traced = renderer.to_image(self.size, self.size, &traced.color);
+                    let view = Perspective { eye, yaw, pitch: 0.0, fov_y: FOV };
+                    let (traced, half) = self.reference(&renderer, settings, view, k);
+                    let (g, t, h) = (stem.with_extension("glide.png"), stem.with_extension("traced.png"), stem.with_extension("half.png"));
                     empty += holes(&glide, &traced) / 4.0;
                     image::RgbaImage::from_raw(self.size, self.size, glide).unwrap().save(&g).unwrap();
                     traced.save(&t).unwrap();
-                    images.push((g, t));
+                    half.save(&h).unwrap();
+                    images.push((g, t, h));
                 }
                 rows.push(Row { path: id, along, images, holes: empty });
             }
         }
         rows
+    }
+
+    /// The reference view, converged ([`ref_samples`] jittered samples a
+    /// pixel, the panoramas' lighting), and the same at half the samples.
+    fn reference(&self, renderer: &Renderer, settings: &Settings, view: Perspective, k: u64) -> (image::RgbImage, image::RgbImage) {
+        let samples = ref_samples();
+        let image = |colour: &[Vec3]| renderer.to_image(self.size, self.size, colour);
+        if samples == 1 {
+            let traced = image(&renderer.perspective(&settings.trace.panorama, view, self.size, self.size, k).color);
+            return (traced.clone(), traced);
+        }
+        let half = |seed: u64| {
+            let params = TraceParams { samples: samples / 2, antialias: false, seed, ..settings.trace.panorama };
+            renderer.perspective(&params, view, self.size, self.size, k).color
+        };
+        let (a, b) = (half(0x5EED_0001), half(0x5EED_0002));
+        let full: Vec<Vec3> = a.iter().zip(&b).map(|(x, y)| (*x + *y) / 2.0).collect();
+        (image(&full), image(&a))
     }
 
     /// The level the viewer would show on a view of this size (its 90° as
@@ -207,12 +236,13 @@ impl Subject<'_> {
     }
 
     /// Prints a row a path; returns the summary line over the paths auto glides.
-    fn print(&self, rows: &[Row], scores: &[(Option<f64>, f64)]) -> String {
+    fn print(&self, rows: &[Row], scores: &[Score]) -> String {
         println!(
             "\n{}: path, unseen (the render's figure), auto, panoramas part way, the glide's empty pixels at ¼ and ½ (most), then FLIP (PSNR dB) at {ALONG:?} of the way",
             self.name
         );
         let (mut quarter, mut half, mut glides, mut waypoints, mut empty) = (Vec::new(), Vec::new(), 0, 0, Vec::new());
+        let (mut quarter_halved, mut half_halved, mut floor) = (Vec::new(), Vec::new(), Vec::new());
         for (id, path) in self.graph.paths.iter().enumerate() {
             let unseen = path.assets.transition.as_ref().map_or(0.0, |t| t.unseen);
             let glide = unseen <= MAX_UNSEEN;
@@ -220,13 +250,17 @@ impl Subject<'_> {
             glides += usize::from(glide);
             waypoints += if glide { parts } else { 0 };
             let mut cells = Vec::new();
-            for (row, &(flip, db)) in rows.iter().zip(scores).filter(|(r, _)| r.path == id) {
-                cells.push(format!("{} ({db:.1})", flip.map_or("-".into(), |f| format!("{f:.3}"))));
-                match (glide, row.along, flip) {
-                    (true, 0.25, Some(f)) => quarter.push(f),
-                    (true, 0.5, Some(f)) => half.push(f),
-                    _ => {}
-                }
+            for (row, score) in rows.iter().zip(scores).filter(|(r, _)| r.path == id) {
+                cells.push(format!("{} ({:.1})", score.flip.map_or("-".into(), |f| format!("{f:.3}")), score.db));
+                let (Some(f), Some(h)) = (score.flip, score.flip_halved) else { continue };
+                let (converged, halved) = match (glide, row.along) {
+                    (true, 0.0) => (&mut floor, None),
+                    (true, 0.25) => (&mut quarter, Some(&mut quarter_halved)),
+                    (true, 0.5) => (&mut half, Some(&mut half_halved)),
+                    _ => continue,
+                };
+                converged.push(f);
+                halved.into_iter().for_each(|v| v.push(h));
             }
             let auto = if glide { "glide" } else { "video" };
             let holes = rows.iter().filter(|r| r.path == id && r.along > 0.0).map(|r| r.holes).fold(0.0, f64::max);
@@ -239,21 +273,34 @@ impl Subject<'_> {
         let paths = self.graph.paths.len();
         let most = empty.iter().copied().fold(0.0, f64::max);
         format!(
-            "{}: {glides} of {paths} paths glide ({:.0} % get a video), with {waypoints} panoramas part way; on them mean FLIP {} a quarter of the way, {} half way; \
+            "{}: {glides} of {paths} paths glide ({:.0} % get a video), with {waypoints} panoramas part way; on them mean FLIP {} a quarter of the way, {} half way \
+             (the panorama itself at the path's start: {}; against the reference at half its {} samples: {} and {}); \
              the glides left {:.2} % of the views empty on average, {:.2} % at most (the render allows 2 % unseen or seen 4× coarser)",
             self.name,
             100.0 * (paths - glides) as f64 / paths.max(1) as f64,
             mean(&quarter),
             mean(&half),
+            mean(&floor),
+            ref_samples(),
+            mean(&quarter_halved),
+            mean(&half_halved),
             100.0 * empty.iter().sum::<f64>() / empty.len().max(1) as f64,
             100.0 * most
         )
     }
 }
 
-/// Mean FLIP (None without the FLIP package) and PSNR over each row's views.
-fn score(python: &Path, rows: &[Row]) -> Vec<(Option<f64>, f64)> {
-    let pairs: Vec<&PathBuf> = rows.iter().flat_map(|r| r.images.iter().flat_map(|(g, t)| [t, g])).collect();
+/// A row's mean scores over its views: FLIP against the converged reference
+/// and against it at half its samples (None without the FLIP package), and
+/// PSNR against the converged one.
+struct Score {
+    flip: Option<f64>,
+    flip_halved: Option<f64>,
+    db: f64,
+}
+
+fn score(python: &Path, rows: &[Row]) -> Vec<Score> {
+    let pairs: Vec<&PathBuf> = rows.iter().flat_map(|r| r.images.iter().flat_map(|(g, t, h)| [t, g, h, g])).collect();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("builder/benches/flip.py");
     let flips: Vec<f64> = std::process::Command::new(python)
         .arg(script)
@@ -268,10 +315,12 @@ fn score(python: &Path, rows: &[Row]) -> Vec<(Option<f64>, f64)> {
         .enumerate()
         .map(|(i, r)| {
             let n = r.images.len();
-            let flip = (flips.len() == pairs.len() / 2).then(|| flips[i * n..(i + 1) * n].iter().sum::<f64>() / n as f64);
+            let mean = |which: usize| {
+                (flips.len() == pairs.len() / 2).then(|| flips[2 * i * n..2 * (i + 1) * n].iter().skip(which).step_by(2).sum::<f64>() / n as f64)
+            };
             let db =
-                r.images.iter().map(|(g, t)| psnr(&image::open(t).unwrap().to_rgb8(), &image::open(g).unwrap().to_rgb8())).sum::<f64>() / n as f64;
-            (flip, db)
+                r.images.iter().map(|(g, t, _)| psnr(&image::open(t).unwrap().to_rgb8(), &image::open(g).unwrap().to_rgb8())).sum::<f64>() / n as f64;
+            Score { flip: mean(0), flip_halved: mean(1), db }
         })
         .collect()
 }
