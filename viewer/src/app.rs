@@ -1478,21 +1478,9 @@ impl App {
             }
         }
         if let Some(ends) = glide {
-            // The proxy's baked colours behind it, where neither end saw.
-            if let Some(mesh) = &self.proxy {
-                let (centre, extent) = ((mesh.lo + mesh.hi) / 2.0, mesh.diagonal().max(1e-3));
-                let mut frame = self.frame_target(&gpu, &mut encoder, target);
-                self.dollhouse.draw(&mut frame, &self.panorama_camera(), f32::INFINITY, centre, extent);
-            }
             let lens = Lens::of_view(&self.nav.view, self.width / self.height);
-            let mut frame = FrameTarget {
-                device: &gpu.device,
-                queue: &gpu.queue,
-                encoder: &mut encoder,
-                view: target,
-                width: self.width as u32,
-                height: self.height as u32,
-            };
+            let mut frame = self.frame_target(&gpu, &mut encoder, target);
+            self.fill_behind_glide(&mut frame, &lens, [0.0, 0.0, self.width, self.height]);
             self.draw_glide(&mut frame, ends, lens, [0.0, 0.0]);
         }
         if let (Some(frame), Some(mesh), None) = (self.layout.map, &self.proxy, &camera) {
@@ -1573,8 +1561,19 @@ impl App {
                 }
             }
             if let Some(ends) = glide {
-                let mut frame =
-                    FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder: &mut encoder, view: target, width: w as u32, height: h as u32 };
+                // The eyes' viewports tile the layer's framebuffer.
+                let (width, height) =
+                    eyes.iter().fold((0.0f32, 0.0f32), |(a, b), e| (a.max(e.viewport[0] + e.viewport[2]), b.max(e.viewport[1] + e.viewport[3])));
+                let mut frame = FrameTarget {
+                    device: &gpu.device,
+                    queue: &gpu.queue,
+                    encoder: &mut encoder,
+                    view: target,
+                    width: width as u32,
+                    height: height as u32,
+                };
+                self.fill_behind_glide(&mut frame, &eye.lens, eye.viewport);
+                let mut frame = FrameTarget { width: w as u32, height: h as u32, ..frame };
                 self.draw_glide(&mut frame, ends, eye.lens, [x, y]);
             }
             {
@@ -1649,6 +1648,16 @@ impl App {
         let from = sources.iter().filter(|w| w.1 <= s).rfind(ready)?;
         let to = sources.iter().filter(|w| w.1 > s).find(ready).or(sources.last().filter(ready))?;
         (from.0 != to.0).then_some((from.0, to.0))
+    }
+
+    /// The proxy's baked colours, where it is in, seen from the camera through
+    /// `lens` into `viewport` of `frame`: behind a glide, where neither end saw.
+    fn fill_behind_glide(&mut self, frame: &mut FrameTarget, lens: &Lens, viewport: [f32; 4]) {
+        if let Some(mesh) = &self.proxy {
+            let (centre, extent) = ((mesh.lo + mesh.hi) / 2.0, mesh.diagonal().max(1e-3));
+            let eye = Vec3::from(self.nav.camera_position());
+            self.dollhouse.draw_through(frame, (eye, lens), viewport, centre, extent);
+        }
     }
 
     /// Draws the glide between two sources (both ready: [`App::glide_ends`])

@@ -176,6 +176,13 @@ pub struct Camera {
     pub fov_y: f32,
 }
 
+/// Near and far planes for an eye at `eye` seeing a mesh within `extent`
+/// of `centre`.
+fn depth_range(eye: Vec3, centre: Vec3, extent: f32) -> (f32, f32) {
+    let far = eye.distance(centre) + extent;
+    ((1e-3 * extent).max(far * 1e-5), far)
+}
+
 /// World to camera coordinates for a camera at `eye` whose right, up and
 /// forward are the given unit vectors (the camera looks down its −Z).
 pub(crate) fn view_matrix(eye: Vec3, (r, u, f): (Vec3, Vec3, Vec3)) -> Mat4 {
@@ -640,11 +647,30 @@ impl DollhousePass {
     /// Clears `target` and draws the mesh seen by `camera`, hiding what is
     /// above `cut`. `extent` bounds the depth range (the mesh's diagonal).
     pub fn draw(&mut self, frame: &mut FrameTarget, camera: &Camera, cut: f32, centre: Vec3, extent: f32) {
+        let (near, far) = depth_range(camera.eye, centre, extent);
+        let view_proj = camera.view_proj(frame.width as f32 / frame.height.max(1) as f32, near, far);
+        let viewport = [0.0, 0.0, frame.width as f32, frame.height as f32];
+        self.draw_mesh_pass(frame, view_proj, cut, wgpu::LoadOp::Clear(BACKGROUND), viewport);
+    }
+
+    /// Draws the whole mesh from `eye` through `lens` into `viewport` (x, y,
+    /// width, height) of `frame`, over what is there: the colours behind a
+    /// glide, in a window or a headset's eye.
+    pub fn draw_through(
+        &mut self,
+        frame: &mut FrameTarget,
+        (eye, lens): (Vec3, &crate::panorama::Lens),
+        viewport: [f32; 4],
+        centre: Vec3,
+        extent: f32,
+    ) {
+        let (near, far) = depth_range(eye, centre, extent);
+        self.draw_mesh_pass(frame, lens.view_proj(eye, near, Some(far)), f32::INFINITY, wgpu::LoadOp::Load, viewport);
+    }
+
+    fn draw_mesh_pass(&mut self, frame: &mut FrameTarget, view_proj: Mat4, cut: f32, load: wgpu::LoadOp<wgpu::Color>, viewport: [f32; 4]) {
         let FrameTarget { device, queue, ref mut encoder, view: target, width, height } = *frame;
         let depth = self.depth_view(device, width, height);
-        let far = camera.eye.distance(centre) + extent;
-        let near = (1e-3 * extent).max(far * 1e-5);
-        let view_proj = camera.view_proj(width as f32 / height.max(1) as f32, near, far);
         Self::write_uniforms(queue, &self.uniforms, Uniforms { view_proj, cut, brightness: 1.0, sections: false, fill: PLAN_BACKGROUND });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("dollhouse"),
@@ -652,7 +678,7 @@ impl DollhousePass {
                 view: target,
                 depth_slice: None,
                 resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(BACKGROUND), store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &depth,
@@ -663,6 +689,8 @@ impl DollhousePass {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        let [x, y, w, h] = viewport;
+        pass.set_viewport(x, y, w, h, 0.0, 1.0);
         self.draw_mesh(&mut pass, &self.bind);
     }
 }

@@ -10,10 +10,9 @@
 //! exactly its panorama (every pixel's ray from the probe meets the mesh
 //! where the probe's own ray did).
 
-use crate::dollhouse::view_matrix;
 use crate::panorama::{mask_texture, Cube, Lens, Tiled};
 use exploremaps_format::depthcube::DepthCube;
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 use wgpu::util::DeviceExt;
 
@@ -254,7 +253,7 @@ impl GlidePass {
         let crate::dollhouse::FrameTarget { device, queue, ref mut encoder, view: target, width, height } = *frame;
         self.ensure_targets(device, width, height);
         let near = 0.5 * glide.from.mesh.nearest.min(glide.to.mesh.nearest).max(1e-6);
-        let view_proj = reversed_infinite(glide.eye, &glide.lens, near);
+        let view_proj = glide.lens.view_proj(glide.eye, near, None);
         for (k, end) in [&glide.from, &glide.to].into_iter().enumerate() {
             self.draw_end(device, queue, encoder, k, end, view_proj);
         }
@@ -401,22 +400,6 @@ fn lattice_indices(cells: u32) -> Vec<u32> {
         }
     }
     indices
-}
-
-/// The view from `eye` through `lens`, and a projection with reversed depth
-/// (1 at `near`, 0 at infinity) and no far plane, so the far-away sky keeps
-/// its precision. With the lens's x / −z = x_ndc·scale + shift (and so for
-/// y): clip x = (x + shift·z) / scale, clip w = −z.
-fn reversed_infinite(eye: Vec3, lens: &Lens, near: f32) -> Mat4 {
-    let ([sx, sy], [ox, oy]) = (lens.scale, lens.shift);
-    let proj = Mat4::from_cols(
-        Vec4::new(1.0 / sx, 0.0, 0.0, 0.0),
-        Vec4::new(0.0, 1.0 / sy, 0.0, 0.0),
-        Vec4::new(ox / sx, oy / sy, 0.0, -1.0),
-        Vec4::new(0.0, 0.0, near, 0.0),
-    );
-    let [f, r, u] = lens.basis.map(Vec3::from);
-    proj * view_matrix(eye, (r, u, f))
 }
 
 fn mesh_pipeline(device: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {

@@ -127,6 +127,25 @@ impl Lens {
 }
 
 impl Lens {
+    /// Clip space from world for an eye at `eye` looking through this lens
+    /// (with the lens's x / −z = x_ndc·scale + shift, and so for y: clip x =
+    /// (x + shift·z) / scale, clip w = −z). Depth runs from 0 at `near` to 1
+    /// at `far`; with no `far`, reversed (1 at `near`, 0 at infinity), which
+    /// keeps the far-away sky's precision.
+    pub fn view_proj(&self, eye: glam::Vec3, near: f32, far: Option<f32>) -> glam::Mat4 {
+        use glam::Vec4;
+        let ([sx, sy], [ox, oy]) = (self.scale, self.shift);
+        let (zz, zw) = far.map_or((0.0, near), |far| (far / (near - far), near * far / (near - far)));
+        let proj = glam::Mat4::from_cols(
+            Vec4::new(1.0 / sx, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, 1.0 / sy, 0.0, 0.0),
+            Vec4::new(ox / sx, oy / sy, zz, -1.0),
+            Vec4::new(0.0, 0.0, zw, 0.0),
+        );
+        let [f, r, u] = self.basis.map(glam::Vec3::from);
+        proj * crate::dollhouse::view_matrix(eye, (r, u, f))
+    }
+
     /// Where direction `d` shows, in normalised device coordinates, if in
     /// front of the camera: the inverse of the shader's ray.
     pub fn project(&self, d: glam::Vec3) -> Option<[f32; 2]> {

@@ -724,16 +724,25 @@ fn markers_the_proxy_hides_are_told_apart() {
 /// Two eyes side by side on a 128 × 64 frame, each 90° wide, turned by `rotation`.
 fn eyes(rotation: glam::Quat) -> Vec<Eye> {
     // 90° each way: edges at ±1 at depth 1.
-    let projection = crate::panorama::tests::gl_frustum([-1.0, 1.0, -1.0, 1.0]);
-    let lens = Lens::of_eye(rotation, &projection);
+    eyes_through(rotation, [-1.0, 1.0, -1.0, 1.0])
+}
+
+/// Two eyes side by side on a 128 × 64 frame, turned by `rotation`, each
+/// through the frustum whose edges at depth 1 are `[left, right, bottom, top]`.
+fn eyes_through(rotation: glam::Quat, edges: [f32; 4]) -> Vec<Eye> {
+    let lens = Lens::of_eye(rotation, &crate::panorama::tests::gl_frustum(edges));
     vec![Eye { viewport: [0.0, 0.0, 64.0, 64.0], lens }, Eye { viewport: [64.0, 0.0, 64.0, 64.0], lens }]
 }
 
 /// A headset frame looking along `rotation`: its pixels.
 fn headset_frame(app: &mut App, script: &mut Script, rotation: glam::Quat) -> Vec<u8> {
+    headset_frame_through(app, script, &eyes(rotation))
+}
+
+fn headset_frame_through(app: &mut App, script: &mut Script, eyes: &[Eye]) -> Vec<u8> {
     let gpu = app.gpu().clone();
     let target = crate::offscreen::texture(&gpu.device, 128, 64);
-    app.render_eyes(&target.create_view(&Default::default()), &eyes(rotation), script);
+    app.render_eyes(&target.create_view(&Default::default()), eyes, script);
     crate::offscreen::read_back(&gpu.device, &gpu.queue, &target)
 }
 
@@ -815,16 +824,53 @@ fn where_neither_end_of_a_glide_sees_the_proxy_shows_its_colours() {
         }
         let pixels = window_frame(&mut app, &mut script);
         assert!(app.gliding(), "drawn as a glide");
-        Some((pixels, app.proxy.is_some()))
+        // A headset's eyes, each seeing what the window sees.
+        let (t, rotation) = ((0.5 * app.nav.view.fov_y).tan(), crate::navigation::rotation_of(&app.nav.view));
+        let headset = eyes_through(rotation, [-2.0 * t, 2.0 * t, -t, t]);
+        let eyes = headset_frame_through(&mut app, &mut script, &headset);
+        // The proxy alone from there, over the background: where it has surface.
+        let window = [(Lens::of_view(&app.nav.view, 2.0), [0.0, 0.0, 128.0, 64.0])];
+        let headset: Vec<_> = headset.iter().map(|e| (e.lens, e.viewport)).collect();
+        let proxy = [&window[..], &headset].map(|views| proxy_alone(&mut app, views));
+        Some((pixels, eyes, proxy, app.proxy.is_some()))
     };
-    let Some((without, _)) = glide_at_half_way(bundle_graph()) else { return };
-    let (with, loaded) = glide_at_half_way(graph_with_proxy()).expect("a GPU, as above");
+    let Some((without, eyes_without, _, _)) = glide_at_half_way(bundle_graph()) else { return };
+    let (with, eyes_with, [proxy, eyes_proxy], loaded) = glide_at_half_way(graph_with_proxy()).expect("a GPU, as above");
     assert!(loaded, "the proxy came after the first panorama");
-    // The window's background, (0.02, 0.02, 0.025) in sRGB.
-    let background = |p: &[u8]| p.chunks(4).filter(|c| c[0].abs_diff(39) <= 2 && c[2].abs_diff(44) <= 2).count();
-    let (holes, left) = (background(&without), background(&with));
-    assert!(holes > 100, "the glide alone leaves holes: {holes} pixels");
-    assert!(left * 4 < holes, "the proxy fills them: {left} of {holes} left");
+    // The window's and the eyes' background, (0.02, 0.02, 0.025) in sRGB.
+    let background = |c: &[u8]| c[0].abs_diff(39) <= 2 && c[2].abs_diff(44) <= 2;
+    // Holes the glide alone leaves where the proxy has surface, and how many stay with it.
+    let count = |without: &[u8], with: &[u8], proxy: &[u8]| {
+        let holes = without.chunks(4).zip(proxy.chunks(4)).zip(with.chunks(4)).filter(|((a, p), _)| background(a) && !background(p));
+        holes.fold((0, 0), |(n, left), (_, b)| (n + 1, left + usize::from(background(b))))
+    };
+    let (holes, left) = count(&without, &with, &proxy);
+    assert!(holes > 50, "the glide alone leaves holes where the proxy has surface: {holes} pixels");
+    assert_eq!(left, 0, "the proxy fills them: {left} of {holes} left");
+    // In each eye of a headset too, where the veil darkens the edges: the proxy is blue.
+    let eye = |p: &[u8], k: usize| p.chunks(4 * 128).flat_map(|row| row[4 * 64 * k..4 * 64 * (k + 1)].to_vec()).collect::<Vec<u8>>();
+    let blue = |p: &[u8]| p.chunks(4).filter(|c| c[2] > 40 && c[2] > c[0].saturating_add(30) && c[2] > c[1].saturating_add(30)).count();
+    for k in 0..2 {
+        let (none, shown, alone) = (blue(&eye(&eyes_without, k)), blue(&eye(&eyes_with, k)), blue(&eye(&eyes_proxy, k)));
+        assert!(none == 0 && alone > 20, "eye {k}: no blue without the proxy ({none}), some seen from there ({alone})");
+        assert!(2 * shown > alone, "eye {k}: the proxy shows through the glide's holes: {shown} of {alone} pixels");
+    }
+}
+
+/// The proxy alone, through each (lens, viewport), from where the camera is,
+/// on a 128 × 64 frame cleared to the window's background.
+fn proxy_alone(app: &mut App, views: &[(Lens, [f32; 4])]) -> Vec<u8> {
+    let gpu = app.gpu().clone();
+    let target = crate::offscreen::texture(&gpu.device, 128, 64);
+    let view = target.create_view(&Default::default());
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    drop(colour_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.02, b: 0.025, a: 1.0 }), "test"));
+    let mut frame = FrameTarget { device: &gpu.device, queue: &gpu.queue, encoder: &mut encoder, view: &view, width: 128, height: 64 };
+    for (lens, viewport) in views {
+        app.fill_behind_glide(&mut frame, lens, *viewport);
+    }
+    gpu.queue.submit([encoder.finish()]);
+    crate::offscreen::read_back(&gpu.device, &gpu.queue, &target)
 }
 
 #[test]

@@ -266,3 +266,25 @@ fn an_off_axis_eye_frustum_reaches_its_own_edges() {
         assert!((got - expected).length() < 1e-4, "corner ({x}, {y}): {got} against {expected}");
     }
 }
+
+#[test]
+fn a_lens_projects_points_as_the_dollhouse_camera_of_the_same_view_does() {
+    let (eye, aspect) = (glam::Vec3::new(1.0, 1.6, -2.0), 16.0 / 9.0);
+    for (yaw, pitch) in [(0.0, 0.0), (0.7, 0.3), (-2.5, -0.6)] {
+        let view = View { yaw, pitch, fov_y: 1.1 };
+        let lens = Lens::of_view(&view, aspect);
+        let camera = crate::dollhouse::Camera { eye, forward: glam::Vec3::from(crate::navigation::direction(yaw, pitch)), fov_y: 1.1 };
+        let (a, b) = (lens.view_proj(eye, 0.1, Some(50.0)), camera.view_proj(aspect, 0.1, 50.0));
+        for p in [glam::Vec3::new(3.0, 2.0, -7.0), glam::Vec3::new(-4.0, 0.5, 6.0), glam::Vec3::new(0.5, 5.0, 1.0)] {
+            let (qa, qb) = (a * p.extend(1.0), b * p.extend(1.0));
+            assert!((qa / qa.w - qb / qb.w).abs().max_element() < 1e-4, "yaw {yaw}: {qa} against {qb}");
+        }
+    }
+    // Without a far plane, depth is reversed: 1 at the near plane, toward 0 far away.
+    let lens = Lens::of_view(&View { yaw: 0.0, pitch: 0.0, fov_y: 1.0 }, 1.0);
+    let depth = |z: f32| {
+        let q = lens.view_proj(glam::Vec3::ZERO, 0.5, None) * glam::Vec4::new(0.0, 0.0, z, 1.0);
+        q.z / q.w
+    };
+    assert!((depth(-0.5) - 1.0).abs() < 1e-6 && depth(-1e6) < 1e-6);
+}
