@@ -163,7 +163,7 @@ pub fn jobs(dir: &Path, graph: &Graph, levels: &[u32], glides: bool, shard: Shar
 }
 
 /// Renders what the bundle is missing, for this shard (steps above), calling
-/// `progress(done, total)` at the start and as each job ends.
+/// `progress(done, total)` before each job and at the end.
 pub fn render_missing(
     dir: &Path,
     scene: &Scene,
@@ -195,29 +195,28 @@ pub fn render_missing(
         let encoder = crate::video::Encoder::detect();
         report.video_encoder = Some(encoder.name());
         let seconds_setup = setup_started.elapsed().as_secs_f64();
-        let run = |job: Job| -> Result<Done, BundleError> {
-            Ok(match job {
+        let mut job_seconds = Vec::with_capacity(todo.len());
+        for (done, &(_, job)) in todo.iter().enumerate() {
+            let job_started = Instant::now();
+            progress(done, todo.len());
+            match job {
                 Job::Probe(id) => {
                     probe::render(dir, &renderer, settings, &graph.probes[id], id, &levels)?;
-                    Done::Probe
+                    report.probes_rendered += 1;
                 }
-                Job::Path(id) => Done::Path(path::render(dir, &renderer, settings, &encoder, &graph.paths[id], id)?),
+                Job::Path(id) => {
+                    if path::render(dir, &renderer, settings, &encoder, &graph.paths[id], id)? {
+                        report.paths_rendered += 1;
+                    }
+                }
                 Job::Proxy => {
                     proxy::render(dir, scene, graph, &renderer, &settings.proxy)?;
-                    Done::Proxy
+                    report.proxy_rendered = true;
                 }
-            })
-        };
-        let jobs: Vec<Job> = todo.iter().map(|&(_, job)| job).collect();
-        let done = two_at_a_time(&jobs, run, &mut progress)?;
-        for (outcome, _) in &done {
-            match outcome {
-                Done::Probe => report.probes_rendered += 1,
-                Done::Path(rendered) => report.paths_rendered += usize::from(*rendered),
-                Done::Proxy => report.proxy_rendered = true,
             }
+            job_seconds.push(job_started.elapsed().as_secs_f64());
         }
-        let job_seconds: Vec<f64> = done.iter().map(|d| d.1).collect();
+        progress(todo.len(), todo.len());
         let record = record(settings, &renderer, &report);
         if split {
             let manifest = ShardManifest { shard: shard.index, count: shard.count, levels: levels.clone(), render: record };
@@ -238,65 +237,6 @@ pub fn render_missing(
     }
     report.seconds = started.elapsed().as_secs_f64();
     Ok(report)
-}
-
-/// What a finished job did.
-enum Done {
-    Probe,
-    /// Whether the path had anything to show.
-    Path(bool),
-    Proxy,
-}
-
-/// Runs the jobs, two at once (each parallel inside): one job's serial
-/// stretches (encoding, writing, a path's few rays) leave the other core to
-/// the other job, and two at most bound the memory (a `final` probe holds
-/// about 2 GB while it renders). Results and seconds in the jobs' order; the
-/// first error stops the remaining jobs. Each job writes its own files,
-/// seeded by itself, so the order they finish in changes nothing written.
-fn two_at_a_time<T: Send>(
-    jobs: &[Job],
-    run: impl Fn(Job) -> Result<T, BundleError> + Sync,
-    progress: &mut (impl FnMut(usize, usize) + ?Sized),
-) -> Result<Vec<(T, f64)>, BundleError> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let failed = std::sync::atomic::AtomicBool::new(false);
-    let (finished, receive) = std::sync::mpsc::channel::<(usize, Result<T, BundleError>, f64)>();
-    let mut results: Vec<Option<(T, f64)>> = std::iter::repeat_with(|| None).take(jobs.len()).collect();
-    let mut first_error = None;
-    std::thread::scope(|scope| {
-        for _ in 0..2.min(jobs.len()) {
-            let finished = finished.clone();
-            let (next, failed, run) = (&next, &failed, &run);
-            scope.spawn(move || loop {
-                let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                if k >= jobs.len() || failed.load(std::sync::atomic::Ordering::Relaxed) {
-                    break;
-                }
-                let started = Instant::now();
-                let outcome = run(jobs[k]);
-                failed.fetch_or(outcome.is_err(), std::sync::atomic::Ordering::Relaxed);
-                if finished.send((k, outcome, started.elapsed().as_secs_f64())).is_err() {
-                    break;
-                }
-            });
-        }
-        drop(finished);
-        progress(0, jobs.len());
-        for (count, (k, outcome, seconds)) in receive.iter().enumerate() {
-            match outcome {
-                Ok(t) => results[k] = Some((t, seconds)),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
-            }
-            progress(count + 1, jobs.len());
-        }
-    });
-    match first_error {
-        Some(e) => Err(e),
-        None => Ok(results.into_iter().map(|r| r.expect("every job ran")).collect()),
-    }
 }
 
 /// What a render was made with (a shard's manifest carries the same;
@@ -382,32 +322,6 @@ mod tests {
             })
             .collect();
         g
-    }
-
-    #[test]
-    fn jobs_run_two_at_a_time_give_their_results_in_order_and_stop_at_an_error() {
-        let jobs: Vec<Job> = (0..40).map(Job::Probe).collect();
-        let running = std::sync::atomic::AtomicUsize::new(0);
-        let most = std::sync::atomic::AtomicUsize::new(0);
-        let run = |job: Job| {
-            let now = running.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
-            most.fetch_max(now, std::sync::atomic::Ordering::SeqCst);
-            std::thread::sleep(std::time::Duration::from_millis(2));
-            running.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
-            match job {
-                Job::Probe(7) => Err(BundleError::Invalid(exploremaps_format::FormatError::Invalid("job 7".into()))),
-                Job::Probe(k) => Ok(k),
-                _ => unreachable!(),
-            }
-        };
-        let mut ticks = Vec::new();
-        let all = two_at_a_time(&jobs[..7], run, &mut |done, total| ticks.push((done, total))).unwrap();
-        assert_eq!(all.iter().map(|r| r.0).collect::<Vec<_>>(), (0..7).collect::<Vec<_>>());
-        assert_eq!(ticks, (0..=7).map(|k| (k, 7)).collect::<Vec<_>>());
-        assert_eq!(most.load(std::sync::atomic::Ordering::SeqCst), 2, "two at once, never more");
-        let mut count = 0;
-        assert!(two_at_a_time(&jobs, run, &mut |_, _| count += 1).is_err());
-        assert!(count < 1 + 40, "the jobs after the error did not all run: {count} ticks");
     }
 
     #[test]
