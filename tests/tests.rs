@@ -545,6 +545,11 @@ fn a_bundle_is_byte_identical_at_one_and_two_threads() {
         assert!(names(&a).contains(&PathBuf::from(name)), "{name} is written");
     }
     assert!(one.join("timings.json").exists() && two.join("timings.json").exists());
+    // The photo sphere: two faces wide (here the floor, 1024), tagged as one.
+    let pano = one.join("probes/0/pano.jpg");
+    assert_eq!(image::image_dimensions(&pano).unwrap(), (1024, 512));
+    let tag = b"GPano:FullPanoWidthPixels=\"1024\"";
+    assert!(std::fs::read(&pano).unwrap().windows(tag.len()).any(|w| w == tag), "GPano-tagged");
     let text = std::fs::read_to_string(one.join("graph.json")).unwrap();
     assert!(!text.contains("\"seconds"), "graph.json holds no timings");
     for ((name, x), (_, y)) in a.iter().zip(&b) {
