@@ -3,10 +3,11 @@
 //! panoramas part way the render adds), against frames the renderer traces
 //! at the same camera positions, converged: the panoramas' lighting (the
 //! same radiance cache and gather) at REF_SAMPLES jittered samples a pixel
-//! (default 16; 1 gives the panoramas' own single trace), so that what is
-//! scored is the glide, not the reference's noise and aliasing. Each view is
-//! also scored against the reference at half its samples: the "halved"
-//! figure says how far from converged the reference still is. Metric: mean
+//! (default 16; 1 gives the panoramas' own single trace), in traces of two
+//! samples averaged (a trace's gather noise is shared by its samples), so
+//! that what is scored is the glide, not the reference's noise and
+//! aliasing. Each view is also scored against the reference at half its
+//! traces: the "halved" figure says how far from converged it still is. Metric: mean
 //! FLIP (the quality bench's: NVIDIA's flip-evaluator, LDR, 67 pixels a
 //! degree; PSNR beside it). Per scene: plans it, renders it
 //! with `--transitions depth` (every path measured, every probe's depth),
@@ -203,13 +204,20 @@ impl Subject<'_> {
             let traced = image(&renderer.perspective(&settings.trace.panorama, view, self.size, self.size, k).color);
             return (traced.clone(), traced);
         }
-        let half = |seed: u64| {
-            let params = TraceParams { samples: samples / 2, antialias: false, seed, ..settings.trace.panorama };
-            renderer.perspective(&params, view, self.size, self.size, k).color
+        // Traces of two samples each, averaged: a trace's final gather is one
+        // coarse grid whose noise all its samples share, so only more traces
+        // reduce it.
+        let traces: Vec<Vec<Vec3>> = (0..samples / 2)
+            .map(|i| {
+                let params = TraceParams { samples: 2, antialias: false, seed: 0x5EED_0000 + u64::from(i), ..settings.trace.panorama };
+                renderer.perspective(&params, view, self.size, self.size, k).color
+            })
+            .collect();
+        let mean = |traces: &[Vec<Vec3>]| -> Vec<Vec3> {
+            (0..traces[0].len()).map(|p| traces.iter().map(|t| t[p]).sum::<Vec3>() / traces.len() as f32).collect()
         };
-        let (a, b) = (half(0x5EED_0001), half(0x5EED_0002));
-        let full: Vec<Vec3> = a.iter().zip(&b).map(|(x, y)| (*x + *y) / 2.0).collect();
-        (image(&full), image(&a))
+        let half = traces.len().div_ceil(2);
+        (image(&mean(&traces)), image(&mean(&traces[..half])))
     }
 
     /// The level the viewer would show on a view of this size (its 90° as
