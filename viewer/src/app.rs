@@ -1547,6 +1547,9 @@ impl App {
         // The veil comes in over the first and goes over the last tenth of a move.
         let moving = self.nav.progress().map_or(0.0, |p| (10.0 * p.min(1.0 - p)).clamp(0.0, 1.0));
         headset.veil.set(&gpu.queue, 0.85 * moving);
+        // The eyes' viewports tile the layer's framebuffer.
+        let (width, height) =
+            eyes.iter().fold((0.0f32, 0.0f32), |(a, b), e| (a.max(e.viewport[0] + e.viewport[2]), b.max(e.viewport[1] + e.viewport[3])));
         for (i, eye) in eyes.iter().enumerate() {
             let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("eye") });
             let [x, y, w, h] = eye.viewport;
@@ -1561,9 +1564,6 @@ impl App {
                 }
             }
             if let Some(ends) = glide {
-                // The eyes' viewports tile the layer's framebuffer.
-                let (width, height) =
-                    eyes.iter().fold((0.0f32, 0.0f32), |(a, b), e| (a.max(e.viewport[0] + e.viewport[2]), b.max(e.viewport[1] + e.viewport[3])));
                 let mut frame = FrameTarget {
                     device: &gpu.device,
                     queue: &gpu.queue,
